@@ -1,0 +1,73 @@
+// Stable key-value LSD radix sort on the GPU: uint32 or uint64 keys, uint32 values.
+//
+// 8-bit digits, one pass per digit of the low `key_bits` bits (4 passes for
+// 32-bit keys, up to 8 for 64-bit). Each pass: radix_count (per-tile digit
+// histograms, digit-major) -> exclusive PrefixScan of the histogram ->
+// radix_scatter (stable ranks from subgroup ballots). One workgroup is one
+// subgroup, so the kernels are correct for any subgroup size up to 128 and do
+// not depend on forward progress between workgroups.
+//
+// 64-bit keys are what the splatting rasterizer sorts: tile id in the high
+// word, float depth bits in the low word (positive floats order like their bits).
+// Pass key_bits = 32 + bits(tile id) to skip empty high digits.
+//
+// Limits: keys of one array must fit one storage binding (n <= 33.5M for
+// 32-bit and 16.7M for 64-bit keys on lavapipe's 128 MiB); larger inputs fail
+// with a clear message.
+//
+// Shaders: shaders/radix_count{32,64}.comp, shaders/radix_scatter{32,64}.comp.
+// Tests: tests/test_radix_sort.cpp. Benchmark: bench/bench_primitives.cpp.
+#pragma once
+
+#include "gpu/buffer.h"
+#include "gpu/commands.h"
+#include "prefix_scan.h"
+
+#include <cstdint>
+#include <vector>
+
+namespace icube::kernels {
+
+enum class KeyWidth { Bits32 = 32, Bits64 = 64 };
+
+// Temporary buffers for sorting up to `capacity` elements.
+struct RadixSortScratch {
+  RadixSortScratch(gpu::Context& ctx, uint64_t capacity, KeyWidth width);
+  uint64_t capacity;
+  gpu::Buffer keys;
+  gpu::Buffer values;
+  gpu::Buffer histogram;
+  gpu::Buffer scan_scratch;
+};
+
+class RadixSort {
+ public:
+  RadixSort(gpu::Context& ctx, KeyWidth width);
+
+  KeyWidth width() const { return width_; }
+  // Largest n one sort accepts on this device.
+  uint64_t max_elements() const;
+
+  // Records a stable sort of (keys, values)[0..n) by the low `key_bits` bits
+  // of the key (0 = all bits); the result is left in `keys`/`values`.
+  // The caller orders the inputs before and the outputs after with barriers;
+  // the passes inside are separated by explicit barriers.
+  void record(gpu::CommandList& cmd, const gpu::Buffer& keys, const gpu::Buffer& values, uint64_t n,
+              RadixSortScratch& scratch, uint32_t key_bits = 0);
+
+  // Convenience: allocates scratch, submits and waits.
+  void run(const gpu::Buffer& keys, const gpu::Buffer& values, uint64_t n, uint32_t key_bits = 0);
+
+ private:
+  gpu::Context& ctx_;
+  KeyWidth width_;
+  gpu::Program& count_;
+  gpu::Program& scatter_;
+  PrefixScan scan_;
+};
+
+// CPU reference: std::stable_sort of (key, value) pairs by the low key_bits of the key.
+void radix_sort_cpu(std::vector<uint32_t>& keys, std::vector<uint32_t>& values, uint32_t key_bits = 32);
+void radix_sort_cpu(std::vector<uint64_t>& keys, std::vector<uint32_t>& values, uint32_t key_bits = 64);
+
+}  // namespace icube::kernels

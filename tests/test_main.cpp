@@ -1,0 +1,100 @@
+// doctest main for icube-tests: creates the shared validated context lazily,
+// routes validation messages into test failures, and fails the run when a
+// message arrives outside any test case.
+#define DOCTEST_CONFIG_IMPLEMENT
+#include <doctest/doctest.h>
+
+#include "gpu_test_context.h"
+
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <memory>
+
+namespace icube::test {
+
+namespace {
+std::unique_ptr<gpu::Context> g_context;
+bool g_in_test = false;
+uint64_t g_stray_messages = 0;
+
+struct TestCaseTracker : doctest::IReporter {
+  explicit TestCaseTracker(const doctest::ContextOptions&) {}
+  void report_query(const doctest::QueryData&) override {}
+  void test_run_start() override {}
+  void test_run_end(const doctest::TestRunStats&) override {}
+  void test_case_start(const doctest::TestCaseData&) override { g_in_test = true; }
+  void test_case_reenter(const doctest::TestCaseData&) override { g_in_test = true; }
+  void test_case_end(const doctest::CurrentTestCaseStats&) override { g_in_test = false; }
+  void test_case_exception(const doctest::TestCaseException&) override {}
+  void subcase_start(const doctest::SubcaseSignature&) override {}
+  void subcase_end() override {}
+  void log_assert(const doctest::AssertData&) override {}
+  void log_message(const doctest::MessageData&) override {}
+  void test_case_skipped(const doctest::TestCaseData&) override {}
+};
+}  // namespace
+
+gpu::Context& gpu_context() {
+  if (!g_context) {
+    gpu::ContextOptions opts = gpu::ContextOptions::from_env();
+    opts.validation = true;  // every test runs under the Khronos validation layer
+    g_context = std::make_unique<gpu::Context>(opts);
+    g_context->set_message_handler([](gpu::MessageSeverity s, const std::string& text) {
+      const char* kind = s == gpu::MessageSeverity::Error ? "error" : "warning";
+      if (g_in_test) {
+        const std::string message = std::string("Vulkan validation ") + kind + ": " + text;
+        ADD_FAIL_CHECK_AT(__FILE__, __LINE__, message);
+      } else {
+        ++g_stray_messages;
+        std::fprintf(stderr, "Vulkan validation %s outside a test case: %s\n", kind, text.c_str());
+      }
+    });
+    std::printf("[icube-tests] device [%u] %s, subgroup size %u, validation on\n", g_context->info().index,
+                g_context->info().name.c_str(), g_context->subgroup_size());
+  }
+  return *g_context;
+}
+
+std::string test_data_dir() {
+  const char* env = std::getenv("ICUBE_TEST_DATA");
+  std::filesystem::path p = env && *env ? env : "../shared/data";
+  return std::filesystem::is_directory(p) ? p.string() : std::string();
+}
+
+bool allclose(const std::vector<float>& got, const std::vector<float>& want, double atol, double rtol, const char* what) {
+  if (got.size() != want.size()) {
+    std::printf("  %s: size %zu != %zu\n", what, got.size(), want.size());
+    return false;
+  }
+  size_t bad = 0;
+  bool all_zero = true;
+  for (size_t i = 0; i < got.size(); ++i) {
+    double g = got[i], w = want[i];
+    all_zero = all_zero && w == 0.0;
+    bool ok = (std::isnan(w) && std::isnan(g)) || std::fabs(g - w) <= atol + rtol * std::fabs(w);
+    if (ok) continue;
+    if (bad < 8) std::printf("  %s mismatch at %zu: got %.9g want %.9g (|d| = %.3g)\n", what, i, g, w, std::fabs(g - w));
+    ++bad;
+  }
+  if (all_zero && !got.empty()) std::printf("  warning: %s reference is all zeros\n", what);
+  if (bad) std::printf("  %s: %zu of %zu outside atol %.3g + rtol %.3g\n", what, bad, got.size(), atol, rtol);
+  return bad == 0;
+}
+
+}  // namespace icube::test
+
+DOCTEST_REGISTER_LISTENER("icube-tracker", 1, icube::test::TestCaseTracker);
+
+int main(int argc, char** argv) {
+  doctest::Context context;
+  context.applyCommandLine(argc, argv);
+  int rc = context.run();
+  icube::test::g_context.reset();  // destruction messages count too
+  if (icube::test::g_stray_messages) {
+    std::fprintf(stderr, "icube-tests: %llu validation message(s) outside test cases\n",
+                 static_cast<unsigned long long>(icube::test::g_stray_messages));
+    rc = rc ? rc : 1;
+  }
+  return rc;
+}
