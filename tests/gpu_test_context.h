@@ -8,12 +8,20 @@
 
 #include <cstdint>
 #include <cstdio>
+#include <memory>
 #include <string>
 #include <vector>
 
 namespace icube::test {
 
+// The shared context (created on first use).
 gpu::Context& gpu_context();
+
+// A further context (e.g. forced staging, no push descriptors), validated the same way.
+std::unique_ptr<gpu::Context> make_validated_context(gpu::ContextOptions opts);
+
+// (Re)installs the handler that turns validation messages into test failures.
+void install_failing_message_handler(gpu::Context& ctx);
 
 // Data directory for tests that read ../shared/data ($ICUBE_TEST_DATA); empty if absent.
 std::string test_data_dir();

@@ -35,21 +35,29 @@ struct TestCaseTracker : doctest::IReporter {
 };
 }  // namespace
 
+void install_failing_message_handler(gpu::Context& ctx) {
+  ctx.set_message_handler([](gpu::MessageSeverity s, const std::string& text) {
+    const char* kind = s == gpu::MessageSeverity::Error ? "error" : "warning";
+    if (g_in_test) {
+      const std::string message = std::string("Vulkan validation ") + kind + ": " + text;
+      ADD_FAIL_CHECK_AT(__FILE__, __LINE__, message);
+    } else {
+      ++g_stray_messages;
+      std::fprintf(stderr, "Vulkan validation %s outside a test case: %s\n", kind, text.c_str());
+    }
+  });
+}
+
+std::unique_ptr<gpu::Context> make_validated_context(gpu::ContextOptions opts) {
+  opts.validation = true;  // every test runs under the Khronos validation layer
+  auto ctx = std::make_unique<gpu::Context>(opts);
+  install_failing_message_handler(*ctx);
+  return ctx;
+}
+
 gpu::Context& gpu_context() {
   if (!g_context) {
-    gpu::ContextOptions opts = gpu::ContextOptions::from_env();
-    opts.validation = true;  // every test runs under the Khronos validation layer
-    g_context = std::make_unique<gpu::Context>(opts);
-    g_context->set_message_handler([](gpu::MessageSeverity s, const std::string& text) {
-      const char* kind = s == gpu::MessageSeverity::Error ? "error" : "warning";
-      if (g_in_test) {
-        const std::string message = std::string("Vulkan validation ") + kind + ": " + text;
-        ADD_FAIL_CHECK_AT(__FILE__, __LINE__, message);
-      } else {
-        ++g_stray_messages;
-        std::fprintf(stderr, "Vulkan validation %s outside a test case: %s\n", kind, text.c_str());
-      }
-    });
+    g_context = make_validated_context(gpu::ContextOptions::from_env());
     std::printf("[icube-tests] device [%u] %s, subgroup size %u, validation on\n", g_context->info().index,
                 g_context->info().name.c_str(), g_context->subgroup_size());
   }

@@ -8,6 +8,7 @@ packages=(
   libvulkan-dev mesa-vulkan-drivers vulkan-validationlayers vulkan-tools glslang-tools
   libglfw3-dev libglm-dev libimgui-dev libtinygltf-dev libstb-dev
   doctest-dev nlohmann-json3-dev libcli11-dev
+  xvfb xauth
 )
 
 case "${1:-}" in

@@ -68,6 +68,7 @@ Context::Context(const ContextOptions& options) : options_(options) {
     create_instance();
     devices_ = query_devices(instance_);
     info_ = select_device(devices_, options_.device);
+    if (options_.disable_push_descriptors) info_.push_descriptor = false;
     create_device();
   } catch (...) {
     if (device_) vkDestroyDevice(device_, nullptr);

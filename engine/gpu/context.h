@@ -26,6 +26,7 @@ struct ContextOptions {
   bool validation = false;     // enable VK_LAYER_KHRONOS_validation + messenger
   std::string device;          // index or name substring; empty = best
   bool force_staging = false;  // never map device-local memory, always go through staging (tests)
+  bool disable_push_descriptors = false;  // use pooled descriptor sets even where push descriptors exist (tests)
   bool headless = true;        // no surface extensions (the viewer turns this off)
   std::vector<const char*> extra_instance_extensions;
 

@@ -157,6 +157,7 @@ ShaderReflection reflect_spirv(const uint32_t* words, size_t word_count, const s
 
   for (const auto& [id, sid] : m.spec_id) r.spec_ids.push_back(sid);
   std::sort(r.spec_ids.begin(), r.spec_ids.end());
+  r.spec_ids.erase(std::unique(r.spec_ids.begin(), r.spec_ids.end()), r.spec_ids.end());
 
   // Workgroup size: the WorkgroupSize built-in (a spec-constant composite when
   // local_size_x_id is used) overrides the execution mode.
