@@ -7,7 +7,7 @@ packages=(
   build-essential cmake pkg-config
   libvulkan-dev mesa-vulkan-drivers vulkan-validationlayers vulkan-tools glslang-tools
   libglfw3-dev libglm-dev libimgui-dev libtinygltf-dev libstb-dev
-  doctest-dev nlohmann-json3-dev libcli11-dev
+  doctest-dev nlohmann-json3-dev libcli11-dev libpugixml-dev
   xvfb xauth
 )
 

@@ -1,0 +1,34 @@
+// Errors and warnings from readers of user files.
+//
+// Every reader reports bad input as InputError whose message is one line:
+// "<file>: <where>: <what>", e.g.
+//   "scenario.tfrecord: record 3 at byte 1048592: length 18446744 exceeds the file"
+//   "Town01.xodr: road 12 geometry 3 (line 118): attribute 'length' is NaN"
+// Problems the reader can work around (a zero-length polyline, a track with
+// no valid state) go to a Diagnostics list as warnings instead.
+#pragma once
+
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace icube::scene {
+
+class InputError : public std::runtime_error {
+ public:
+  InputError(const std::string& file, const std::string& where, const std::string& what)
+      : std::runtime_error(file + ": " + (where.empty() ? "" : where + ": ") + what), file_(file) {}
+  const std::string& file() const { return file_; }
+
+ private:
+  std::string file_;
+};
+
+struct Diagnostics {
+  std::vector<std::string> warnings;
+  void warn(const std::string& file, const std::string& where, const std::string& what) {
+    warnings.push_back(file + ": " + (where.empty() ? "" : where + ": ") + what);
+  }
+};
+
+}  // namespace icube::scene
