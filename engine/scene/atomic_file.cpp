@@ -27,10 +27,13 @@ void write_file_atomic(const std::string& path, std::string_view bytes) {
 }
 
 std::string read_file(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
+  std::ifstream in(path, std::ios::binary | std::ios::ate);
   if (!in) throw InputError(path, "", std::string("cannot open: ") + std::strerror(errno));
-  std::string data((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  if (in.bad()) throw InputError(path, "", "read error");
+  const std::streamoff size = in.tellg();
+  if (size < 0) throw InputError(path, "", "cannot determine the file size (not a regular file?)");
+  std::string data(static_cast<size_t>(size), '\0');
+  in.seekg(0);
+  if (size > 0 && !in.read(data.data(), size)) throw InputError(path, "", "read error");
   return data;
 }
 
