@@ -1,0 +1,19 @@
+// libFuzzer target: bytes -> parse_opendrive. InputError is the expected
+// outcome for bad input; any other exception, crash, hang or sanitizer report
+// is a finding. Samples every 1 m to keep each input fast under ASan.
+// Seeds: tests/fuzz/corpus/opendrive/.
+#include "scene/opendrive_reader.h"
+
+#include <cstddef>
+#include <cstdint>
+
+extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
+  icube::scene::OpenDriveOptions options;
+  options.sample_step = 1.0;
+  icube::scene::Diagnostics diag;
+  try {
+    (void)icube::scene::parse_opendrive(reinterpret_cast<const char*>(data), size, "fuzz.xodr", options, &diag);
+  } catch (const icube::scene::InputError&) {
+  }
+  return 0;
+}
