@@ -2,9 +2,11 @@
 //
 //   icube devices     list Vulkan devices and the properties kernels depend on
 //   icube selfcheck   run every primitive kernel on the selected device against its CPU reference
+//   icube scene ...   read, summarise, convert, plot scenes and sample routes (tools/cmd_scene*.cpp)
 //
 // Environment: ICUBE_DEVICE=<index|name substring> picks the device,
 // ICUBE_VALIDATION=1 turns on the Khronos validation layer.
+#include "cmd_scene.h"
 #include "gpu/context.h"
 #include "selfcheck.h"
 
@@ -61,6 +63,7 @@ int main(int argc, char** argv) {
   devices->add_flag("--all", all, "Also list devices that cannot run the engine");
   auto* selfcheck =
       app.add_subcommand("selfcheck", "Dispatch every primitive kernel on the selected device and verify it on the CPU");
+  tools::add_scene_commands(app);
 
   try {
     app.parse(argc, argv);
