@@ -7,6 +7,7 @@
 // Environment: ICUBE_DEVICE=<index|name substring> picks the device,
 // ICUBE_VALIDATION=1 turns on the Khronos validation layer.
 #include "cmd_scene.h"
+#include "command_registry.h"
 #include "gpu/context.h"
 #include "selfcheck.h"
 
@@ -64,6 +65,7 @@ int main(int argc, char** argv) {
   auto* selfcheck =
       app.add_subcommand("selfcheck", "Dispatch every primitive kernel on the selected device and verify it on the CPU");
   tools::add_scene_commands(app);
+  tools::register_all_commands(app);  // world, conditions, ... (tools/cmd_*.cpp)
 
   try {
     app.parse(argc, argv);
