@@ -39,12 +39,12 @@ void chunked_sort(std::vector<T>& v, unsigned threads, SortRange sort_range, Les
   while (bounds.size() > 2) {
     const unsigned merges = static_cast<unsigned>((bounds.size() - 1) / 2);
     run_parallel(merges, [&](unsigned m) {
-      std::inplace_merge(v.begin() + bounds[2 * m], v.begin() + bounds[2 * m + 1], v.begin() + bounds[2 * m + 2],
-                         less);
+      std::inplace_merge(v.begin() + bounds[2 * m], v.begin() + bounds[2 * m + 1], v.begin() + bounds[2 * m + 2], less);
     });
+    const size_t chunks = bounds.size() - 1;
     std::vector<size_t> next;
-    for (size_t i = 0; i < bounds.size(); i += 2) next.push_back(bounds[i]);
-    if (next.back() != bounds.back()) next.push_back(bounds.back());
+    for (size_t i = 0; i <= chunks; i += 2) next.push_back(bounds[i]);
+    if (chunks % 2) next.push_back(bounds[chunks]);  // the odd chunk out moves up unmerged
     bounds.swap(next);
   }
 }
@@ -83,13 +83,15 @@ void cpu_inclusive_scan(const std::vector<uint32_t>& in, std::vector<uint32_t>& 
 template <class K>
 void cpu_stable_sort_by_key(std::vector<KeyValue<K>>& v, unsigned threads) {
   using It = typename std::vector<KeyValue<K>>::iterator;
-  chunked_sort(v, threads, [](It first, It last) { std::stable_sort(first, last, key_less<K>); }, key_less<K>);
+  chunked_sort(
+      v, threads, [](It first, It last) { std::stable_sort(first, last, key_less<K>); }, key_less<K>);
 }
 
 template <class K>
 void cpu_sort_by_key_value(std::vector<KeyValue<K>>& v, unsigned threads) {
   using It = typename std::vector<KeyValue<K>>::iterator;
-  chunked_sort(v, threads, [](It first, It last) { std::sort(first, last, key_value_less<K>); }, key_value_less<K>);
+  chunked_sort(
+      v, threads, [](It first, It last) { std::sort(first, last, key_value_less<K>); }, key_value_less<K>);
 }
 
 std::string cpu_scan_name(unsigned threads) {

@@ -47,8 +47,8 @@ double melem_per_s(uint64_t n, double ms) {
 
 void print_table(const std::vector<ResultRow>& rows) {
   constexpr size_t kColumns = 7;
-  const std::array<const char*, kColumns> header = {"op", "n", "implementation", "min ms", "median ms", "Melem/s",
-                                                    "check"};
+  const std::array<const char*, kColumns> header = {"op",        "n",       "implementation", "min ms",
+                                                    "median ms", "Melem/s", "check"};
   const std::array<bool, kColumns> right_aligned = {false, true, false, true, true, true, false};
   std::vector<std::array<std::string, kColumns>> cells;
   for (const ResultRow& r : rows) {
@@ -64,11 +64,14 @@ void print_table(const std::vector<ResultRow>& rows) {
   auto print_line = [&](const std::array<std::string, kColumns>& line) {
     for (size_t c = 0; c < kColumns; ++c) {
       const int w = static_cast<int>(width[c]);
+      const bool last = c + 1 == kColumns;
       if (right_aligned[c])
         std::printf("%*s", w, line[c].c_str());
+      else if (last)
+        std::printf("%s", line[c].c_str());  // no trailing blanks
       else
         std::printf("%-*s", w, line[c].c_str());
-      std::printf(c + 1 < kColumns ? "  " : "\n");
+      std::printf(last ? "\n" : "  ");
     }
   };
   std::array<std::string, kColumns> head;
@@ -88,6 +91,20 @@ void print_table(const std::vector<ResultRow>& rows) {
   }
 }
 
+void print_disturbed_rows(const std::vector<ResultRow>& rows, double threshold) {
+  bool first = true;
+  for (const ResultRow& r : rows) {
+    if (r.other_cpu_share <= threshold || r.timing == "gpu-submit") continue;  // submit shares the kernel row's runs
+    if (first)
+      std::printf(
+          "\nnote: other processes took more than %.0f%% of the CPUs while measuring (rerun on a quiet machine):\n",
+          100.0 * threshold);
+    first = false;
+    std::printf("  %s n=%llu %s: %.0f%%\n", r.op.c_str(), static_cast<unsigned long long>(r.n),
+                r.implementation.c_str(), 100.0 * r.other_cpu_share);
+  }
+}
+
 nlohmann::json row_to_json(const ResultRow& row) {
   auto number_or_null = [](double v) { return std::isnan(v) ? nlohmann::json(nullptr) : nlohmann::json(v); };
   const Summary s = summarize(row.samples_ms);
@@ -101,7 +118,8 @@ nlohmann::json row_to_json(const ResultRow& row) {
           {"min_ms", number_or_null(s.min_ms)},
           {"median_ms", number_or_null(s.median_ms)},
           {"melem_per_s", number_or_null(melem_per_s(row.n, s.min_ms))},
-          {"check", row.check}};
+          {"check", row.check},
+          {"other_cpu_share", row.other_cpu_share}};
 }
 
 void write_json_file(const std::string& path, const nlohmann::json& doc) {

@@ -2,9 +2,8 @@
 // their min / median, throughput, the aligned result table and the JSON file.
 #pragma once
 
-#include <nlohmann/json.hpp>
-
 #include <cstdint>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
@@ -29,12 +28,17 @@ struct ResultRow {
   std::string implementation;  // e.g. "gpu RadixSort Bits32: kernel"
   std::string timing;          // "gpu-kernel", "gpu-submit", "transfer", "cpu"
   std::vector<double> samples_ms;
-  std::string check;  // "ok", "FAIL", or "-" (not a result-producing row)
+  std::string check;             // "ok", "FAIL", "skip", or "-" (not a result-producing row)
+  double other_cpu_share = 0.0;  // CPU share other processes took during the runs (0..1)
 };
 
 // Prints the rows as an aligned table with the columns
 // op, n, implementation, min ms, median ms, Melem/s, check.
 void print_table(const std::vector<ResultRow>& rows);
+
+// Prints a note naming the rows measured while other processes took more than
+// `threshold` of the CPUs (their numbers are likely too slow).
+void print_disturbed_rows(const std::vector<ResultRow>& rows, double threshold);
 
 // One row as JSON (samples, min, median, Melem/s; NaN becomes null).
 nlohmann::json row_to_json(const ResultRow& row);

@@ -17,9 +17,10 @@ constexpr uint32_t kRadixSize = 256;
 uint32_t key_bytes(KeyWidth w) { return w == KeyWidth::Bits64 ? 8u : 4u; }
 }  // namespace
 
-RadixSortScratch::RadixSortScratch(gpu::Context& ctx, uint64_t cap, KeyWidth width)
+RadixSortScratch::RadixSortScratch(gpu::Context& ctx, uint64_t cap, KeyWidth key_width)
     : capacity(std::max<uint64_t>(cap, 1)),
-      keys(ctx, capacity * key_bytes(width), gpu::MemoryUsage::DeviceLocal, "radix-keys-tmp"),
+      width(key_width),
+      keys(ctx, capacity * key_bytes(key_width), gpu::MemoryUsage::DeviceLocal, "radix-keys-tmp"),
       values(ctx, capacity * 4, gpu::MemoryUsage::DeviceLocal, "radix-values-tmp"),
       histogram(ctx, kRadixSize * tiles_for(capacity) * 4, gpu::MemoryUsage::DeviceLocal, "radix-histogram"),
       scan_scratch(ctx, std::max<uint64_t>(PrefixScan::scratch_elements(kRadixSize * tiles_for(capacity)), 1) * 4,
@@ -50,6 +51,7 @@ void RadixSort::record(CommandList& cmd, const Buffer& keys, const Buffer& value
     throw std::invalid_argument("radix sort: " + std::to_string(n) + " keys exceed one storage binding (max " +
                                 std::to_string(max_elements()) + " on " + ctx_.info().name + ")");
   if (n > scratch.capacity) throw std::invalid_argument("radix sort: scratch capacity is smaller than n");
+  if (scratch.width != width_) throw std::invalid_argument("radix sort: scratch was made for another key width");
   if (keys.size() < n * kb || values.size() < n * 4) throw std::invalid_argument("radix sort: buffers smaller than n");
 
   const uint64_t tiles = tiles_for(n);

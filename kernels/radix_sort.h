@@ -34,6 +34,7 @@ enum class KeyWidth { Bits32 = 32, Bits64 = 64 };
 struct RadixSortScratch {
   RadixSortScratch(gpu::Context& ctx, uint64_t capacity, KeyWidth width);
   uint64_t capacity;
+  KeyWidth width;
   gpu::Buffer keys;
   gpu::Buffer values;
   gpu::Buffer histogram;

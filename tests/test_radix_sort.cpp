@@ -115,6 +115,9 @@ TEST_SUITE("subgroup-sensitive") {
     kernels::RadixSortScratch scratch(ctx, 4, KeyWidth::Bits64);
     ctx.submit_and_wait([&](gpu::CommandList& cmd) {
       CHECK_THROWS_AS(sort.record(cmd, k, v, 8, scratch), std::invalid_argument);  // scratch too small
+      kernels::RadixSortScratch narrow(ctx, 8, KeyWidth::Bits32);
+      CHECK_THROWS_WITH_AS(sort.record(cmd, k, v, 8, narrow), doctest::Contains("another key width"),
+                           std::invalid_argument);
       CHECK_THROWS_WITH_AS(sort.record(cmd, k, v, sort.max_elements() + 1, scratch),
                            doctest::Contains("exceed one storage binding"), std::invalid_argument);
     });
