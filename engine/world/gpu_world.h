@@ -1,0 +1,50 @@
+// The VoxelGrid on the GPU (layout in shaders/shared/world_layout.h, GLSL
+// lookups in shaders/common/world_lookup.glsl): an open-addressing hash table
+// from packed brick coordinate to brick index (power-of-two capacity, load
+// <= 0.5, linear probing) and one WorldBrickRecord per brick (mask, classes
+// 4 per uint, instances 2 per uint). Bricks are laid out in brick_key order,
+// so the same grid always gives the same buffers.
+//
+// Each buffer is bound whole, so brick_data is limited to one storage binding
+// (maxStorageBufferRange: 128 MiB = ~83,000 bricks on lavapipe, 4 GiB on NVIDIA).
+// Test: tests/test_world_gpu.cpp (world_probe.comp against VoxelGrid::get).
+#pragma once
+
+#include "gpu/buffer.h"
+#include "shared/world_layout.h"
+#include "world/voxel_grid.h"
+
+#include <glm/glm.hpp>
+
+#include <cstdint>
+#include <vector>
+
+namespace icube::world {
+
+// The buffers' contents, built on the CPU.
+struct GpuWorldHost {
+  std::vector<shader::WorldHashEntry> table;  // capacity entries
+  std::vector<uint32_t> bricks;               // WORLD_BRICK_UINTS per brick
+  uint32_t table_mask = 0;                    // capacity - 1
+  uint32_t brick_count = 0;
+};
+
+GpuWorldHost build_gpu_world_host(const VoxelGrid& grid);
+// The CPU mirror of world_voxel() in world_lookup.glsl.
+Voxel lookup_gpu_world_host(const GpuWorldHost& host, const glm::ivec3& ijk);
+
+struct GpuWorld {
+  gpu::Buffer brick_table;  // WorldHashEntry[capacity]
+  gpu::Buffer brick_data;   // WorldBrickRecord[brick_count] (one dummy record when empty)
+  uint32_t table_mask = 0;
+  uint32_t brick_count = 0;
+  glm::dvec3 origin{0.0};
+  double voxel_size = kFineVoxel;
+};
+
+GpuWorld upload_gpu_world(gpu::Context& ctx, const VoxelGrid& grid);
+
+// Runs world_probe.comp: (class, instance) for every query ijk.
+std::vector<Voxel> probe_gpu_world(gpu::Context& ctx, const GpuWorld& world, const std::vector<glm::ivec3>& queries);
+
+}  // namespace icube::world
