@@ -6,6 +6,7 @@
 // (max over k) and of the box channels (topmost lit cell, hue = heading).
 // Image up = chunk +x (forward), image right = chunk -y (right). The chunk
 // pose comes from world::plan_trajectory (engine/world/chunk_plan.h).
+#include "cli_common.h"
 #include "command_registry.h"
 
 #include "gpu/context.h"
@@ -83,12 +84,10 @@ std::vector<uint8_t> render_png(const std::vector<float>& vol, int& width, int& 
 }
 
 void cmd_conditions(const ConditionsArgs& a) {
-  try {
+  run_command([&](scene::Diagnostics& diag) {
     scene::LoadOptions lo;
     lo.waymo_selector = a.record;
-    scene::Diagnostics diag;
     scene::Scene s = scene::load_scene(a.file, lo, &diag);
-    for (const std::string& w : diag.warnings) std::fprintf(stderr, "icube: warning: %s\n", w.c_str());
     scene::classify_tracks(s);
     const world::ChunkPlan plan = world::plan_trajectory(s);
     if (a.chunk < 0 || static_cast<size_t>(a.chunk) >= plan.chunks.size())
@@ -123,10 +122,7 @@ void cmd_conditions(const ConditionsArgs& a) {
     std::printf("lit cells: road_edge %zu, road_line %zu, road_surface %zu, boxes %zu\n", counts[3], counts[4],
                 counts[5], std::max(counts[6], counts[7]));
     std::printf("wrote %s [8, 64, 64, 64] float32 (%s) and %s\n", a.output.c_str(), a.cpu ? "CPU" : "GPU", png.c_str());
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "icube: error: %s\n", e.what());
-    throw CLI::RuntimeError(1);
-  }
+  });
 }
 
 void add_conditions_commands(CLI::App& app) {

@@ -2,6 +2,8 @@
 // `route` are added by add_scene_plot_commands() from cmd_scene_plot.cpp.
 #include "cmd_scene.h"
 
+#include "cli_common.h"
+
 #include "cmd_scene_plot.h"
 #include "scene/atomic_file.h"
 #include "scene/scene_json.h"
@@ -21,8 +23,6 @@ namespace icube::tools {
 
 namespace {
 
-constexpr size_t kMaxWarningsShown = 50;
-
 struct SceneArgs {
   std::string file;
   std::string record;
@@ -31,26 +31,6 @@ struct SceneArgs {
   bool step_given = false;
 };
 
-void print_warnings(const scene::Diagnostics& diag) {
-  const size_t n = diag.warnings.size();
-  for (size_t i = 0; i < n && i < kMaxWarningsShown; ++i)
-    std::fprintf(stderr, "icube: warning: %s\n", diag.warnings[i].c_str());
-  if (n > kMaxWarningsShown) std::fprintf(stderr, "icube: warning: ... and %zu more warnings\n", n - kMaxWarningsShown);
-}
-
-// Runs a command body: warnings to stderr, any error as one line and exit status 1.
-template <class F>
-void run_command(F&& body) {
-  scene::Diagnostics diag;
-  try {
-    body(diag);
-  } catch (const std::exception& e) {
-    print_warnings(diag);
-    std::fprintf(stderr, "icube: error: %s\n", e.what());
-    throw CLI::RuntimeError(1);
-  }
-  print_warnings(diag);
-}
 
 scene::LoadOptions load_options(const SceneArgs& a, scene::Diagnostics& diag) {
   scene::LoadOptions o;
@@ -70,9 +50,7 @@ void cmd_info(const SceneArgs& a) {
 
 void cmd_convert(const SceneArgs& a) {
   run_command([&](scene::Diagnostics& diag) {
-    std::error_code ec;
-    if (std::filesystem::exists(a.output, ec) && std::filesystem::equivalent(a.file, a.output, ec))
-      throw std::runtime_error(a.output + ": is the input file; choose another output path");
+    refuse_overwriting_input(a.file, a.output);
     const scene::Scene s = scene::load_scene(a.file, load_options(a, diag), &diag);
     const std::string text = scene::scene_to_json(s);
     scene::write_file_atomic(a.output, text);

@@ -8,6 +8,7 @@
 //
 // Errors print one line, "icube: error: ...", and exit with status 1.
 #include "cmd_scene_plot.h"
+#include "cli_common.h"
 
 #include "scene/atomic_file.h"
 #include "scene/map_plot.h"
@@ -45,33 +46,6 @@ struct RouteArgs {
   int64_t start_lane = 0;
 };
 
-void print_warnings(const scene::Diagnostics& diag) {
-  constexpr size_t kMaxShown = 50;
-  for (size_t i = 0; i < diag.warnings.size() && i < kMaxShown; ++i)
-    std::fprintf(stderr, "icube: warning: %s\n", diag.warnings[i].c_str());
-  if (diag.warnings.size() > kMaxShown)
-    std::fprintf(stderr, "icube: warning: ... and %zu more warnings\n", diag.warnings.size() - kMaxShown);
-}
-
-// Runs a command body: warnings to stderr, any error as one line and exit status 1.
-template <class F>
-void run_command(F&& body) {
-  scene::Diagnostics diag;
-  try {
-    body(diag);
-  } catch (const std::exception& e) {
-    print_warnings(diag);
-    std::fprintf(stderr, "icube: error: %s\n", e.what());
-    throw CLI::RuntimeError(1);
-  }
-  print_warnings(diag);
-}
-
-void refuse_overwriting_input(const std::string& input, const std::string& output) {
-  std::error_code ec;
-  if (std::filesystem::exists(output, ec) && std::filesystem::equivalent(input, output, ec))
-    throw std::runtime_error(output + ": is the input file; choose another output path");
-}
 
 // "X0,Y0,X1,Y1" in metres.
 scene::PlotBounds parse_bbox(const std::string& text) {

@@ -1,5 +1,6 @@
 // `icube world info | import | export`: inspect .icw worlds, build them from
 // labelled point clouds, export them as PLY points or a GLB mesh.
+#include "cli_common.h"
 #include "command_registry.h"
 
 #include "world/point_import.h"
@@ -27,16 +28,6 @@ struct WorldIoArgs {
   std::string origin;
 };
 
-template <class F>
-void run_world_command(F&& body) {
-  try {
-    body();
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "icube: error: %s\n", e.what());
-    throw CLI::RuntimeError(1);
-  }
-}
-
 glm::dvec3 parse_origin(const std::string& s) {
   glm::dvec3 o(0.0);
   if (s.empty()) return o;
@@ -49,7 +40,7 @@ glm::dvec3 parse_origin(const std::string& s) {
 }
 
 void cmd_info(const WorldIoArgs& a) {
-  run_world_command([&] {
+  run_command([&](scene::Diagnostics&) {
     const world::VoxelGrid g = world::load_world(a.input);
     const double vs = g.voxel_size();
     std::printf("world %s\n", a.input.c_str());
@@ -85,7 +76,7 @@ void cmd_info(const WorldIoArgs& a) {
 }
 
 void cmd_import(const WorldIoArgs& a) {
-  run_world_command([&] {
+  run_command([&](scene::Diagnostics&) {
     const glm::dvec3 origin = parse_origin(a.origin);
     world::ImportStats st;
     const world::VoxelGrid g = world::import_points(a.input, origin, world::kFineVoxel, &st);
@@ -98,7 +89,7 @@ void cmd_import(const WorldIoArgs& a) {
 }
 
 void cmd_export(const WorldIoArgs& a) {
-  run_world_command([&] {
+  run_command([&](scene::Diagnostics&) {
     const world::VoxelGrid g = world::load_world(a.input);
     const world::ExportStats st = world::export_world(g, a.output);
     if (st.points)

@@ -6,6 +6,7 @@
 //   icube world demo-scene -o scene.json
 //
 // Errors print one line, "icube: error: ...", and exit with status 1.
+#include "cli_common.h"
 #include "command_registry.h"
 
 #include "scene/atomic_file.h"
@@ -37,32 +38,6 @@ struct PlanArgs {
   world::PlanPlotOptions plot;
 };
 
-void print_warnings(const scene::Diagnostics& diag) {
-  constexpr size_t kMaxShown = 50;
-  for (size_t i = 0; i < diag.warnings.size() && i < kMaxShown; ++i)
-    std::fprintf(stderr, "icube: warning: %s\n", diag.warnings[i].c_str());
-  if (diag.warnings.size() > kMaxShown)
-    std::fprintf(stderr, "icube: warning: ... and %zu more warnings\n", diag.warnings.size() - kMaxShown);
-}
-
-template <class F>
-void run_command(F&& body) {
-  scene::Diagnostics diag;
-  try {
-    body(diag);
-  } catch (const std::exception& e) {
-    print_warnings(diag);
-    std::fprintf(stderr, "icube: error: %s\n", e.what());
-    throw CLI::RuntimeError(1);
-  }
-  print_warnings(diag);
-}
-
-void refuse_overwriting_input(const std::string& input, const std::string& output) {
-  std::error_code ec;
-  if (std::filesystem::exists(output, ec) && std::filesystem::equivalent(input, output, ec))
-    throw std::runtime_error(output + ": is the input file; choose another output path");
-}
 
 void print_table(const world::ChunkPlan& plan) {
   std::printf("%s plan: %zu chunk(s), stride %.1f m", world::plan_mode_name(plan.mode), plan.chunks.size(),

@@ -1,0 +1,47 @@
+// What every icube subcommand does the same way: warnings to stderr (at most
+// 50 shown), any error as one line "icube: error: ..." and exit status 1
+// (CLI::RuntimeError, which main's app.exit() turns into the status), and a
+// refusal to overwrite a command's own input.
+#pragma once
+
+#include "scene/input_error.h"
+
+#include <CLI/CLI.hpp>
+
+#include <cstdio>
+#include <exception>
+#include <filesystem>
+#include <stdexcept>
+#include <string>
+
+namespace icube::tools {
+
+inline void print_warnings(const scene::Diagnostics& diag) {
+  constexpr size_t kMaxShown = 50;
+  for (size_t i = 0; i < diag.warnings.size() && i < kMaxShown; ++i)
+    std::fprintf(stderr, "icube: warning: %s\n", diag.warnings[i].c_str());
+  if (diag.warnings.size() > kMaxShown)
+    std::fprintf(stderr, "icube: warning: ... and %zu more warnings\n", diag.warnings.size() - kMaxShown);
+}
+
+// Runs body(diag): its warnings go to stderr, any exception becomes one line and exit status 1.
+template <class F>
+void run_command(F&& body) {
+  scene::Diagnostics diag;
+  try {
+    body(diag);
+  } catch (const std::exception& e) {
+    print_warnings(diag);
+    std::fprintf(stderr, "icube: error: %s\n", e.what());
+    throw CLI::RuntimeError(1);
+  }
+  print_warnings(diag);
+}
+
+inline void refuse_overwriting_input(const std::string& input, const std::string& output) {
+  std::error_code ec;
+  if (std::filesystem::exists(output, ec) && std::filesystem::equivalent(input, output, ec))
+    throw std::runtime_error(output + ": is the input file; choose another output path");
+}
+
+}  // namespace icube::tools
