@@ -9,15 +9,7 @@
 #include "scene/atomic_file.h"
 #include "scene/input_error.h"
 
-#define TINYGLTF_NO_STB_IMAGE
-#define TINYGLTF_NO_STB_IMAGE_WRITE
-#define TINYGLTF_NO_EXTERNAL_IMAGE
-#pragma GCC diagnostic push
-#pragma GCC diagnostic ignored "-Wshadow"
-#pragma GCC diagnostic ignored "-Wdouble-promotion"
-#pragma GCC diagnostic ignored "-Wunused-parameter"
-#include <tiny_gltf.h>
-#pragma GCC diagnostic pop
+#include "world/tinygltf_include.h"
 
 #include <doctest/doctest.h>
 

@@ -13,19 +13,7 @@
 #include <nlohmann/json.hpp>
 
 // Declarations only: the implementation lives in engine/world/world_export.cpp.
-#define TINYGLTF_NO_STB_IMAGE
-#define TINYGLTF_NO_STB_IMAGE_WRITE
-#define TINYGLTF_NO_EXTERNAL_IMAGE
-#pragma GCC diagnostic push
-#pragma GCC diagnostic ignored "-Wall"
-#pragma GCC diagnostic ignored "-Wextra"
-#pragma GCC diagnostic ignored "-Wpedantic"
-#pragma GCC diagnostic ignored "-Wshadow"
-#pragma GCC diagnostic ignored "-Wdouble-promotion"
-#pragma GCC diagnostic ignored "-Wcast-align"
-#pragma GCC diagnostic ignored "-Wunused"
-#include <tiny_gltf.h>
-#pragma GCC diagnostic pop
+#include "world/tinygltf_include.h"
 
 #include <cmath>
 #include <cstring>
