@@ -4,12 +4,10 @@
 #include "scene/atomic_file.h"
 #include "scene/input_error.h"
 #include "world/npy.h"
+#include "world/ply_reader.h"
 
 #include <algorithm>
 #include <cmath>
-#include <cstdlib>
-#include <cstring>
-#include <optional>
 #include <sstream>
 
 namespace icube::world {
@@ -37,204 +35,91 @@ void add_point(std::vector<LabeledPoint>& out, const std::string& name, uint64_t
   out.push_back({{x, y, z}, static_cast<uint8_t>(cls), static_cast<uint16_t>(inst)});
 }
 
-// ---- PLY -------------------------------------------------------------------
+// ---- PLY (header and values from world/ply_reader.h) ----------------------
 
-enum class PlyType { I8, U8, I16, U16, I32, U32, F32, F64 };
-
-std::optional<PlyType> ply_type(const std::string& t) {
-  if (t == "char" || t == "int8") return PlyType::I8;
-  if (t == "uchar" || t == "uint8") return PlyType::U8;
-  if (t == "short" || t == "int16") return PlyType::I16;
-  if (t == "ushort" || t == "uint16") return PlyType::U16;
-  if (t == "int" || t == "int32") return PlyType::I32;
-  if (t == "uint" || t == "uint32") return PlyType::U32;
-  if (t == "float" || t == "float32") return PlyType::F32;
-  if (t == "double" || t == "float64") return PlyType::F64;
-  return std::nullopt;
-}
-
-size_t ply_size(PlyType t) {
-  switch (t) {
-    case PlyType::I8:
-    case PlyType::U8: return 1;
-    case PlyType::I16:
-    case PlyType::U16: return 2;
-    case PlyType::I32:
-    case PlyType::U32:
-    case PlyType::F32: return 4;
-    case PlyType::F64: return 8;
-  }
-  return 0;
-}
-
-double ply_decode(PlyType t, const char* p) {
-  switch (t) {
-    case PlyType::I8: return static_cast<int8_t>(p[0]);
-    case PlyType::U8: return static_cast<uint8_t>(p[0]);
-    case PlyType::I16: { int16_t v; std::memcpy(&v, p, 2); return v; }
-    case PlyType::U16: { uint16_t v; std::memcpy(&v, p, 2); return v; }
-    case PlyType::I32: { int32_t v; std::memcpy(&v, p, 4); return v; }
-    case PlyType::U32: { uint32_t v; std::memcpy(&v, p, 4); return v; }
-    case PlyType::F32: { float v; std::memcpy(&v, p, 4); return static_cast<double>(v); }
-    case PlyType::F64: { double v; std::memcpy(&v, p, 8); return v; }
-  }
-  return 0.0;
-}
-
-struct PlyProperty {
-  std::string name;
-  PlyType type = PlyType::F32;
-  bool is_list = false;
-  PlyType count_type = PlyType::U8;
-};
-
-struct PlyElement {
-  std::string name;
-  uint64_t count = 0;
-  std::vector<PlyProperty> props;
-};
-
-// Reads values one at a time from the body, ascii tokens or binary little-endian.
-class PlyBody {
- public:
-  PlyBody(std::string_view body, bool ascii, size_t base, const std::string& name)
-      : s_(body), ascii_(ascii), base_(base), name_(name) {}
-  double next(PlyType t, uint64_t row) {
-    if (ascii_) {
-      while (pos_ < s_.size() && std::isspace(static_cast<unsigned char>(s_[pos_]))) ++pos_;
-      const size_t start = pos_;
-      while (pos_ < s_.size() && !std::isspace(static_cast<unsigned char>(s_[pos_]))) ++pos_;
-      if (start == pos_) throw scene::InputError(name_, row_where(row), "file ends inside the vertex data");
-      const std::string tok(s_.substr(start, pos_ - start));
-      char* end = nullptr;
-      const double v = std::strtod(tok.c_str(), &end);
-      if (end != tok.c_str() + tok.size())
-        throw scene::InputError(name_, row_where(row), "'" + tok + "' is not a number");
-      return v;
-    }
-    const size_t n = ply_size(t);
-    if (n > s_.size() - pos_)
-      throw scene::InputError(name_, row_where(row) + " at byte " + std::to_string(base_ + pos_),
+// Reads one value of the row, with the point reader's own messages.
+double next_value(PlyCursor& in, PlyType t, const std::string& name, uint64_t row) {
+  const size_t at = in.byte();
+  double v = 0.0;
+  switch (in.next(t, v)) {
+    case PlyCursor::Status::Ok: return v;
+    case PlyCursor::Status::End:
+      throw scene::InputError(name, in.ascii() ? row_where(row) : row_where(row) + " at byte " + std::to_string(at),
                               "file ends inside the vertex data");
-    const double v = ply_decode(t, s_.data() + pos_);
-    pos_ += n;
-    return v;
+    case PlyCursor::Status::BadInteger:
+    case PlyCursor::Status::BadNumber: break;
   }
+  throw scene::InputError(name, row_where(row), "'" + std::string(in.token()) + "' is not a number");
+}
 
- private:
-  std::string_view s_;
-  bool ascii_;
-  size_t base_;
-  const std::string& name_;
-  size_t pos_ = 0;
+// Reads one row; scalar values land in vals (list items are skipped).
+void read_row(PlyCursor& in, const PlyElement& e, std::vector<double>& vals, const std::string& name, uint64_t row) {
+  for (size_t k = 0; k < e.props.size(); ++k) {
+    const PlyProperty& p = e.props[k];
+    if (!p.is_list) {
+      vals[k] = next_value(in, p.type, name, row);
+      continue;
+    }
+    const double n = next_value(in, p.count_type, name, row);
+    if (!(n >= 0.0) || n > 1e9) throw scene::InputError(name, row_where(row), "bad list length");
+    for (uint64_t j = 0; j < static_cast<uint64_t>(n); ++j) next_value(in, p.type, name, row);
+  }
+}
+
+// Column indices of the vertex element's x, y, z, class and instance (-1: absent).
+struct PointColumns {
+  int x = -1, y = -1, z = -1, cls = -1, inst = -1;
 };
+
+PointColumns point_columns(const PlyElement& v, const std::string& name) {
+  PointColumns c;
+  for (size_t k = 0; k < v.props.size(); ++k) {
+    const PlyProperty& p = v.props[k];
+    const int kk = static_cast<int>(k);
+    if (p.is_list) continue;
+    if (p.name == "x") c.x = kk;
+    if (p.name == "y") c.y = kk;
+    if (p.name == "z") c.z = kk;
+    if (p.name == "class" || p.name == "label" || p.name == "semantic") c.cls = kk;
+    if (p.name == "instance") c.inst = kk;
+  }
+  if (c.x < 0 || c.y < 0 || c.z < 0) throw scene::InputError(name, "header", "vertex element lacks x, y or z");
+  if (c.cls < 0) throw scene::InputError(name, "header", "vertex element has no 'class', 'label' or 'semantic' property");
+  return c;
+}
+
+PlyHeader point_header(std::string_view bytes, const std::string& name) {
+  PlyHeader h = parse_ply_header(bytes, name);
+  if (h.format == PlyFormat::BinaryBE)
+    throw scene::InputError(name, "header line " + std::to_string(h.format_line),
+                            "format 'binary_big_endian' is not supported (ascii or binary_little_endian)");
+  return h;
+}
 
 }  // namespace
 
 std::vector<LabeledPoint> points_from_ply_bytes(std::string_view bytes, const std::string& name, uint64_t* rows) {
-  const size_t end = bytes.find("end_header");
-  if (bytes.substr(0, 3) != "ply" || end == std::string_view::npos)
-    throw scene::InputError(name, "header", "not a PLY file (no 'ply' magic or no 'end_header')");
-  size_t body_start = bytes.find('\n', end);
-  if (body_start == std::string_view::npos) throw scene::InputError(name, "header", "no newline after end_header");
-  ++body_start;
-  std::istringstream header{std::string(bytes.substr(0, end))};
-  std::string line, format;
-  std::vector<PlyElement> elements;
-  int line_no = 0;
-  while (std::getline(header, line)) {
-    ++line_no;
-    if (!line.empty() && line.back() == '\r') line.pop_back();
-    std::istringstream ls(line);
-    std::string kw;
-    ls >> kw;
-    const std::string where = "header line " + std::to_string(line_no);
-    if (kw.empty() || kw == "ply" || kw == "comment" || kw == "obj_info") continue;
-    if (kw == "format") {
-      ls >> format;
-      if (format != "ascii" && format != "binary_little_endian")
-        throw scene::InputError(name, where, "format '" + format + "' is not supported (ascii or binary_little_endian)");
-    } else if (kw == "element") {
-      PlyElement e;
-      if (!(ls >> e.name >> e.count)) throw scene::InputError(name, where, "malformed element line");
-      elements.push_back(std::move(e));
-    } else if (kw == "property") {
-      if (elements.empty()) throw scene::InputError(name, where, "property before any element");
-      PlyProperty p;
-      std::string t;
-      ls >> t;
-      if (t == "list") {
-        std::string ct, it;
-        ls >> ct >> it >> p.name;
-        auto c = ply_type(ct), v = ply_type(it);
-        if (!c || !v || p.name.empty()) throw scene::InputError(name, where, "malformed list property");
-        p.is_list = true;
-        p.count_type = *c;
-        p.type = *v;
-      } else {
-        auto v = ply_type(t);
-        ls >> p.name;
-        if (!v || p.name.empty()) throw scene::InputError(name, where, "unknown property type '" + t + "'");
-        p.type = *v;
-      }
-      elements.back().props.push_back(p);
-    } else {
-      throw scene::InputError(name, where, "unexpected header keyword '" + kw + "'");
-    }
-  }
-  if (format.empty()) throw scene::InputError(name, "header", "no format line");
-  const auto vit = std::find_if(elements.begin(), elements.end(), [](const PlyElement& e) { return e.name == "vertex"; });
-  if (vit == elements.end()) throw scene::InputError(name, "header", "no 'vertex' element");
-  int ix = -1, iy = -1, iz = -1, ic = -1, ii = -1;
-  for (size_t k = 0; k < vit->props.size(); ++k) {
-    const PlyProperty& p = vit->props[k];
-    const int kk = static_cast<int>(k);
-    if (p.is_list) continue;
-    if (p.name == "x") ix = kk;
-    if (p.name == "y") iy = kk;
-    if (p.name == "z") iz = kk;
-    if (p.name == "class" || p.name == "label" || p.name == "semantic") ic = kk;
-    if (p.name == "instance") ii = kk;
-  }
-  if (ix < 0 || iy < 0 || iz < 0) throw scene::InputError(name, "header", "vertex element lacks x, y or z");
-  if (ic < 0) throw scene::InputError(name, "header", "vertex element has no 'class', 'label' or 'semantic' property");
-
-  const std::string_view body = bytes.substr(body_start);
-  const bool ascii = format == "ascii";
-  if (!ascii) {  // bound the vertex count by the file size before allocating
-    size_t rec = 0;
-    for (const PlyProperty& p : vit->props) rec += p.is_list ? ply_size(p.count_type) : ply_size(p.type);
-    if (vit->count > body.size() / std::max<size_t>(rec, 1))
-      throw scene::InputError(name, "header", "vertex count " + std::to_string(vit->count) + " exceeds the file");
-  } else if (vit->count > body.size() / 2 + 1) {
-    throw scene::InputError(name, "header", "vertex count " + std::to_string(vit->count) + " exceeds the file");
-  }
-  PlyBody in(body, ascii, body_start, name);
+  const PlyHeader h = point_header(bytes, name);
+  const PlyElement* vertex = h.find("vertex");
+  if (!vertex) throw scene::InputError(name, "header", "no 'vertex' element");
+  const PointColumns c = point_columns(*vertex, name);
+  const std::string_view body = bytes.substr(h.body_offset);
+  if (!ply_rows_fit(*vertex, h.format, body.size()))  // bound the vertex count before allocating
+    throw scene::InputError(name, "header", "vertex count " + std::to_string(vertex->count) + " exceeds the file");
+  PlyCursor in(body, h.format, h.body_offset, h.header_lines + 1, PlyCursor::AsciiInts::Lenient);
   std::vector<LabeledPoint> out;
-  for (auto e = elements.begin(); e != elements.end(); ++e) {
-    const bool is_vertex = e == vit;
-    if (is_vertex) {
-      out.reserve(static_cast<size_t>(e->count));
-      if (rows) *rows = e->count;
+  out.reserve(static_cast<size_t>(vertex->count));
+  if (rows) *rows = vertex->count;
+  auto at = [](const std::vector<double>& v, int k) { return v[static_cast<size_t>(k)]; };
+  for (const PlyElement& e : h.elements) {
+    std::vector<double> vals(e.props.size(), 0.0);
+    for (uint64_t row = 0; row < e.count; ++row) {
+      read_row(in, e, vals, name, row);
+      if (&e == vertex)
+        add_point(out, name, row, at(vals, c.x), at(vals, c.y), at(vals, c.z), at(vals, c.cls),
+                  c.inst >= 0 ? at(vals, c.inst) : 0.0);
     }
-    std::vector<double> vals(e->props.size(), 0.0);
-    for (uint64_t row = 0; row < e->count; ++row) {
-      for (size_t k = 0; k < e->props.size(); ++k) {
-        const PlyProperty& p = e->props[k];
-        if (p.is_list) {
-          const double n = in.next(p.count_type, row);
-          if (!(n >= 0.0) || n > 1e9) throw scene::InputError(name, row_where(row), "bad list length");
-          for (uint64_t j = 0; j < static_cast<uint64_t>(n); ++j) in.next(p.type, row);
-        } else {
-          vals[k] = in.next(p.type, row);
-        }
-      }
-      if (is_vertex)
-        add_point(out, name, row, vals[static_cast<size_t>(ix)], vals[static_cast<size_t>(iy)],
-                  vals[static_cast<size_t>(iz)], vals[static_cast<size_t>(ic)],
-                  ii >= 0 ? vals[static_cast<size_t>(ii)] : 0.0);
-    }
-    if (is_vertex) break;
+    if (&e == vertex) break;
   }
   return out;
 }

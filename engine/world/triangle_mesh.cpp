@@ -4,22 +4,14 @@
 
 #include "scene/atomic_file.h"
 #include "scene/input_error.h"
+#include "world/ply_reader.h"
 
-#define TINYGLTF_NO_STB_IMAGE
-#define TINYGLTF_NO_STB_IMAGE_WRITE
-#define TINYGLTF_NO_EXTERNAL_IMAGE
-#pragma GCC diagnostic push
-#pragma GCC diagnostic ignored "-Wshadow"
-#pragma GCC diagnostic ignored "-Wdouble-promotion"
-#pragma GCC diagnostic ignored "-Wunused-parameter"
-#include <tiny_gltf.h>
-#pragma GCC diagnostic pop
+#include "world/tinygltf_include.h"
 
 #include <glm/gtc/quaternion.hpp>
 #include <glm/gtc/type_ptr.hpp>
 
 #include <algorithm>
-#include <bit>
 #include <charconv>
 #include <cmath>
 #include <cstdio>
@@ -71,235 +63,129 @@ void check_indices(const TriangleMesh& m, const std::string& name, const char* w
                              std::to_string(n) + " vertices)");
 }
 
-// ---- PLY ----------------------------------------------------------------------
+// ---- PLY (header and values from world/ply_reader.h) ---------------------------
 
-enum class PlyType : uint8_t { I8, U8, I16, U16, I32, U32, F32, F64 };
-
-bool ply_type(std::string_view s, PlyType& t) {
-  static const std::pair<const char*, PlyType> kTypes[] = {
-      {"char", PlyType::I8},   {"int8", PlyType::I8},     {"uchar", PlyType::U8},   {"uint8", PlyType::U8},
-      {"short", PlyType::I16}, {"int16", PlyType::I16},   {"ushort", PlyType::U16}, {"uint16", PlyType::U16},
-      {"int", PlyType::I32},   {"int32", PlyType::I32},   {"uint", PlyType::U32},   {"uint32", PlyType::U32},
-      {"float", PlyType::F32}, {"float32", PlyType::F32}, {"double", PlyType::F64}, {"float64", PlyType::F64}};
-  for (const auto& [n, v] : kTypes)
-    if (s == n) {
-      t = v;
-      return true;
-    }
-  return false;
-}
-
-size_t ply_size(PlyType t) {
-  switch (t) {
-    case PlyType::I8: case PlyType::U8: return 1;
-    case PlyType::I16: case PlyType::U16: return 2;
-    case PlyType::I32: case PlyType::U32: case PlyType::F32: return 4;
-    case PlyType::F64: return 8;
-  }
-  return 1;
-}
-
-bool ply_is_int(PlyType t) { return t != PlyType::F32 && t != PlyType::F64; }
-
-struct PlyProperty {
-  std::string name;
-  PlyType type = PlyType::F32;
-  bool is_list = false;
-  PlyType count_type = PlyType::U8;
-};
-
-struct PlyElement {
-  std::string name;
-  uint64_t count = 0;
-  std::vector<PlyProperty> props;
-};
-
-enum class PlyFormat { Ascii, BinaryLE, BinaryBE };
-
-// Reads the body's values one at a time, ascii or binary, with bounds checks.
-class PlyBody {
+// Reads the body's values with the mesh reader's messages: "<element> <i>[ (line N)]: ...".
+class MeshPlyBody {
  public:
-  PlyBody(std::string_view body, PlyFormat format, size_t first_line)
-      : body_(body), format_(format), line_(first_line) {}
+  MeshPlyBody(const PlyHeader& h, std::string_view bytes, const std::string& name)
+      : in_(bytes.substr(h.body_offset), h.format, h.body_offset, h.header_lines + 1), name_(name) {}
 
-  // Reads one value of type t; `where` names the element instance for errors.
-  double read(PlyType t, const std::string& name, const std::string& where) {
-    if (format_ == PlyFormat::Ascii) return read_ascii(t, name, where);
-    const size_t n = ply_size(t);
-    if (pos_ + n > body_.size()) throw InputError(name, where, "file ends early");
-    unsigned char b[8];
-    std::memcpy(b, body_.data() + pos_, n);
-    pos_ += n;
-    if ((format_ == PlyFormat::BinaryBE) == (std::endian::native == std::endian::little)) std::reverse(b, b + n);
-    switch (t) {
-      case PlyType::I8: { int8_t v; std::memcpy(&v, b, 1); return v; }
-      case PlyType::U8: return b[0];
-      case PlyType::I16: { int16_t v; std::memcpy(&v, b, 2); return v; }
-      case PlyType::U16: { uint16_t v; std::memcpy(&v, b, 2); return v; }
-      case PlyType::I32: { int32_t v; std::memcpy(&v, b, 4); return v; }
-      case PlyType::U32: { uint32_t v; std::memcpy(&v, b, 4); return v; }
-      case PlyType::F32: { float v; std::memcpy(&v, b, 4); return static_cast<double>(v); }
-      case PlyType::F64: { double v; std::memcpy(&v, b, 8); return v; }
+  double read(PlyType t, const std::string& where) {
+    double v = 0.0;
+    switch (in_.next(t, v)) {
+      case PlyCursor::Status::Ok: return v;
+      case PlyCursor::Status::End: throw InputError(name_, where + line_note(), "file ends early");
+      case PlyCursor::Status::BadInteger: throw InputError(name_, where + line_note(), "bad integer " + quoted(in_.token()));
+      case PlyCursor::Status::BadNumber: break;
     }
-    return 0.0;
+    throw InputError(name_, where + line_note(), "bad number " + quoted(in_.token()));
   }
   // " (line N)" for ascii bodies, "" for binary ones.
-  std::string line_note() const { return format_ == PlyFormat::Ascii ? " (line " + std::to_string(line_) + ")" : ""; }
+  std::string line_note() const { return in_.ascii() ? " (line " + std::to_string(in_.line()) + ")" : ""; }
+  const std::string& name() const { return name_; }
 
  private:
-  double read_ascii(PlyType t, const std::string& name, const std::string& where) {
-    while (pos_ < body_.size() && is_space(body_[pos_])) {
-      if (body_[pos_] == '\n') ++line_;
-      ++pos_;
-    }
-    size_t end = pos_;
-    while (end < body_.size() && !is_space(body_[end])) ++end;
-    if (end == pos_) throw InputError(name, where + line_note(), "file ends early");
-    const std::string_view tok = body_.substr(pos_, end - pos_);
-    pos_ = end;
-    if (ply_is_int(t)) {
-      int64_t v = 0;
-      if (!parse_int(tok, v)) throw InputError(name, where + line_note(), "bad integer " + quoted(tok));
-      return static_cast<double>(v);
-    }
-    double v = 0.0;
-    if (!parse_double(tok, v)) throw InputError(name, where + line_note(), "bad number " + quoted(tok));
-    return v;
-  }
-
-  std::string_view body_;
-  PlyFormat format_;
-  size_t pos_ = 0;
-  size_t line_;
+  PlyCursor in_;
+  const std::string& name_;
 };
+
+// One face list: validated indices fanned into triangles.
+void read_face_list(MeshPlyBody& body, const PlyProperty& p, double n, bool have_vertex, TriangleMesh& mesh,
+                    const std::string& where, std::vector<uint32_t>& poly) {
+  const std::string& name = body.name();
+  if (n < 3) throw InputError(name, where + body.line_note(), "face with " + std::to_string(static_cast<int>(n)) + " vertices");
+  poly.clear();
+  for (uint64_t j = 0; j < static_cast<uint64_t>(n); ++j) {
+    const double id = body.read(p.type, where);
+    if (!ply_type_is_int(p.type) || id < 0 || id > static_cast<double>(std::numeric_limits<uint32_t>::max()))
+      throw InputError(name, where + body.line_note(), "bad vertex index " + std::to_string(id));
+    if (have_vertex && id >= static_cast<double>(mesh.positions.size()))
+      throw InputError(name, where + body.line_note(),
+                       "vertex index " + std::to_string(static_cast<uint64_t>(id)) + " out of range (" +
+                           std::to_string(mesh.positions.size()) + " vertices)");
+    poly.push_back(static_cast<uint32_t>(id));
+  }
+  for (size_t j = 1; j + 1 < poly.size(); ++j) mesh.triangles.push_back({poly[0], poly[j], poly[j + 1]});
+}
+
+// The columns the mesh reader uses in one element (-1: absent or not this element).
+struct MeshColumns {
+  bool is_vertex = false, is_face = false;
+  int xyz[3] = {-1, -1, -1};
+  int idx = -1;
+};
+
+MeshColumns mesh_columns(const PlyElement& e, const std::string& name) {
+  MeshColumns c;
+  c.is_vertex = e.name == "vertex";
+  c.is_face = e.name == "face";
+  for (size_t k = 0; k < e.props.size(); ++k) {
+    const auto& p = e.props[k];
+    if (c.is_vertex && !p.is_list && p.name.size() == 1 && p.name[0] >= 'x' && p.name[0] <= 'z')
+      c.xyz[p.name[0] - 'x'] = static_cast<int>(k);
+    if (c.is_face && p.is_list && (p.name == "vertex_indices" || p.name == "vertex_index")) c.idx = static_cast<int>(k);
+  }
+  if (c.is_vertex && (c.xyz[0] < 0 || c.xyz[1] < 0 || c.xyz[2] < 0))
+    throw InputError(name, "element vertex", "no x, y, z properties");
+  if (c.is_face && c.idx < 0) throw InputError(name, "element face", "no vertex_indices list");
+  return c;
+}
+
+// Reads every row of one element into the mesh (vertices, faces) or skips it.
+void read_mesh_element(MeshPlyBody& body, const PlyElement& e, const MeshColumns& c, bool have_vertex,
+                       TriangleMesh& mesh) {
+  std::vector<uint32_t> poly;
+  for (uint64_t i = 0; i < e.count; ++i) {
+    const std::string where = e.name + " " + std::to_string(i);
+    glm::dvec3 v(0.0);
+    for (size_t k = 0; k < e.props.size(); ++k) {
+      const auto& p = e.props[k];
+      if (!p.is_list) {
+        const double value = body.read(p.type, where);
+        for (int a = 0; a < 3; ++a)
+          if (c.is_vertex && c.xyz[a] == static_cast<int>(k)) v[a] = value;
+        continue;
+      }
+      const double n = body.read(p.count_type, where);
+      if (n < 0) throw InputError(body.name(), where + body.line_note(), "negative list length");
+      if (c.is_face && static_cast<int>(k) == c.idx) {
+        read_face_list(body, p, n, have_vertex, mesh, where, poly);
+        continue;
+      }
+      for (uint64_t j = 0; j < static_cast<uint64_t>(n); ++j) body.read(p.type, where);
+    }
+    if (c.is_vertex) {
+      if (!std::isfinite(v.x) || !std::isfinite(v.y) || !std::isfinite(v.z))
+        throw InputError(body.name(), where + body.line_note(), "coordinate is not finite");
+      mesh.positions.push_back(v);
+    }
+  }
+}
 
 }  // namespace
 
 TriangleMesh parse_ply(std::string_view bytes, const std::string& name) {
-  // ---- header
-  std::vector<PlyElement> elements;
-  PlyFormat format = PlyFormat::Ascii;
-  bool have_format = false;
-  size_t pos = 0, line_no = 0;
-  bool ended = false;
-  while (pos < bytes.size() && !ended) {
-    size_t nl = bytes.find('\n', pos);
-    if (nl == std::string_view::npos) break;
-    const std::string_view line = bytes.substr(pos, nl - pos);
-    pos = nl + 1;
-    ++line_no;
-    const std::string where = "header line " + std::to_string(line_no);
-    const auto tok = tokens_of(line);
-    if (line_no == 1) {
-      if (tok.size() != 1 || tok[0] != "ply") throw InputError(name, where, "not a PLY file (no 'ply' magic)");
-      continue;
-    }
-    if (tok.empty() || tok[0] == "comment" || tok[0] == "obj_info") continue;
-    if (tok[0] == "format") {
-      if (tok.size() != 3) throw InputError(name, where, "bad format line");
-      if (tok[1] == "ascii") format = PlyFormat::Ascii;
-      else if (tok[1] == "binary_little_endian") format = PlyFormat::BinaryLE;
-      else if (tok[1] == "binary_big_endian") format = PlyFormat::BinaryBE;
-      else throw InputError(name, where, "unknown format " + quoted(tok[1]));
-      have_format = true;
-    } else if (tok[0] == "element") {
-      int64_t count = 0;
-      if (tok.size() != 3 || !parse_int(tok[2], count) || count < 0)
-        throw InputError(name, where, "bad element line");
-      elements.push_back({std::string(tok[1]), static_cast<uint64_t>(count), {}});
-    } else if (tok[0] == "property") {
-      if (elements.empty()) throw InputError(name, where, "property before any element");
-      PlyProperty p;
-      if (tok.size() == 5 && tok[1] == "list") {
-        p.is_list = true;
-        if (!ply_type(tok[2], p.count_type) || !ply_type(tok[3], p.type) || !ply_is_int(p.count_type))
-          throw InputError(name, where, "bad list property types");
-        p.name = tok[4];
-      } else if (tok.size() == 3) {
-        if (!ply_type(tok[1], p.type)) throw InputError(name, where, "unknown property type " + quoted(tok[1]));
-        p.name = tok[2];
-      } else {
-        throw InputError(name, where, "bad property line");
-      }
-      elements.back().props.push_back(p);
-    } else if (tok[0] == "end_header") {
-      ended = true;
-    } else {
-      throw InputError(name, where, "unknown header keyword " + quoted(tok[0]));
-    }
-  }
-  if (!ended) throw InputError(name, "header", "no end_header");
-  if (!have_format) throw InputError(name, "header", "no format line");
-
+  const PlyHeader h = parse_ply_header(bytes, name);
   // The smallest possible size of each element instance bounds the counts before anything is allocated.
-  for (const auto& e : elements) {
-    uint64_t min_size = 0;
-    for (const auto& p : e.props) min_size += format == PlyFormat::Ascii ? 2 : ply_size(p.is_list ? p.count_type : p.type);
-    if (min_size > 0 && e.count > (bytes.size() - pos) / min_size + 1)
+  for (const auto& e : h.elements)
+    if (!ply_rows_fit(e, h.format, bytes.size() - h.body_offset))
       throw InputError(name, "element " + e.name, std::to_string(e.count) + " entries cannot fit in the file");
-  }
-
-  // ---- body
   TriangleMesh mesh;
-  PlyBody body(bytes.substr(pos), format, line_no + 1);
+  MeshPlyBody body(h, bytes, name);
   bool have_vertex = false, have_face = false;
-  for (const auto& e : elements) {
-    const bool is_vertex = e.name == "vertex", is_face = e.name == "face";
-    int xyz[3] = {-1, -1, -1}, idx = -1;
-    for (size_t k = 0; k < e.props.size(); ++k) {
-      const auto& p = e.props[k];
-      if (is_vertex && !p.is_list && p.name.size() == 1 && p.name[0] >= 'x' && p.name[0] <= 'z')
-        xyz[p.name[0] - 'x'] = static_cast<int>(k);
-      if (is_face && p.is_list && (p.name == "vertex_indices" || p.name == "vertex_index")) idx = static_cast<int>(k);
-    }
-    if (is_vertex) {
-      if (xyz[0] < 0 || xyz[1] < 0 || xyz[2] < 0) throw InputError(name, "element vertex", "no x, y, z properties");
+  for (const auto& e : h.elements) {
+    const MeshColumns c = mesh_columns(e, name);
+    if (c.is_vertex) {
       have_vertex = true;
       mesh.positions.reserve(e.count);
     }
-    if (is_face) {
-      if (idx < 0) throw InputError(name, "element face", "no vertex_indices list");
+    if (c.is_face) {
       have_face = true;
       mesh.triangles.reserve(e.count);
     }
     if (e.props.empty()) continue;  // nothing to read, however large the count
-    std::vector<uint32_t> poly;
-    for (uint64_t i = 0; i < e.count; ++i) {
-      const std::string where = e.name + " " + std::to_string(i);
-      glm::dvec3 v(0.0);
-      for (size_t k = 0; k < e.props.size(); ++k) {
-        const auto& p = e.props[k];
-        if (!p.is_list) {
-          const double value = body.read(p.type, name, where);
-          for (int a = 0; a < 3; ++a)
-            if (is_vertex && xyz[a] == static_cast<int>(k)) v[a] = value;
-          continue;
-        }
-        const double n = body.read(p.count_type, name, where);
-        if (n < 0) throw InputError(name, where + body.line_note(), "negative list length");
-        const bool wanted = is_face && static_cast<int>(k) == idx;
-        if (wanted && n < 3)
-          throw InputError(name, where + body.line_note(), "face with " + std::to_string(static_cast<int>(n)) + " vertices");
-        poly.clear();
-        for (uint64_t j = 0; j < static_cast<uint64_t>(n); ++j) {
-          const double id = body.read(p.type, name, where);
-          if (!wanted) continue;
-          if (!ply_is_int(p.type) || id < 0 || id > static_cast<double>(std::numeric_limits<uint32_t>::max()))
-            throw InputError(name, where + body.line_note(), "bad vertex index " + std::to_string(id));
-          if (have_vertex && id >= static_cast<double>(mesh.positions.size()))
-            throw InputError(name, where + body.line_note(),
-                             "vertex index " + std::to_string(static_cast<uint64_t>(id)) + " out of range (" +
-                                 std::to_string(mesh.positions.size()) + " vertices)");
-          poly.push_back(static_cast<uint32_t>(id));
-        }
-        for (size_t j = 1; j + 1 < poly.size(); ++j) mesh.triangles.push_back({poly[0], poly[j], poly[j + 1]});
-      }
-      if (is_vertex) {
-        if (!std::isfinite(v.x) || !std::isfinite(v.y) || !std::isfinite(v.z))
-          throw InputError(name, where + body.line_note(), "coordinate is not finite");
-        mesh.positions.push_back(v);
-      }
-    }
+    read_mesh_element(body, e, c, have_vertex, mesh);
   }
   if (!have_vertex) throw InputError(name, "header", "no vertex element");
   if (!have_face) throw InputError(name, "header", "no face element");
