@@ -561,6 +561,13 @@ std::vector<WaymoRecordInfo> record_infos(const std::string& bytes, const std::v
 
 std::string plural(size_t n, const char* word) { return std::to_string(n) + " " + word + (n == 1 ? "" : "s"); }
 
+// Index of the first record whose scenario id is `id`, or infos.size().
+size_t find_scenario(const std::vector<WaymoRecordInfo>& infos, const std::string& id) {
+  for (size_t k = 0; k < infos.size(); ++k)
+    if (infos[k].scenario_id == id) return k;
+  return infos.size();
+}
+
 }  // namespace
 
 std::vector<WaymoRecordInfo> list_waymo_records(const std::string& path) {
@@ -591,9 +598,7 @@ Scene read_waymo_scenario(const std::string& path, const std::string& selector, 
     } else {
       // An all-digits scenario id is still found by id when it is no valid index.
       const auto infos = record_infos(bytes, spans, path);
-      size_t found = infos.size();
-      for (size_t k = 0; k < infos.size() && found == infos.size(); ++k)
-        if (infos[k].scenario_id == selector) found = k;
+      const size_t found = find_scenario(infos, selector);
       if (found == infos.size())
         throw InputError(path, "selector '" + printable(selector) + "'",
                          "record index out of range: the file holds " + plural(spans.size(), "record") +
@@ -602,9 +607,7 @@ Scene read_waymo_scenario(const std::string& path, const std::string& selector, 
     }
   } else if (!selector.empty()) {
     const auto infos = record_infos(bytes, spans, path);
-    size_t found = infos.size();
-    for (size_t k = 0; k < infos.size() && found == infos.size(); ++k)
-      if (infos[k].scenario_id == selector) found = k;
+    const size_t found = find_scenario(infos, selector);
     if (found == infos.size())
       throw InputError(path, "selector '" + printable(selector) + "'",
                        "no scenario with this id among " + plural(infos.size(), "record") + ": " + id_list(infos));
