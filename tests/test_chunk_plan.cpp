@@ -1,7 +1,8 @@
 // Chunk planning (engine/world/chunk_plan.h): trajectory keys every 38.4 m
 // along a synthetic L-shaped drive, straight extrapolation, the chunk frame
 // 6.4 m above the key camera, orthonormal FLU axes, parked and too-short
-// drives, blocks mode on a hand-computed synthetic map, determinism, a 100 km
+// drives, blocks mode on a hand-computed synthetic map (road-surface points
+// decide which blocks hold road), determinism, a 100 km
 // shift, the JSON and the plot, and the real Waymo scenario when
 // ../shared/data is present.
 #include <doctest/doctest.h>
@@ -12,6 +13,7 @@
 #include "scene/scene_load.h"
 #include "world/chunk_plan.h"
 #include "world/chunk_plan_plot.h"
+#include "world/road_surface.h"
 
 #include <nlohmann/json.hpp>
 
@@ -231,7 +233,17 @@ TEST_CASE("chunk plan: blocks mode keeps exactly the road blocks of a synthetic 
   CHECK(plan.info[1].lattice_i == 2);
   CHECK(plan.info[1].lattice_j == 0);
   CHECK(plan.info[0].edge_points == 2);
-  CHECK(plan.info[0].surface_points == 1);
+  // Road-surface points (RoadSurface::points()) in each kept footprint, counted here independently.
+  const world::RoadSurface surface = world::build_road_surface(block_map().map);
+  for (size_t k = 0; k < plan.chunks.size(); ++k) {
+    const glm::dvec3 c = world::chunk_centre(plan.chunks[k]);
+    size_t in_footprint = 0;
+    for (const glm::dvec3& p : surface.points())
+      in_footprint += p.x >= c.x - 25.6 && p.x < c.x + 25.6 && p.y >= c.y - 25.6 && p.y < c.y + 25.6;
+    CAPTURE(k);
+    CHECK(plan.info[k].surface_points == in_footprint);
+    CHECK(in_footprint > 100);  // a filled surface, not one lane vertex
+  }
   const glm::dvec3 c0 = world::chunk_centre(plan.chunks[0]), c1 = world::chunk_centre(plan.chunks[1]);
   CHECK(c0 == glm::dvec3(25.6, 25.6, 0.0 + 1.5 + 6.4));          // median z of {0, 0, 1} = 0
   CHECK(glm::length(c1 - glm::dvec3(2 * 38.4 + 25.6, 25.6, 2.0 + 1.5 + 6.4)) < 1e-12);  // median {0, 2, 4}
@@ -240,6 +252,12 @@ TEST_CASE("chunk plan: blocks mode keeps exactly the road blocks of a synthetic 
     check_frame(c);
   }
   CHECK(plan.notes.size() == 1);  // 6 blocks dropped
+
+  // A precomputed surface gives the same plan; an empty one keeps no block.
+  CHECK(world::plan_to_json(world::plan_blocks(block_map(), surface)) == world::plan_to_json(plan));
+  const ChunkPlan none = world::plan_blocks(block_map(), world::RoadSurface());
+  CHECK(none.chunks.empty());
+  CHECK(none.notes.size() == 1);
 
   scene::Scene no_lanes = block_map();
   no_lanes.map.lanes.clear();

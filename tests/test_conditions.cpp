@@ -1,6 +1,7 @@
 // Stage-1 condition volumes: polyline resampling, exact box ∩ cell volume
 // (hand cases, Monte Carlo, degenerate boxes), map channels on hand-placed
-// polylines, GPU (shaders/cond_points.comp, cond_boxes.comp) vs the CPU
+// polylines, the road_surface channel from the fitted surface (road_surface.h),
+// GPU (shaders/cond_points.comp, cond_boxes.comp) vs the CPU
 // reference, translation invariance at 100 km, and the real Waymo scenario.
 #include <doctest/doctest.h>
 
@@ -12,9 +13,11 @@
 #include "world/conditions.h"
 #include "world/conditions_gpu.h"
 #include "world/polyline_resample.h"
+#include "world/road_surface.h"
 
 #include <glm/gtc/matrix_transform.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -248,6 +251,32 @@ TEST_CASE("condition map channels light exactly the voxels of a hand-placed poly
     CHECK(vol[world::cond_index(world::kCondJ, 0, 63, 7)] == 31.0f);
     CHECK(vol[world::cond_index(world::kCondK, 0, 5, 7)] == -25.0f);
   }
+}
+
+TEST_CASE("condition road_surface channel holds the fitted road surface between the edges") {
+  const world::ChunkPose pose = make_pose({0.0, 0.0, 0.0}, 0.0);
+  const scene::Scene s = synthetic_scene(pose, 5, 0, 0);
+  const world::RoadSurface surface = world::build_road_surface(s.map);
+  const auto in = world::gather_condition_inputs(s, pose, surface);
+  // The convenience overload fits the same surface itself.
+  const auto fitted_here = world::gather_condition_inputs(s, pose);
+  REQUIRE(fitted_here.surface_grid.size() == in.surface_grid.size());
+  CHECK(std::equal(in.surface_grid.begin(), in.surface_grid.end(), fitted_here.surface_grid.begin()));
+  const auto vol = world::build_conditions_cpu(in);
+  // The lattice starts at the lane (y = 3.5); the surface fills up to the edge near y = 7.1 over the whole chunk
+  // length: 64 columns x ~4 latent rows, one k layer at z ~ -7.8 (k = 22), far more than the lane's own ~65 cells.
+  const size_t lit = count_nonzero(vol, world::kCondRoadSurface);
+  MESSAGE("road_surface: " << surface.kept_cells() << " surface cells, " << lit << " latent cells lit");
+  CHECK(lit > 200);
+  size_t outside = 0;
+  for (int x = 0; x < 64; ++x)
+    for (int y = 0; y < 64; ++y)
+      for (int z = 0; z < 64; ++z) {
+        if (vol[world::cond_index(world::kCondRoadSurface, x, y, z)] == 0.0f) continue;
+        const double cy = (y - 32 + 0.5) * 0.8, cz = (z - 32 + 0.5) * 0.4;
+        outside += cy < 3.5 - 0.8 || cy > 7.4 + 0.8 || std::abs(cz + 7.8) > 0.6;
+      }
+  CHECK(outside == 0);
 }
 
 TEST_CASE("condition box channels: an axis-aligned car lights the cells it covers by more than half") {

@@ -5,7 +5,9 @@
 // cond.png next to it: top-down views of road_edge, road_line, road_surface
 // (max over k) and of the box channels (topmost lit cell, hue = heading).
 // Image up = chunk +x (forward), image right = chunk -y (right). The chunk
-// pose comes from world::plan_trajectory (engine/world/chunk_plan.h).
+// pose comes from world::plan_trajectory (engine/world/chunk_plan.h); the
+// road_surface channel from the scene's fitted road surface
+// (engine/world/road_surface.h, 0.4 m cells), fitted once here.
 #include "cli_common.h"
 #include "command_registry.h"
 
@@ -16,6 +18,7 @@
 #include "world/conditions.h"
 #include "world/conditions_gpu.h"
 #include "world/npy.h"
+#include "world/road_surface.h"
 
 #include <CLI/CLI.hpp>
 
@@ -83,6 +86,14 @@ std::vector<uint8_t> render_png(const std::vector<float>& vol, int& width, int& 
   return rgb;
 }
 
+void print_surface_summary(const world::RoadSurface& surface) {
+  size_t split = 0, fallback = 0;
+  for (const world::SurfaceBlock& b : surface.blocks()) split += b.split, fallback += !b.plane_fitted;
+  std::printf("road surface: %zu block(s) of %.0f m (%zu split, %zu horizontal fallback), %zu cells of %.1f m\n",
+              surface.blocks().size(), surface.options().block_size, split, fallback, surface.kept_cells(),
+              surface.options().cell);
+}
+
 void cmd_conditions(const ConditionsArgs& a) {
   run_command([&](scene::Diagnostics& diag) {
     scene::LoadOptions lo;
@@ -97,8 +108,10 @@ void cmd_conditions(const ConditionsArgs& a) {
       throw std::invalid_argument("--time-index out of range [0, " + std::to_string(s.timestamps.size()) + ")");
     world::ConditionOptions opts;
     opts.time_index = a.time_index;
+    const world::RoadSurface surface = world::build_road_surface(s.map, opts.surface);
+    print_surface_summary(surface);
     const world::ConditionInputs in =
-        world::gather_condition_inputs(s, plan.chunks[static_cast<size_t>(a.chunk)], opts);
+        world::gather_condition_inputs(s, plan.chunks[static_cast<size_t>(a.chunk)], surface, opts);
     std::vector<float> vol;
     if (a.cpu) {
       vol = world::build_conditions_cpu(in);

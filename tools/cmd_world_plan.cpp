@@ -115,7 +115,8 @@ void add_world_plan_commands(CLI::App& app) {
       ->capture_default_str();
   plan->footer(
       "Trajectory mode needs an ego drive with at least 2 valid poses (OpenDRIVE maps: make one with `icube scene "
-      "route`); a parked ego gives one chunk. Blocks mode keeps blocks holding road-edge and lane points.");
+      "route`); a parked ego gives one chunk. Blocks mode keeps blocks holding road-edge points and road-surface points "
+      "(the fitted road surface of the lanes between the road edges, 0.4 m cells).");
   plan->callback([pa] { cmd_plan(*pa); });
 
   auto out = std::make_shared<std::string>();

@@ -203,9 +203,14 @@ std::pair<int64_t, int64_t> index_range(double u, double stride, double half) {
 
 ChunkPlan plan_blocks(const scene::Scene& scene, const PlanOptions& o) {
   check_options(o);
+  return plan_blocks(scene, build_road_surface(scene.map), o);
+}
+
+ChunkPlan plan_blocks(const scene::Scene& scene, const RoadSurface& surface, const PlanOptions& o) {
+  check_options(o);
   const std::string file = source_name(scene);
   const scene::Map& map = scene.map;
-  enum Layer { Edge, Line, Surface };
+  enum Layer { Edge, Line, Lane };
   glm::dvec2 lo(std::numeric_limits<double>::infinity());
   size_t edges = 0, lanes = 0;
   auto scan = [&](const auto& features, const char* name, size_t& count) {
@@ -231,23 +236,27 @@ ChunkPlan plan_blocks(const scene::Scene& scene, const PlanOptions& o) {
 
   const double S = o.stride_m, half = kChunkHalfExtent.x;
   std::map<std::pair<int64_t, int64_t>, BlockAccum> blocks;
+  // Every block whose footprint holds q (blocks left of or below the anchor do not exist).
+  auto each_block = [&](const glm::dvec3& q, auto&& visit) {
+    if (!(q.x >= lo.x && q.y >= lo.y)) return;  // road-surface points outside the anchored lattice
+    const auto [i0, i1] = index_range(q.x - lo.x, S, half);
+    const auto [j0, j1] = index_range(q.y - lo.y, S, half);
+    for (int64_t i = i0; i <= i1; ++i)
+      for (int64_t j = j0; j <= j1; ++j) visit(blocks[{i, j}]);
+  };
+  // Road height: the z of the edge, line and lane-centre points.
   auto bin = [&](const auto& features, Layer layer) {
     for (const auto& f : features)
-      for (const glm::dvec3& q : f.points) {
-        const auto [i0, i1] = index_range(q.x - lo.x, S, half);
-        const auto [j0, j1] = index_range(q.y - lo.y, S, half);
-        for (int64_t i = i0; i <= i1; ++i)
-          for (int64_t j = j0; j <= j1; ++j) {
-            BlockAccum& b = blocks[{i, j}];
-            if (layer == Edge) ++b.edge;
-            if (layer == Surface) ++b.surface;
-            b.z.push_back(q.z);
-          }
-      }
+      for (const glm::dvec3& q : f.points)
+        each_block(q, [&](BlockAccum& b) {
+          if (layer == Edge) ++b.edge;
+          b.z.push_back(q.z);
+        });
   };
   bin(map.road_edges, Edge);
   bin(map.road_lines, Line);
-  bin(map.lanes, Surface);
+  bin(map.lanes, Lane);
+  for (const glm::dvec3& q : surface.points()) each_block(q, [](BlockAccum& b) { ++b.surface; });
 
   ChunkPlan plan;
   plan.mode = PlanMode::Blocks;
@@ -255,7 +264,7 @@ ChunkPlan plan_blocks(const scene::Scene& scene, const PlanOptions& o) {
   plan.lattice_anchor = lo;
   size_t dropped = 0;
   for (auto& [ij, b] : blocks) {  // std::map order: x outer, y inner
-    if (b.edge == 0 || b.surface == 0) {
+    if (b.edge == 0 || b.surface == 0 || b.z.empty()) {
       ++dropped;
       continue;
     }
@@ -279,7 +288,7 @@ ChunkPlan plan_blocks(const scene::Scene& scene, const PlanOptions& o) {
   }
   if (dropped > 0)
     plan.notes.push_back(std::to_string(dropped) + " block(s) with map points but without both road-edge and "
-                         "lane points were left out");
+                         "road-surface points were left out");
   return plan;
 }
 

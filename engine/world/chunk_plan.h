@@ -23,12 +23,13 @@
 // centre lines (InfiniCube's "shift min to 0, centres from 25.6 m"); this
 // anchor moves with the map, so a shifted map gives the same plan shifted.
 // A block is kept when its footprint [c - 25.6, c + 25.6) in x and y holds at
-// least one road-edge point and one road-surface point; lane centre-line
-// points stand in for the road surface (the scene model has no surface
-// layer). Only blocks that contain map points are visited (points are binned
+// least one road-edge point and one road-surface point: RoadSurface::points()
+// of the fitted road surface (road_surface.h, conventions §6; fitted here
+// with default options unless a precomputed surface is passed). Only blocks
+// that contain map points are visited (points are binned
 // into the at most 2 x 2 blocks whose footprints hold them), never the whole
 // lattice over the bounding box. Order: x outer, y inner. The block's z: the
-// median z of the road-edge, road-line and lane points in its footprint is
+// median z of the road-edge, road-line and lane vertices in its footprint is
 // taken as the road height; a virtual key camera sits `default_camera_height_m`
 // (1.5 m) above it and the chunk centre 6.4 m above that camera, exactly as a
 // trajectory chunk keyed on a camera 1.5 m above the road would be.
@@ -36,6 +37,7 @@
 
 #include "scene/scene.h"
 #include "world/chunk_pose.h"
+#include "world/road_surface.h"
 
 #include <glm/glm.hpp>
 
@@ -64,7 +66,7 @@ struct ChunkInfo {
   glm::dvec3 ego_position{0.0};  // trajectory: the key's ego position; blocks: the block centre at road height
   int time_index = -1;           // trajectory: the valid pose at or before the key; -1 otherwise
   int lattice_i = 0, lattice_j = 0;  // blocks: lattice indices from the anchor
-  size_t edge_points = 0, surface_points = 0;  // blocks: points in the footprint
+  size_t edge_points = 0, surface_points = 0;  // blocks: road-edge vertices, road-surface points in the footprint
 };
 
 struct ChunkPlan {
@@ -82,6 +84,8 @@ struct ChunkPlan {
 // cannot be planned, std::invalid_argument for bad options.
 ChunkPlan plan_trajectory(const scene::Scene& scene, const PlanOptions& options = {});
 ChunkPlan plan_blocks(const scene::Scene& scene, const PlanOptions& options = {});
+// Blocks mode with a road surface already fitted to scene.map (one fit per scene).
+ChunkPlan plan_blocks(const scene::Scene& scene, const RoadSurface& surface, const PlanOptions& options = {});
 ChunkPlan plan_chunks(const scene::Scene& scene, PlanMode mode, const PlanOptions& options = {});
 
 // Chunk centre (translation of chunk_to_world) and heading (yaw of the chunk x axis, radians).

@@ -1,4 +1,5 @@
-// Stage-1 condition volume, CPU reference; see conditions.h.
+// Stage-1 condition volume, CPU reference, and the gathering of its inputs
+// (map points, road-surface points, static boxes) in the chunk frame; see conditions.h.
 #include "world/conditions.h"
 
 #include "scene/frames.h"
@@ -83,7 +84,8 @@ std::vector<ChunkBox> chunk_boxes(const scene::Scene& scene, const ChunkPose& po
   return out;
 }
 
-ConditionInputs gather_condition_inputs(const scene::Scene& scene, const ChunkPose& pose, const ConditionOptions& opts) {
+ConditionInputs gather_condition_inputs(const scene::Scene& scene, const ChunkPose& pose, const RoadSurface& surface,
+                                        const ConditionOptions& opts) {
   ConditionInputs in;
   const glm::dmat4 w2c = glm::inverse(pose.chunk_to_world);
   std::vector<glm::dvec3> pts;
@@ -92,11 +94,13 @@ ConditionInputs gather_condition_inputs(const scene::Scene& scene, const ChunkPo
   pts.clear();
   for (const scene::RoadLine& l : scene.map.road_lines) append_resampled(pts, l.points, kMapResampleStep);
   append_grid_points(in.line_grid, pts, w2c);
-  pts.clear();
-  for (const scene::Lane& l : scene.map.lanes) append_resampled(pts, l.points, opts.surface_step);
-  append_grid_points(in.surface_grid, pts, w2c);
+  append_grid_points(in.surface_grid, surface.points(), w2c);
   in.boxes = chunk_boxes(scene, pose, opts);
   return in;
+}
+
+ConditionInputs gather_condition_inputs(const scene::Scene& scene, const ChunkPose& pose, const ConditionOptions& opts) {
+  return gather_condition_inputs(scene, pose, build_road_surface(scene.map, opts.surface), opts);
 }
 
 AxisBox latent_cell(int x, int y, int z) {

@@ -4,15 +4,18 @@
 //   0-2  i, j, k       raw latent ijk in [-32, 31] as float (not normalised)
 //   3    road_edge     binary occupancy of road-edge points (0.25 m resampled)
 //   4    road_line     binary occupancy of road-line points (0.25 m resampled)
-//   5    road_surface  binary occupancy of road-surface points; for now the
-//                      lane centre lines resampled at 0.4 m (the per-block
-//                      plane-fit surface of conventions §6 is a follow-up;
-//                      no filling between road edges is done)
+//   5    road_surface  binary occupancy of the road-surface points of
+//                      conventions §6: RoadSurface::points() (road_surface.h),
+//                      each kept 0.4 m BEV cell's min corner at its block's
+//                      fitted plane height. Fit once per scene and pass the
+//                      RoadSurface to every chunk; the overload without one
+//                      fits it from scene.map with opts.surface.
 //   6-7  sin θ, cos θ  heading of the max-IoU static vehicle box, written when
 //                      its intersection with the voxel cube > 0.5 · 0.256 m³
 // Volume layout: float [C][X=i][Y=j][Z=k], 64³ per channel, X slowest.
 //
-// Map points: world (double) -> chunk frame -> grid coordinate
+// Map points (road-edge and road-line polylines resampled at 0.25 m, the
+// surface points as they are): world (double) -> chunk frame -> grid coordinate
 // q = p / vs - 0.5 + 32 in double, rounded to float (that float is exactly
 // what the GPU kernel gets); voxel = roundEven(q) (torch.round), kept when in
 // [0, 64)³. Points with q outside [-1, 65] are dropped on the host.
@@ -27,6 +30,7 @@
 #include "scene/scene.h"
 #include "world/box_overlap.h"
 #include "world/chunk_pose.h"
+#include "world/road_surface.h"
 
 #include <glm/glm.hpp>
 
@@ -51,7 +55,7 @@ inline size_t cond_index(int channel, int x, int y, int z) {
 
 struct ConditionOptions {
   int time_index = 0;               // which Scene::timestamps entry the boxes come from
-  double surface_step = 0.4;        // lane-centre resampling for road_surface
+  RoadSurfaceOptions surface;       // the fit, when no RoadSurface is passed (cell 0.4 m, upstream's)
   bool include_dynamic = false;     // true: moving vehicles too (training-style)
 };
 
@@ -72,6 +76,10 @@ void append_grid_points(std::vector<glm::vec3>& out, const std::vector<glm::dvec
                         const glm::dmat4& world_to_chunk);
 // Static vehicle boxes of `scene` at opts.time_index, in the chunk frame.
 std::vector<ChunkBox> chunk_boxes(const scene::Scene& scene, const ChunkPose& pose, const ConditionOptions& opts);
+// road_surface from `surface` (build_road_surface(scene.map, ...) once per scene).
+ConditionInputs gather_condition_inputs(const scene::Scene& scene, const ChunkPose& pose, const RoadSurface& surface,
+                                        const ConditionOptions& opts = {});
+// Fits the road surface itself (build_road_surface(scene.map, opts.surface)): one chunk only.
 ConditionInputs gather_condition_inputs(const scene::Scene& scene, const ChunkPose& pose,
                                         const ConditionOptions& opts = {});
 

@@ -4,7 +4,9 @@
 // channels and box channels, float clipping) and shaders/cond_points.comp
 // (scatter of map grid points into road_edge / road_line / road_surface).
 // Inputs come from gather_condition_inputs() (engine/world/conditions.h):
-// chunk-frame data computed in double on the host, uploaded as float.
+// chunk-frame data computed in double on the host, uploaded as float; the
+// road_surface points are the fitted surface's (RoadSurface::points()), so
+// the kernel only scatters points and knows nothing of the fit.
 // Lives in engine/world/ rather than kernels/ because kernels/CMakeLists.txt
 // lists its files explicitly. CPU reference: build_conditions_cpu().
 // Test: tests/test_conditions.cpp.
