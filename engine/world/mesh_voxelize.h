@@ -36,7 +36,9 @@
 
 #include <glm/glm.hpp>
 
+#include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <vector>
 
 namespace icube::world {
@@ -92,5 +94,11 @@ std::vector<VehicleVoxel> voxelize_vehicle(const TriangleMesh& mesh, const scene
 // an instance id above 65535 (the grid stores uint16).
 uint64_t insert_vehicles(VoxelGrid& grid, const scene::Scene& scene, int time_index, const TriangleMesh& mesh,
                          uint32_t min_sub_voxels = 1);
+// The same for the tracks `keep` accepts (given the track and its state at `time_index`);
+// `inserted` (optional) gets the number of vehicles that passed the filter.
+uint64_t insert_vehicles(VoxelGrid& grid, const scene::Scene& scene, int time_index, const TriangleMesh& mesh,
+                         uint32_t min_sub_voxels,
+                         const std::function<bool(const scene::Track&, const scene::BoxState&)>& keep,
+                         size_t* inserted = nullptr);
 
 }  // namespace icube::world

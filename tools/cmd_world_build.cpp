@@ -1,0 +1,174 @@
+// `icube world build` (Stage 1: a semantic voxel world from a scene, chunk by
+// chunk, engine/world/world_build.h) and `icube world plot` (a top-down PNG
+// of a world, engine/world/world_plot.h).
+//
+//   icube world build SCENE -o world.icw [--mode trajectory|blocks] [--generator procedural]
+//                     [--seed N] [--record SEL] [--extrapolate N] [--threads N] [--no-vehicles]
+//                     [--png top.png]
+//   icube world plot WORLD -o top.png [--max-pixels N]
+#include "cli_common.h"
+#include "command_registry.h"
+#include "progress.h"
+
+#include "scene/scene_load.h"
+#include "world/procedural/procedural_prior.h"
+#include "world/semantics.h"
+#include "world/world_build.h"
+#include "world/world_file.h"
+#include "world/world_plot.h"
+
+#include <CLI/CLI.hpp>
+
+#include <sys/resource.h>
+
+#include <cstdio>
+#include <memory>
+#include <string>
+
+namespace icube::tools {
+
+namespace {
+
+struct BuildArgs {
+  std::string file, output, record, png;
+  std::string mode = "trajectory";
+  std::string generator = "procedural";
+  uint64_t seed = 0;
+  int threads = 0;
+  bool no_vehicles = false;
+  world::PlanOptions plan;
+};
+
+double peak_rss_mib() {
+  rusage ru{};
+  getrusage(RUSAGE_SELF, &ru);
+  return static_cast<double>(ru.ru_maxrss) / 1024.0;  // Linux: KiB
+}
+
+void print_summary(const world::WorldBuildResult& r, const world::WorldGenerator& gen) {
+  const world::VoxelGrid& g = r.world;
+  const double voxels = static_cast<double>(g.voxel_count());
+  std::printf("built %s world (%s generator): %zu chunk(s), %llu voxels in %zu bricks, %.1f MiB\n",
+              world::plan_mode_name(r.plan.mode), gen.name().c_str(), r.plan.chunks.size(),
+              static_cast<unsigned long long>(g.voxel_count()), g.brick_count(),
+              static_cast<double>(g.memory_bytes()) / (1024.0 * 1024.0));
+  std::printf("  time %.2f s (plan %.2f, generate %.2f cpu-s, fuse %.2f, vehicles %.2f): %.1f chunks/s, %.2f Mvoxels/s; "
+              "peak RSS %.0f MiB\n",
+              r.total_s, r.plan_s, r.generate_s, r.fuse_s, r.vehicles_s,
+              r.total_s > 0 ? static_cast<double>(r.plan.chunks.size()) / r.total_s : 0.0,
+              r.total_s > 0 ? voxels / r.total_s * 1e-6 : 0.0, peak_rss_mib());
+  std::printf("  %zu static vehicle(s) inserted, %llu voxels\n", r.vehicles_inserted,
+              static_cast<unsigned long long>(r.vehicle_voxels));
+  const auto hist = g.class_histogram();
+  std::printf("  classes:");
+  int shown = 0;
+  for (int c = 1; c < world::kNumSemanticClasses; ++c) {
+    const uint64_t n = hist[static_cast<size_t>(c)];
+    if (!n) continue;
+    std::printf("%s %s %.2f%%", shown++ % 6 == 0 ? "\n   " : ",", world::semantic_class_name(static_cast<uint8_t>(c)),
+                voxels > 0 ? 100.0 * static_cast<double>(n) / voxels : 0.0);
+  }
+  std::printf("\n");
+}
+
+void cmd_build(BuildArgs& a) {
+  run_command([&](scene::Diagnostics& diag) {
+    refuse_overwriting_input(a.file, a.output);
+    if (!a.png.empty()) refuse_overwriting_input(a.file, a.png);
+    scene::LoadOptions lo;
+    lo.waymo_selector = a.record;
+    const scene::Scene s = scene::load_scene(a.file, lo, &diag);
+    const auto generator = std::make_unique<world::ProceduralPrior>(s);
+
+    world::WorldBuildOptions opts;
+    opts.mode = a.mode == "blocks" ? world::PlanMode::Blocks : world::PlanMode::Trajectory;
+    opts.plan = a.plan;
+    opts.seed = a.seed;
+    opts.threads = a.threads;
+    opts.insert_static_vehicles = !a.no_vehicles;
+    ProgressBar bar("world build", "chunks");
+    opts.progress = [&](size_t done, size_t total) { bar.update(done, total); };
+    const world::WorldBuildResult r = world::build_world(s, *generator, opts);
+    for (const std::string& note : r.plan.notes) diag.warn(a.file, "plan", note);
+    world::save_world(r.world, a.output);
+    print_summary(r, *generator);
+    std::printf("wrote %s\n", a.output.c_str());
+    if (!a.png.empty()) {
+      const world::WorldPlot p = world::render_world_top(r.world);
+      world::write_world_png(p, a.png);
+      std::printf("wrote %s (%d x %d px, %.2f m/px)\n", a.png.c_str(), p.image.width(), p.image.height(),
+                  p.metres_per_pixel);
+    }
+  });
+}
+
+void cmd_plot(const std::string& input, const std::string& output, int max_pixels) {
+  run_command([&](scene::Diagnostics&) {
+    refuse_overwriting_input(input, output);
+    const world::VoxelGrid g = world::load_world(input);
+    world::WorldPlotOptions o;
+    o.max_pixels = max_pixels;
+    const world::WorldPlot p = world::render_world_top(g, o);
+    world::write_world_png(p, output);
+    std::printf("wrote %s (%d x %d px, %.2f m/px)\n", output.c_str(), p.image.width(), p.image.height(),
+                p.metres_per_pixel);
+  });
+}
+
+void add_world_build_commands(CLI::App& app) {
+  CLI::App& world_cmd = subcommand_group(app, "world", "Build, inspect, import and export semantic voxel worlds");
+
+  auto a = std::make_shared<BuildArgs>();
+  CLI::App* build = world_cmd.add_subcommand(
+      "build", "Stage 1: generate a semantic voxel world (0.2 m, 23 classes) for a scene, chunk by chunk, and save it");
+  build->add_option("file", a->file, "Scene file: icube scene JSON, Waymo Scenario TFRecord, or OpenDRIVE .xodr")
+      ->required()
+      ->type_name("SCENE");
+  build->add_option("-o,--output", a->output, "Output world file")->required()->type_name("world.icw");
+  build->add_option("--record", a->record, "Waymo TFRecord only: which record, by index or scenario id")
+      ->type_name("SEL");
+  build->add_option("--mode", a->mode, "trajectory: chunks along the ego drive; blocks: world-axis lattice over the road")
+      ->check(CLI::IsMember({"trajectory", "blocks"}))
+      ->type_name("MODE")
+      ->capture_default_str();
+  build->add_option("--generator", a->generator,
+                    "procedural: the built-in procedural world prior (rules on the map, not a learned model)")
+      ->check(CLI::IsMember({"procedural"}))
+      ->type_name("NAME")
+      ->capture_default_str();
+  build->add_option("--seed", a->seed, "Generator seed (same seed, same scene: identical world file)")
+      ->type_name("N")
+      ->capture_default_str();
+  build->add_option("--extrapolate", a->plan.extrapolate_chunks,
+                    "Trajectory mode: chunks to continue straight past the end of the drive")
+      ->type_name("N")
+      ->check(CLI::Range(0, 1000))
+      ->capture_default_str();
+  build->add_option("--threads", a->threads, "Generator threads (0: one per core); the result does not depend on it")
+      ->type_name("N")
+      ->check(CLI::Range(0, 256))
+      ->capture_default_str();
+  build->add_flag("--no-vehicles", a->no_vehicles, "Do not insert the static vehicles of the first frame");
+  build->add_option("--png", a->png, "Also write a top-down picture of the world")->type_name("top.png");
+  build->footer(
+      "Chunks are fused in plan order with existing voxels winning. Static vehicles (the boxes of frame 0 that "
+      "never move) are voxelised from the built-in car mesh into the chunks they stand in.");
+  build->callback([a] { cmd_build(*a); });
+
+  auto in = std::make_shared<std::string>(), out = std::make_shared<std::string>();
+  auto max_px = std::make_shared<int>(4096);
+  CLI::App* plot = world_cmd.add_subcommand(
+      "plot", "Write a top-down PNG of a world: each column's highest voxel, coloured by class, shaded by height");
+  plot->add_option("world", *in, "World file (.icw)")->required()->type_name("WORLD");
+  plot->add_option("-o,--output", *out, "Output PNG")->required()->type_name("top.png");
+  plot->add_option("--max-pixels", *max_px, "Longest side of the picture; larger worlds are drawn coarser")
+      ->check(CLI::Range(64, 16384))
+      ->capture_default_str();
+  plot->callback([in, out, max_px] { cmd_plot(*in, *out, *max_px); });
+}
+
+const CommandRegistrar kRegistrar(add_world_build_commands, 32);
+
+}  // namespace
+
+}  // namespace icube::tools
