@@ -6,6 +6,7 @@
 
 #include "world/procedural/bev_raster.h"
 #include "world/procedural/chunk_volume.h"
+#include "world/chunk_pose.h"
 #include "world/procedural/hash_noise.h"
 #include "world/procedural/structures.h"
 
@@ -76,7 +77,10 @@ class ChunkBuilder {
     const glm::ivec2 c = r_.cell_of(p);
     return r_.in(c.x, c.y) ? static_cast<Band>(band_[r_.index(c.x, c.y)]) : kRoad;  // outside: refuse
   }
-  double ground_z(const glm::dvec2& p) { return f_.ground_height(p.x, p.y, &hcache_); }
+  // The height every rule places voxels from: the surface lowered by half a voxel, so that
+  // k_of(ground_z) is the cell whose TOP is nearest the surface (a road at z = 0 fills
+  // [-0.2, 0], and a car standing on it touches it instead of sinking one voxel deep).
+  double ground_z(const glm::dvec2& p) { return f_.ground_height(p.x, p.y, &hcache_) - 0.5 * kFineVoxel; }
   bool ego_clear(const glm::dvec2& p, double r) const { return !f_.ego_path.nearest(p, r).found; }
   void tree(const glm::dvec2& p, uint64_t key) { voxelise_tree(v_, p, ground_z(p) + kRaised, key); }
 
