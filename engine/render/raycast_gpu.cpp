@@ -1,0 +1,232 @@
+// GPU host module for shaders/raycast.comp; see raycast_gpu.h.
+#include "render/raycast_gpu.h"
+
+#include <algorithm>
+#include <cfloat>
+#include <cmath>
+#include <stdexcept>
+
+namespace icube::render {
+
+namespace {
+
+// Reference voxel and in-voxel offset of a world point, in double.
+struct Split {
+  glm::ivec3 ref{0};
+  glm::dvec3 off{0.0};
+};
+
+Split split_point(const RaycastWorld& w, const glm::dvec3& p) {
+  const glm::dvec3 q = (p - w.gpu.origin) / w.gpu.voxel_size;
+  Split s;
+  for (int a = 0; a < 3; ++a) {
+    if (!std::isfinite(q[a])) throw std::invalid_argument("raycast: non-finite ray origin");
+    const double f = std::floor(q[a]);
+    if (std::fabs(f) > double(1 << 30)) throw std::invalid_argument("raycast: ray origin more than 2^30 voxels from the grid origin");
+    s.ref[a] = static_cast<int32_t>(f);
+    s.off[a] = q[a] - f;
+  }
+  return s;
+}
+
+float to_float_t(double t) { return t >= static_cast<double>(FLT_MAX) ? FLT_MAX : static_cast<float>(t); }
+
+int32_t clamp_rel(int64_t v) { return static_cast<int32_t>(std::clamp<int64_t>(v, -RAYCAST_MAX_REL, RAYCAST_MAX_REL)); }
+
+shader::RaycastParams base_params(const RaycastWorld& w, const glm::ivec3& ref, const RaycastOptions& opts) {
+  if (!(opts.eps_sem >= 0.0 && opts.eps_depth >= 0.0 && opts.gap_eps >= 0.0 && opts.t_max >= 0.0))
+    throw std::invalid_argument("raycast: eps and t_max must be non-negative");
+  shader::RaycastParams p{};
+  p.table_mask = w.gpu.table_mask;
+  p.pixel_offset = static_cast<float>(pixel_offset(opts.pixels));
+  p.ref_x = ref.x;
+  p.ref_y = ref.y;
+  p.ref_z = ref.z;
+  p.inv_voxel = static_cast<float>(1.0 / w.gpu.voxel_size);
+  p.t_max = to_float_t(opts.t_max);
+  p.eps_sem = static_cast<float>(opts.eps_sem);
+  p.eps_depth = static_cast<float>(opts.eps_depth);
+  p.gap_eps = static_cast<float>(opts.gap_eps);
+  if (!w.bounds.empty()) {
+    int32_t* lo[3] = {&p.lo_x, &p.lo_y, &p.lo_z};
+    int32_t* hi[3] = {&p.hi_x, &p.hi_y, &p.hi_z};
+    for (int a = 0; a < 3; ++a) {
+      *lo[a] = clamp_rel(int64_t{w.bounds.min[a]} - ref[a]);
+      *hi[a] = clamp_rel(int64_t{w.bounds.max[a]} + 1 - ref[a]);
+    }
+  }  // else lo = hi = 0: every ray misses
+  return p;
+}
+
+// The occupancy layout of raycast_params.h for absolute brick bounds; false when
+// the world is empty, the relative bounds were clamped or the mask is too large.
+bool occupancy_layout(const RaycastWorld& w, const glm::ivec3& ref, shader::RaycastOccupancyParams& op, uint64_t& words) {
+  if (w.bounds.empty()) return false;
+  for (int a = 0; a < 3; ++a) {
+    const int64_t l = int64_t{w.bounds.min[a]} - ref[a], h = int64_t{w.bounds.max[a]} + 1 - ref[a];
+    if (l < -RAYCAST_MAX_REL || h > RAYCAST_MAX_REL) return false;
+  }
+  const glm::ivec3 bmin = w.bounds.min >> 3, bmax = w.bounds.max >> 3;
+  const glm::ivec3 smin = w.bounds.min >> RAYCAST_SUPER_SHIFT, smax = w.bounds.max >> RAYCAST_SUPER_SHIFT;
+  const glm::u64vec3 bdim(bmax - bmin + 1), sdim(smax - smin + 1);
+  const uint64_t bricks = bdim.x * bdim.y * bdim.z, supers = sdim.x * sdim.y * sdim.z;
+  if (bricks > RaycasterGpu::kMaxOccupancyBricks) return false;
+  op = {};
+  op.slots = w.gpu.table_mask + 1;
+  op.super_word = static_cast<uint32_t>((bricks + 31) / 32);
+  op.bmin_x = bmin.x; op.bmin_y = bmin.y; op.bmin_z = bmin.z;
+  op.smin_x = smin.x; op.smin_y = smin.y; op.smin_z = smin.z;
+  op.bdim_x = static_cast<uint32_t>(bdim.x); op.bdim_y = static_cast<uint32_t>(bdim.y); op.bdim_z = static_cast<uint32_t>(bdim.z);
+  op.sdim_x = static_cast<uint32_t>(sdim.x); op.sdim_y = static_cast<uint32_t>(sdim.y); op.sdim_z = static_cast<uint32_t>(sdim.z);
+  const uint64_t records = w.gpu.brick_data.size() / (uint64_t{WORLD_BRICK_UINTS} * 4);
+  op.oct_word = static_cast<uint32_t>(op.super_word + (supers + 31) / 32);
+  words = op.oct_word + (records + 3) / 4;
+  return true;
+}
+
+}  // namespace
+
+RaycastWorld upload_raycast_world(gpu::Context& ctx, const world::VoxelGrid& grid) {
+  return {world::upload_gpu_world(ctx, grid), raycast_bounds(grid)};
+}
+
+// Tile width for a workgroup of `lanes`: the smallest power of two whose square holds the lanes.
+static uint32_t tile_width_for(uint32_t lanes) {
+  uint32_t w = 1;
+  while (w * w < lanes && w < lanes) w *= 2;
+  while (lanes % w) w /= 2;
+  return std::max<uint32_t>(1, w);
+}
+
+RaycasterGpu::RaycasterGpu(gpu::Context& ctx, bool skip_empty_bricks)
+    : ctx_(ctx),
+      program_(ctx.program("raycast", gpu::SpecConstants{}
+                                          .set(0, ctx.subgroup_size() /* local_size_x */)
+                                          .set(1, skip_empty_bricks /* RAYCAST_SKIP_EMPTY */)
+                                          .set(2, 0u /* RAYCAST_TILE_W: rows */))),
+      program_tiled_(ctx.program("raycast", gpu::SpecConstants{}
+                                                .set(0, ctx.subgroup_size() /* local_size_x */)
+                                                .set(1, skip_empty_bricks /* RAYCAST_SKIP_EMPTY */)
+                                                .set(2, tile_width_for(ctx.subgroup_size()) /* RAYCAST_TILE_W */))),
+      occupancy_program_(ctx.program("raycast_occupancy")),
+      tile_w_(tile_width_for(ctx.subgroup_size())),
+      skip_empty_(skip_empty_bricks),
+      occupancy_(skip_empty_bricks),
+      dummy_rays_(ctx, 32, gpu::MemoryUsage::DeviceLocal, "raycast-dummy-rays"),
+      occ_(ctx, 16, gpu::MemoryUsage::DeviceLocal, "raycast-occupancy") {}
+
+shader::RaycastParams RaycasterGpu::camera_params(const RaycastWorld& w, const Camera& cam,
+                                                  const RaycastOptions& opts) const {
+  validate_camera(cam);
+  const uint64_t n = uint64_t{cam.K.width} * cam.K.height;
+  if (n > UINT32_MAX) throw std::invalid_argument("raycast: image too large");
+  const Split s = split_point(w, camera_position(cam));
+  shader::RaycastParams p = base_params(w, s.ref, opts);
+  p.n = static_cast<uint32_t>(n);
+  p.width = cam.K.width;
+  p.off_x = static_cast<float>(s.off.x);
+  p.off_y = static_cast<float>(s.off.y);
+  p.off_z = static_cast<float>(s.off.z);
+  const glm::dmat3 M = camera_ray_matrix(cam);  // column-major: M[c][r]
+  float* m[9] = {&p.m00, &p.m01, &p.m02, &p.m10, &p.m11, &p.m12, &p.m20, &p.m21, &p.m22};
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) *m[3 * r + c] = static_cast<float>(M[c][r]);
+  return p;
+}
+
+shader::RaycastParams RaycasterGpu::ray_params(const RaycastWorld& w, const GpuRayBatch& rays,
+                                               const RaycastOptions& opts) const {
+  shader::RaycastParams p = base_params(w, rays.ref, opts);
+  p.n = rays.count;
+  p.width = 0;
+  return p;
+}
+
+GpuRayBatch RaycasterGpu::upload_rays(const RaycastWorld& w, const std::vector<Ray>& rays) {
+  if (rays.size() > UINT32_MAX / 2) throw std::invalid_argument("raycast: too many rays");
+  GpuRayBatch b;
+  b.count = static_cast<uint32_t>(rays.size());
+  if (!rays.empty()) b.ref = split_point(w, rays[0].origin).ref;
+  std::vector<float> data;
+  data.reserve(rays.size() * 8);
+  for (const Ray& r : rays) {
+    const glm::dvec3 q = (r.origin - w.gpu.origin) / w.gpu.voxel_size - glm::dvec3(b.ref);
+    const double len = glm::length(r.dir);
+    if (!std::isfinite(q.x + q.y + q.z) || !(len > 0.0) || !std::isfinite(len))
+      throw std::invalid_argument("raycast: non-finite ray or zero direction");
+    const glm::dvec3 d = r.dir / len;
+    data.insert(data.end(), {static_cast<float>(q.x), static_cast<float>(q.y), static_cast<float>(q.z), 0.0f,
+                             static_cast<float>(d.x), static_cast<float>(d.y), static_cast<float>(d.z), 0.0f});
+  }
+  b.rays = gpu::upload_vector(ctx_, data, "raycast-rays");
+  return b;
+}
+
+void RaycasterGpu::record(gpu::CommandList& cmd, const RaycastWorld& w, const shader::RaycastParams& params,
+                          const gpu::Buffer& rays, const gpu::Buffer& hits) {
+  if (params.n == 0) return;
+  const VkDeviceSize bytes = VkDeviceSize{params.n} * sizeof(shader::RaycastHit);
+  if (hits.size() < bytes) throw std::invalid_argument("raycast: hits buffer too small");
+  shader::RaycastParams p = params;
+  p.occupancy = 0;
+  shader::RaycastOccupancyParams op{};
+  uint64_t words = 0;
+  if (occupancy_ && skip_empty_ &&
+      occupancy_layout(w, glm::ivec3(params.ref_x, params.ref_y, params.ref_z), op, words)) {
+    const VkDeviceSize occ_bytes = words * 4;
+    if (occ_.size() < occ_bytes) {
+      retired_occ_.push_back(std::move(occ_));
+      occ_ = gpu::Buffer(ctx_, std::max<VkDeviceSize>(occ_bytes, retired_occ_.back().size() * 2),
+                         gpu::MemoryUsage::DeviceLocal, "raycast-occupancy");
+    }
+    // An earlier record (this command list or an earlier one) may still read or build the masks.
+    cmd.barrier(gpu::deps::kComputeToTransfer);
+    cmd.fill_buffer(occ_.binding(0, occ_bytes), 0u);
+    cmd.barrier(gpu::deps::kTransferToCompute);  // zeroed masks before the build pass ORs bits in
+    cmd.dispatch(occupancy_program_, {op.slots}, op, {w.gpu.brick_table.binding(), occ_.binding(0, occ_bytes), w.gpu.brick_data.binding()});
+    cmd.barrier(gpu::deps::kComputeToCompute);  // masks before the ray caster reads them
+    p.occupancy = 1;
+  }
+  gpu::Program* prog = &program_;
+  uint64_t threads = p.n;
+  if (tiled_ && p.width != 0 && tile_w_ > 1) {
+    const uint64_t lanes = ctx_.subgroup_size(), th = lanes / tile_w_;
+    const uint64_t height = p.n / p.width;
+    threads = ((p.width + tile_w_ - 1) / tile_w_) * ((height + th - 1) / th) * lanes;
+    prog = &program_tiled_;
+  }
+  cmd.dispatch(*prog, {threads}, p,
+               {w.gpu.brick_table.binding(), w.gpu.brick_data.binding(), rays.binding(), hits.binding(0, bytes),
+                occ_.binding()});
+}
+
+void RaycasterGpu::record_camera(gpu::CommandList& cmd, const RaycastWorld& w, const Camera& cam,
+                                 const RaycastOptions& opts, const gpu::Buffer& hits) {
+  record(cmd, w, camera_params(w, cam, opts), dummy_rays_, hits);
+}
+
+void RaycasterGpu::record_rays(gpu::CommandList& cmd, const RaycastWorld& w, const GpuRayBatch& rays,
+                               const RaycastOptions& opts, const gpu::Buffer& hits) {
+  record(cmd, w, ray_params(w, rays, opts), rays.rays, hits);
+}
+
+std::vector<shader::RaycastHit> RaycasterGpu::cast_camera(const RaycastWorld& w, const Camera& cam,
+                                                          const RaycastOptions& opts) {
+  const shader::RaycastParams p = camera_params(w, cam, opts);
+  gpu::Buffer hits(ctx_, std::max<VkDeviceSize>(1, p.n) * sizeof(shader::RaycastHit), gpu::MemoryUsage::DeviceLocal,
+                   "raycast-hits");
+  ctx_.submit_and_wait([&](gpu::CommandList& cmd) { record(cmd, w, p, dummy_rays_, hits); });
+  return gpu::download_vector<shader::RaycastHit>(ctx_, hits, p.n);
+}
+
+std::vector<shader::RaycastHit> RaycasterGpu::cast_rays(const RaycastWorld& w, const std::vector<Ray>& rays,
+                                                        const RaycastOptions& opts) {
+  if (rays.empty()) return {};
+  const GpuRayBatch b = upload_rays(w, rays);
+  gpu::Buffer hits(ctx_, VkDeviceSize{b.count} * sizeof(shader::RaycastHit), gpu::MemoryUsage::DeviceLocal,
+                   "raycast-hits");
+  ctx_.submit_and_wait([&](gpu::CommandList& cmd) { record_rays(cmd, w, b, opts, hits); });
+  return gpu::download_vector<shader::RaycastHit>(ctx_, hits, b.count);
+}
+
+}  // namespace icube::render

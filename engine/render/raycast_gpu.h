@@ -1,0 +1,98 @@
+// GPU host module for the voxel ray caster, shaders/raycast.comp (traversal in
+// shaders/common/raycast_traverse.glsl; params and the per-ray RaycastHit in
+// shaders/shared/raycast_params.h). Same rules and outputs as the CPU
+// reference engine/render/raycast_cpu.h, in float, relative to a reference
+// voxel: the camera's voxel (camera mode) or the first ray's origin voxel (ray
+// lists), split on the host in double into int ijk + float offset, so a
+// camera 100 km from the grid origin renders the same image as at the origin.
+// Traversal is limited to RAYCAST_MAX_REL voxels (±839 km at 0.2 m) around
+// the reference voxel and to the world's brick bounds.
+// Test: tests/test_raycast.cpp; benchmark: bench/bench_raycast.cpp.
+#pragma once
+
+#include "gpu/buffer.h"
+#include "gpu/commands.h"
+#include "render/camera.h"
+#include "render/raycast_cpu.h"
+#include "shared/raycast_params.h"
+#include "world/gpu_world.h"
+
+#include <cstdint>
+#include <vector>
+
+namespace icube::render {
+
+// The GPU world plus the brick bounds the kernel clips rays to.
+struct RaycastWorld {
+  world::GpuWorld gpu;
+  world::IjkBounds bounds;  // raycast_bounds(grid)
+};
+
+RaycastWorld upload_raycast_world(gpu::Context& ctx, const world::VoxelGrid& grid);
+
+// Rays uploaded for ray-list mode: 2 vec4 per ray (origin relative to `ref`
+// in voxel units, unit direction).
+struct GpuRayBatch {
+  gpu::Buffer rays;
+  uint32_t count = 0;
+  glm::ivec3 ref{0};
+};
+
+class RaycasterGpu {
+ public:
+  // skip_empty_bricks = false selects the flat walk (every voxel of every brick; for benchmarks).
+  explicit RaycasterGpu(gpu::Context& ctx, bool skip_empty_bricks = true);
+
+  // Occupancy masks (on by default with skip_empty_bricks): each record first
+  // rebuilds bit masks of the world's bricks and 32³ super bricks from the
+  // brick table (raycast_occupancy.comp, a fill + one pass over the table, so
+  // worlds whose table changes between frames stay correct), and the kernel
+  // skips empty super bricks and bricks without hashing. Off: empty bricks are
+  // found by hash lookups (the same results; for benchmarks). Worlds whose
+  // brick mask would pass kMaxOccupancyBricks bricks always run without.
+  static constexpr uint64_t kMaxOccupancyBricks = uint64_t{1} << 27;
+  void set_occupancy(bool on) { occupancy_ = on; }
+  bool occupancy() const { return occupancy_; }
+  // Camera mode: one workgroup per 2-D pixel tile (tile_width() x subgroup / tile_width(), e.g. 4x2
+  // on lavapipe, 8x4 at subgroup 32) instead of one per run of pixels in a row. Same results.
+  void set_tiled(bool on) { tiled_ = on; }
+  bool tiled() const { return tiled_; }
+  uint32_t tile_width() const { return tile_w_; }
+
+  // Push constants for a camera (camera mode) / for a ray batch (ray-list mode).
+  shader::RaycastParams camera_params(const RaycastWorld& w, const Camera& cam, const RaycastOptions& opts) const;
+  shader::RaycastParams ray_params(const RaycastWorld& w, const GpuRayBatch& rays, const RaycastOptions& opts) const;
+
+  GpuRayBatch upload_rays(const RaycastWorld& w, const std::vector<Ray>& rays);
+
+  // Record one dispatch writing W·H (or rays.count) RaycastHits to `hits`
+  // (>= 48 bytes per ray). The caller orders earlier uses of `hits` before
+  // this and puts a barrier before reading it on the GPU (submit_and_wait's
+  // final barrier suffices for the host).
+  void record_camera(gpu::CommandList& cmd, const RaycastWorld& w, const Camera& cam, const RaycastOptions& opts,
+                     const gpu::Buffer& hits);
+  void record_rays(gpu::CommandList& cmd, const RaycastWorld& w, const GpuRayBatch& rays, const RaycastOptions& opts,
+                   const gpu::Buffer& hits);
+
+  // Upload (rays), run, download.
+  std::vector<shader::RaycastHit> cast_camera(const RaycastWorld& w, const Camera& cam, const RaycastOptions& opts);
+  std::vector<shader::RaycastHit> cast_rays(const RaycastWorld& w, const std::vector<Ray>& rays,
+                                            const RaycastOptions& opts);
+
+ private:
+  void record(gpu::CommandList& cmd, const RaycastWorld& w, const shader::RaycastParams& params,
+              const gpu::Buffer& rays, const gpu::Buffer& hits);
+  gpu::Context& ctx_;
+  gpu::Program& program_;
+  gpu::Program& program_tiled_;
+  gpu::Program& occupancy_program_;
+  uint32_t tile_w_ = 1;
+  bool tiled_ = true;
+  bool skip_empty_ = true;
+  bool occupancy_ = true;
+  gpu::Buffer dummy_rays_;  // bound in camera mode, never read
+  gpu::Buffer occ_;         // occupancy masks, grown on demand
+  std::vector<gpu::Buffer> retired_occ_;  // outgrown masks, kept alive: recorded commands may still use them
+};
+
+}  // namespace icube::render

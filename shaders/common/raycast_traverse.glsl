@@ -1,0 +1,228 @@
+// Two-level voxel ray traversal over the GPU world (the rules of the CPU
+// reference engine/render/raycast_cpu.h, in float; layout:
+// shared/world_layout.h, params: shared/raycast_params.h).
+//
+// Coordinates are relative to the reference voxel p.ref (ints) with the ray
+// origin `o` in voxel units and a unit world direction `d`; t is in metres.
+// Level 1 walks empty cells: with the occupancy masks (p.occupancy, binding
+// `occ`, layout in raycast_params.h) an empty 32³ super brick, an empty 8³
+// brick or an empty 4³ octant of an occupied brick is skipped to its exit
+// plane in one step and occupied bricks are looked up in the hash once per
+// visit (the last brick is cached); without them a brick missing from the hash table is
+// skipped. Level 2 is an exact Amanatides–Woo walk over
+// every voxel of an occupied brick, reading one mask word per voxel. Every
+// plane time is (integer plane - o) / dd with the same formula on both
+// levels, recomputed from integer indices (no accumulated t += tDelta), so the
+// cell exit found on level 1 equals the voxel exit level 2 would have found.
+// After skipping a cell the next voxel is the exit plane's neighbour on the
+// exit axis and, on the other axes, floor(o + t·dd) corrected against the
+// same plane formula (raycast_locate), with planes crossed exactly at the exit
+// time resolved in the flat walk's x, y, z tie order. Axes with dd == 0 are disabled (time
+// RAYCAST_BIG, no division by 0). Ties step x before y before z.
+//
+// The including shader declares world_table / world_bricks (see
+// world_lookup.glsl), `uint occ[]` (the occupancy masks), the push constant block `p` (RaycastParams) and the
+// bool RAYCAST_SKIP_EMPTY (false: empty bricks are walked voxel by voxel too,
+// the flat walk of the CPU reference, for benchmarks) first.
+#ifndef ICUBE_RAYCAST_TRAVERSE_GLSL
+#define ICUBE_RAYCAST_TRAVERSE_GLSL
+
+#include "shared/raycast_params.h"
+
+const float RAYCAST_BIG = 3.0e38;
+
+float raycast_plane_t(int plane, float o, float dd) { return (float(plane) - o) / dd; }
+int raycast_enter_plane(int v, int st) { return st > 0 ? v : v + 1; }
+int raycast_exit_plane(int v, int st) { return st > 0 ? v + 1 : v; }
+
+// The voxel on one axis containing the ray at t; a plane crossed exactly at t
+// counts as crossed when `ties_crossed` (see raycast_cpu.cpp locate_axis).
+int raycast_locate(float o, float dd, int st, float t, bool ties_crossed) {
+  int v = int(floor(o + t * dd));
+  const float tn = raycast_plane_t(raycast_exit_plane(v, st), o, dd);
+  const float tp = raycast_plane_t(raycast_enter_plane(v, st), o, dd);
+  if (tn < t || (ties_crossed && tn == t))
+    v += st;
+  else if (tp > t || (!ties_crossed && tp == t))
+    v -= st;
+  return v;
+}
+
+int raycast_argmin(vec3 tm) { return tm.x <= tm.y ? (tm.x <= tm.z ? 0 : 2) : (tm.y <= tm.z ? 1 : 2); }
+
+RaycastHit raycast_traverse(vec3 o, vec3 d) {
+  RaycastHit h;
+  h.t_sem = 0.0; h.t_depth = 0.0; h.sem_class = 0u; h.sem_instance = 0u;
+  h.ijk_x = 0; h.ijk_y = 0; h.ijk_z = 0; h.normal = RAYCAST_NORMAL_NONE;
+  h.steps = 0u; h.flags = 0u; h.pad1 = 0u; h.pad2 = 0u;
+
+  const ivec3 ref = ivec3(p.ref_x, p.ref_y, p.ref_z);
+  const ivec3 lo = ivec3(p.lo_x, p.lo_y, p.lo_z);
+  const ivec3 hi = ivec3(p.hi_x, p.hi_y, p.hi_z);
+  const vec3 dd = d * p.inv_voxel;
+  const ivec3 st = ivec3(sign(dd));
+
+  // Slab clip to the brick bounds.
+  float t0 = 0.0, t1 = p.t_max;
+  int eaxis = -1;
+  for (int a = 0; a < 3; ++a) {
+    if (st[a] == 0) {
+      if (o[a] < float(lo[a]) || o[a] >= float(hi[a])) return h;
+      continue;
+    }
+    float ta = raycast_plane_t(lo[a], o[a], dd[a]), tb = raycast_plane_t(hi[a], o[a], dd[a]);
+    float tn = min(ta, tb), tf = max(ta, tb);
+    if (tn >= t0) { t0 = tn; eaxis = a; }  // ties: the last axis in x, y, z order is the entry face
+    t1 = min(t1, tf);
+  }
+  if (!(t0 < t1)) return h;
+
+  ivec3 v;
+  for (int a = 0; a < 3; ++a) {
+    if (a == eaxis) v[a] = st[a] > 0 ? lo[a] : hi[a] - 1;
+    else if (st[a] == 0 || eaxis < 0) v[a] = clamp(int(floor(o[a])), lo[a], hi[a] - 1);  // started inside
+    else v[a] = clamp(raycast_locate(o[a], dd[a], st[a], t0, a < eaxis), lo[a], hi[a] - 1);
+  }
+
+  float t = t0;
+  int normal = eaxis >= 0 ? -(eaxis + 1) * st[eaxis] : RAYCAST_NORMAL_NONE;
+  bool sem = false, dep = false, in_run = false;
+  float run_t = 0.0, run_len = 0.0, gap = 0.0;
+  uint steps = 0u;
+  // Occupancy masks (see raycast_params.h): boxes of the bounds' bricks and super bricks.
+  const bool occ_on = p.occupancy != 0u && RAYCAST_SKIP_EMPTY;
+  const ivec3 bmin = (ref + lo) >> 3;
+  const ivec3 bdim = (hi - lo) >> 3;
+  const ivec3 smin = (ref + lo) >> RAYCAST_SUPER_SHIFT;
+  const ivec3 sdim = ((ref + hi - 1) >> RAYCAST_SUPER_SHIFT) - smin + 1;
+  const uint super_word = (uint(bdim.x) * uint(bdim.y) * uint(bdim.z) + 31u) >> 5u;
+  const uint oct_word = super_word + ((uint(sdim.x) * uint(sdim.y) * uint(sdim.z) + 31u) >> 5u);
+  // Each outer iteration moves to a new cell (super brick, brick or 4³ octant) or walks one
+  // brick's voxels up to an empty octant; bound it by twice the octants a line can cross.
+  const ivec3 ext = hi - lo;
+  const uint max_outer = uint(ext.x + ext.y + ext.z) / 2u + 16u;
+  ivec3 last_bc = ivec3(0x7fffffff);
+  uint last_b = WORLD_EMPTY_SLOT;
+  for (uint outer = 0u; outer < max_outer; ++outer) {
+    const ivec3 av = ref + v;
+    ivec3 bcoord = av >> 3;  // arithmetic shift: floor(ijk / 8)
+    uint b = WORLD_EMPTY_SLOT;
+    uint octs = 0xffu;  // the brick's occupied 4³ octants
+    int shift = 3;  // size of the empty cell to skip: 4 (octant), 8 (brick) or 32 (super brick)
+    bool empty;
+    if (occ_on) {
+      const ivec3 sc = (av >> RAYCAST_SUPER_SHIFT) - smin;
+      const uint sn = uint(sc.x + sdim.x * (sc.y + sdim.y * sc.z));
+      empty = ((occ[super_word + (sn >> 5u)] >> (sn & 31u)) & 1u) == 0u;
+      if (empty) {
+        shift = RAYCAST_SUPER_SHIFT;
+      } else {
+        const ivec3 bc = bcoord - bmin;
+        const uint bn = uint(bc.x + bdim.x * (bc.y + bdim.y * bc.z));
+        empty = ((occ[bn >> 5u] >> (bn & 31u)) & 1u) == 0u;
+        if (!empty) {
+          if (bcoord != last_bc) {
+            last_b = world_find_brick(bcoord, p.table_mask);
+            last_bc = bcoord;
+          }
+          b = last_b;
+          octs = (occ[oct_word + (b >> 2u)] >> ((b & 3u) * 8u)) & 0xffu;
+          const ivec3 oc = (av >> 2) & 1;
+          if (((octs >> uint(oc.x + 2 * oc.y + 4 * oc.z)) & 1u) == 0u) {
+            empty = true;
+            shift = 2;
+          }
+        }
+      }
+    } else {
+      b = world_find_brick(bcoord, p.table_mask);
+      empty = b == WORLD_EMPTY_SLOT && RAYCAST_SKIP_EMPTY;
+    }
+    if (empty) {
+      // Skip the empty cell: exit plane on each moving axis, the first one wins.
+      ++steps;
+      const ivec3 clo = ((av >> shift) << shift) - ref;
+      const ivec3 chi = clo + ivec3(1 << shift);
+      float tb = RAYCAST_BIG;
+      int e = 0;
+      for (int a = 0; a < 3; ++a) {
+        if (st[a] == 0) continue;
+        float ta = raycast_plane_t(st[a] > 0 ? chi[a] : clo[a], o[a], dd[a]);
+        if (ta < tb) { tb = ta; e = a; }
+      }
+      if (in_run) {
+        gap += max(min(tb, t1) - t, 0.0);
+        if (gap > p.gap_eps) in_run = false;
+      }
+      if (tb >= t1) break;
+      t = max(t, tb);
+      for (int a = 0; a < 3; ++a) {
+        if (a == e) v[a] = st[a] > 0 ? chi[a] : clo[a] - 1;
+        else if (st[a] != 0) {
+          // Never behind the current voxel: a plane at exactly t that the walk already crossed
+          // (e.g. the origin's own plane at t = 0) stays crossed, as in the flat walk.
+          const int lv = clamp(raycast_locate(o[a], dd[a], st[a], t, a < e), clo[a], chi[a] - 1);
+          v[a] = st[a] > 0 ? max(lv, v[a]) : min(lv, v[a]);
+        }
+      }
+      normal = -(e + 1) * st[e];
+      if (v[e] < lo[e] || v[e] >= hi[e]) break;
+      continue;
+    }
+
+    // Occupied brick (or any brick without skipping): exact voxel walk until the ray leaves the brick.
+    const ivec3 blo = (bcoord << 3) - ref;
+    const ivec3 bhi = blo + ivec3(8);
+    const bool present = b != WORLD_EMPTY_SLOT;
+    const uint base = present ? b * WORLD_BRICK_UINTS : 0u;
+    vec3 tm;
+    for (int a = 0; a < 3; ++a)
+      tm[a] = st[a] == 0 ? RAYCAST_BIG : raycast_plane_t(raycast_exit_plane(v[a], st[a]), o[a], dd[a]);
+    bool done = false;
+    for (;;) {
+      ++steps;
+      const int e = raycast_argmin(tm);
+      const float tx = tm[e];
+      const float chord = max(min(tx, t1) - t, 0.0);
+      const ivec3 l = v - blo;
+      const uint n = uint(l.x | (l.y << 3) | (l.z << 6));
+      if (present && ((world_bricks[base + WORLD_MASK_OFFSET + (n >> 5u)] >> (n & 31u)) & 1u) != 0u) {
+        if (!sem && chord >= p.eps_sem) {
+          sem = true;
+          h.t_sem = t;
+          h.sem_class = (world_bricks[base + WORLD_CLASS_OFFSET + (n >> 2u)] >> ((n & 3u) * 8u)) & 0xffu;
+          h.sem_instance = (world_bricks[base + WORLD_INSTANCE_OFFSET + (n >> 1u)] >> ((n & 1u) * 16u)) & 0xffffu;
+          h.ijk_x = ref.x + v.x; h.ijk_y = ref.y + v.y; h.ijk_z = ref.z + v.z;
+          h.normal = normal;
+        }
+        if (!dep) {
+          if (!in_run) { in_run = true; run_t = t; run_len = 0.0; }
+          run_len += chord;
+          gap = 0.0;
+          if (run_len >= p.eps_depth) { dep = true; h.t_depth = run_t; }
+        }
+        if (sem && dep) { done = true; break; }
+      } else if (in_run) {
+        gap += chord;
+        if (gap > p.gap_eps) in_run = false;
+      }
+      if (tx >= t1) { done = true; break; }
+      t = max(t, tx);
+      v[e] += st[e];
+      normal = -(e + 1) * st[e];
+      tm[e] = raycast_plane_t(raycast_exit_plane(v[e], st[e]), o[e], dd[e]);
+      if (v[e] < blo[e] || v[e] >= bhi[e]) break;
+      if (octs != 0xffu && ((ref[e] + v[e]) & 3) == (st[e] > 0 ? 0 : 3)) {
+        // Crossed into another octant of the brick: leave the walk when it is empty (skipped above).
+        const ivec3 oc = ((ref + v) >> 2) & 1;
+        if (((octs >> uint(oc.x + 2 * oc.y + 4 * oc.z)) & 1u) == 0u) break;
+      }
+    }
+    if (done || v[0] < lo[0] || v[0] >= hi[0] || v[1] < lo[1] || v[1] >= hi[1] || v[2] < lo[2] || v[2] >= hi[2]) break;
+  }
+  h.steps = steps;
+  h.flags = (sem ? RAYCAST_FLAG_SEM : 0u) | (dep ? RAYCAST_FLAG_DEPTH : 0u);
+  return h;
+}
+
+#endif

@@ -1,0 +1,59 @@
+#version 460
+#extension GL_GOOGLE_include_directive : require
+// raycast: one invocation per ray, the semantic hit and the depth of the ray
+// in the GPU world (conventions §10.2) by the two-level traversal in
+// common/raycast_traverse.glsl (32³ super-brick and 8³ brick skipping via the
+// occupancy masks of binding 4, built by raycast_occupancy.comp, or via the hash
+// table when p.occupancy == 0; then an exact voxel DDA; rules of the CPU reference engine/render/raycast_cpu.h).
+// Camera mode (p.width > 0): ray i is pixel (i % width, i / width), origin
+// (off_x, off_y, off_z) relative to the camera voxel p.ref, direction
+// normalize(M · (u + pixel_offset, v + pixel_offset, 1)). Ray-list mode
+// (p.width == 0): rays[2i] = (origin relative to p.ref in voxel units, 0),
+// rays[2i + 1] = (unit world direction, 0). Output hits[i] (RaycastHit).
+// Host module: engine/render/raycast_gpu.{h,cpp}; test: tests/test_raycast.cpp.
+#include "shared/world_layout.h"
+#include "shared/raycast_params.h"
+#include "common/dispatch.glsl"
+
+layout(local_size_x_id = 0) in;
+// Spec constant 1: skip empty bricks in one step (default); false walks them voxel by voxel.
+layout(constant_id = 1) const bool RAYCAST_SKIP_EMPTY = true;
+// Spec constant 2: camera mode tile width (0 = rows: ray i = pixel i). With TILE_W > 0 a workgroup
+// (local_size_x invocations) covers a TILE_W x (local_size_x / TILE_W) pixel tile, tiles row-major;
+// the host dispatches whole tiles and lanes outside the image return.
+layout(constant_id = 2) const uint RAYCAST_TILE_W = 0u;
+layout(push_constant) uniform Push { RaycastParams p; };
+layout(std430, binding = 0) readonly buffer Table { uvec4 world_table[]; };
+layout(std430, binding = 1) readonly buffer Bricks { uint world_bricks[]; };
+layout(std430, binding = 2) readonly buffer Rays { vec4 rays[]; };
+layout(std430, binding = 3) writeonly buffer Hits { RaycastHit hits[]; };
+layout(std430, binding = 4) readonly buffer Occupancy { uint occ[]; };
+
+#include "common/world_lookup.glsl"
+#include "common/raycast_traverse.glsl"
+
+void main() {
+  uint i = ICUBE_THREAD_LINEAR();
+  uint px = 0u, py = 0u;
+  if (p.width != 0u && RAYCAST_TILE_W > 0u) {
+    const uint g = icube_group_linear(), l = gl_LocalInvocationID.x;
+    const uint th = gl_WorkGroupSize.x / RAYCAST_TILE_W, tpr = (p.width + RAYCAST_TILE_W - 1u) / RAYCAST_TILE_W;
+    px = (g % tpr) * RAYCAST_TILE_W + l % RAYCAST_TILE_W;
+    py = (g / tpr) * th + l / RAYCAST_TILE_W;
+    if (px >= p.width || py >= p.n / p.width) return;
+    i = py * p.width + px;
+  } else {
+    if (i >= p.n) return;
+    if (p.width != 0u) { px = i % p.width; py = i / p.width; }
+  }
+  vec3 o, d;
+  if (p.width != 0u) {
+    const float u = float(px) + p.pixel_offset, v = float(py) + p.pixel_offset;
+    d = normalize(vec3(p.m00 * u + p.m01 * v + p.m02, p.m10 * u + p.m11 * v + p.m12, p.m20 * u + p.m21 * v + p.m22));
+    o = vec3(p.off_x, p.off_y, p.off_z);
+  } else {
+    o = rays[2u * i].xyz;
+    d = rays[2u * i + 1u].xyz;
+  }
+  hits[i] = raycast_traverse(o, d);
+}

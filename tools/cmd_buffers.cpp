@@ -1,0 +1,248 @@
+// `icube buffers` (Stage 2): renders a voxel world's guidance buffers
+// (semantic, instance, depth, coordinate, optional normals) along a camera
+// trajectory into InfiniCube's Stage-2 clip layout, plus a contact sheet.
+//
+//   icube buffers WORLD [--scene SCENE] [--record SEL] [--trajectory FILE]
+//                 [--camera fx,fy,cx,cy,w,h | --camera-preset waymo-front-480p]
+//                 [--frames A:B[:S]] [--seed N] [--pixel-centres] [--normals] [--no-video]
+//                 [--clip NAME] -o OUTDIR
+//
+// Trajectory: --trajectory (.npy [N,4,4] / [P,N,4,4] or icube-trajectory
+// JSON, OpenCV camera-to-world in the scene's world frame), else the scene's
+// ego track with its first camera. Camera: --camera, --camera-preset, the
+// trajectory JSON's camera, the scene's first camera, else waymo-front-480p.
+// Output: OUTDIR/<clip>/ (pass_<k>/ per pass for [P,N,4,4]) is built in a
+// hidden staging folder and renamed into place at the end, so a failure
+// leaves nothing half-written; OUTDIR/contact_sheet.png.
+// Engine: engine/render/buffers/ (guidance_sequence.h, stage2_writer.h).
+#include "cli_common.h"
+#include "command_registry.h"
+#include "progress.h"
+
+#include "gpu/context.h"
+#include "render/buffers/contact_sheet.h"
+#include "render/buffers/frame_scene.h"
+#include "render/buffers/guidance_sequence.h"
+#include "render/buffers/overlay_world.h"
+#include "render/buffers/stage2_writer.h"
+#include "render/buffers/trajectory.h"
+#include "scene/frames.h"
+#include "scene/scene_load.h"
+#include "world/car_mesh.h"
+#include "world/npy.h"
+#include "world/world_file.h"
+
+#include <CLI/CLI.hpp>
+
+#include <unistd.h>
+
+#include <chrono>
+#include <csignal>
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+#include <optional>
+#include <string>
+
+namespace icube::tools {
+
+namespace {
+
+namespace fs = std::filesystem;
+
+struct BuffersArgs {
+  std::string world, scene, record, trajectory, camera, preset, frames, clip, output;
+  uint64_t seed = 0;
+  bool pixel_centres = false, normals = false, no_video = false;
+};
+
+std::string sanitize_clip(std::string s) {
+  for (char& c : s)
+    if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '-' || c == '_' || c == '.')) c = '_';
+  while (!s.empty() && s.front() == '.') s.erase(s.begin());
+  return s.empty() ? std::string("clip") : s;
+}
+
+// Removes the staging folder unless released.
+struct StagingDir {
+  fs::path path;
+  bool keep = false;
+  ~StagingDir() {
+    if (keep || path.empty()) return;
+    std::error_code ec;
+    fs::remove_all(path, ec);
+  }
+};
+
+void cmd_buffers(const BuffersArgs& a) {
+  run_command([&](scene::Diagnostics& diag) {
+    using Clock = std::chrono::steady_clock;
+    const auto t_start = Clock::now();
+    if (!a.camera.empty() && !a.preset.empty()) throw std::invalid_argument("give --camera or --camera-preset, not both");
+    std::optional<render::PinholeIntrinsics> cli_K;
+    if (!a.camera.empty()) cli_K = render::parse_camera(a.camera);
+    std::optional<scene::Camera> preset;
+    if (!a.preset.empty()) preset = render::camera_preset(a.preset);
+    std::optional<render::FrameRange> range;
+    if (!a.frames.empty()) range = render::parse_frame_range(a.frames);
+
+    const world::VoxelGrid world = world::load_world(a.world);
+    std::optional<scene::Scene> sc;
+    if (!a.scene.empty()) {
+      scene::LoadOptions lo;
+      lo.waymo_selector = a.record;
+      sc = scene::load_scene(a.scene, lo, &diag);
+      bool unassigned = false;
+      for (const auto& t : sc->tracks) unassigned = unassigned || (t.type == scene::ObjectType::Vehicle && t.instance_id == 0);
+      if (unassigned) scene::classify_tracks(*sc);
+    }
+    const scene::Scene* scene_ptr = sc ? &*sc : nullptr;
+
+    // Trajectory and camera.
+    std::vector<render::Trajectory> passes;
+    std::optional<render::PinholeIntrinsics> file_K;
+    if (!a.trajectory.empty()) {
+      render::TrajectoryFile tf = render::load_trajectory(a.trajectory, sc ? sc->timestamps.size() : 0);
+      passes = std::move(tf.passes);
+      file_K = tf.camera;
+    } else {
+      if (!sc) throw std::invalid_argument("give --scene (its ego track is the trajectory) or --trajectory FILE");
+      if (sc->ego.empty()) throw scene::InputError(a.scene, "ego", "the scene has no ego trajectory; give --trajectory FILE");
+      scene::Camera cam = !sc->cameras.empty() ? sc->cameras[0] : scene::waymo_front_camera();
+      if (preset) cam = *preset;
+      passes.push_back(render::ego_trajectory(*sc, cam));
+      if (passes[0].size() == 0) throw scene::InputError(a.scene, "ego", "no valid ego pose");
+    }
+    render::PinholeIntrinsics K;
+    if (cli_K) K = *cli_K;
+    else if (preset) K = render::intrinsics_of(*preset);
+    else if (file_K) K = *file_K;
+    else if (sc && !sc->cameras.empty()) K = render::intrinsics_of(sc->cameras[0]);
+    else K = render::intrinsics_of(scene::waymo_front_camera());
+    if (range)
+      for (auto& p : passes) p = render::select_frames(p, *range);
+    const std::string clip = sanitize_clip(
+        !a.clip.empty() ? a.clip
+                        : (sc && !sc->provenance.scenario_id.empty() ? sc->provenance.scenario_id
+                                                                      : fs::path(a.world).stem().string()));
+
+    // Static scene, on the GPU once.
+    const world::TriangleMesh mesh = world::builtin_car_mesh();
+    render::StaticSceneStats sst;
+    const int t0_index = passes[0].time_index.empty() ? 0 : std::max(0, passes[0].time_index[0]);
+    const world::VoxelGrid static_world =
+        sc ? render::make_static_world(world, *sc, t0_index, mesh, &sst) : world;
+    gpu::Context ctx(gpu::ContextOptions::from_env());
+    render::OverlayWorld overlay(ctx, static_world);
+
+    // Output staging.
+    fs::create_directories(a.output);
+    StagingDir staging;
+    staging.path = fs::path(a.output) / ("." + clip + ".partial-" + std::to_string(getpid()));
+    fs::remove_all(staging.path);
+    fs::create_directories(staging.path);
+
+    std::signal(SIGPIPE, SIG_IGN);  // a dying ffmpeg must not kill us
+    size_t total_frames = 0;
+    for (const auto& p : passes) total_frames += p.size();
+    ProgressBar bar("buffers", "frames");
+    size_t done_before = 0;
+    uint64_t rays = 0;
+    double cast_s = 0.0, write_s = 0.0, cars_s = 0.0, overlay_s = 0.0, other_s = 0.0;
+    std::vector<std::string> notes;
+    std::optional<render::GuidanceSequence> first_seq;
+    const glm::dmat4 w2v = render::world_to_voxel_world(passes[0].c2w[0]);
+    for (size_t p = 0; p < passes.size(); ++p) {
+      render::SequenceOptions so;
+      so.pixels = a.pixel_centres ? render::PixelConvention::Centre : render::PixelConvention::Integer;
+      so.seed = a.seed;
+      so.keep_normals = a.normals;
+      so.progress = [&](size_t done, size_t) { bar.update(done_before + done, total_frames); };
+      render::GuidanceSequence seq = render::render_sequence(ctx, overlay, scene_ptr, mesh, K, passes[p], so);
+      done_before += passes[p].size();
+      rays += seq.rays;
+      cast_s += seq.cast_s;
+      cars_s += seq.cars_s;
+      overlay_s += seq.overlay_s;
+      other_s += seq.download_s + seq.post_s;
+      const fs::path dir = passes.size() > 1 ? staging.path / ("pass_" + std::to_string(p)) : staging.path;
+      fs::create_directories(dir);
+      render::Stage2Options wo;
+      wo.clip = clip;
+      wo.videos = !a.no_video;
+      wo.normals = a.normals;
+      const render::Stage2Result wr = render::write_stage2(seq, scene_ptr, w2v, dir.string(), wo);
+      write_s += wr.write_s + wr.video_s;
+      if (p == 0) notes = wr.notes;
+      if (p == 0) first_seq = std::move(seq);
+    }
+    if (passes.size() > 1) {
+      std::vector<float> all;
+      for (const auto& p : passes)
+        for (const glm::dmat4& c2w : p.c2w) {
+          const glm::dmat4 m = w2v * c2w;
+          for (int r = 0; r < 4; ++r)
+            for (int c = 0; c < 4; ++c) all.push_back(static_cast<float>(m[c][r]));
+        }
+      bool same = true;
+      for (const auto& p : passes) same = same && p.size() == passes[0].size();
+      if (same)
+        world::write_npy((staging.path / "multi_pass_camera_poses.npy").string(),
+                         world::NpyArray::make<float>({passes.size(), passes[0].size(), 4, 4}, all));
+    }
+    // Into place.
+    const fs::path final_dir = fs::path(a.output) / clip;
+    if (fs::exists(final_dir)) fs::remove_all(final_dir);
+    fs::rename(staging.path, final_dir);
+    staging.keep = true;
+    const std::string sheet_path = (fs::path(a.output) / "contact_sheet.png").string();
+    render::write_contact_sheet(sheet_path, render::contact_sheet(*first_seq, clip + ": " + std::to_string(first_seq->frames.size()) +
+                                                                           " frames, " + std::to_string(K.width) + "x" +
+                                                                           std::to_string(K.height)));
+    for (const std::string& n : notes) diag.warn(a.output, "", n);
+    const double total_s = std::chrono::duration<double>(Clock::now() - t_start).count();
+    std::printf("buffers: %zu frames %ux%u, %.2f Mrays, %.2f s, %.2f Mrays/s ray casting (%.2f overall), %.2f frames/s "
+                "[cast %.2f s, cars %.2f s, overlay %.2f s, readback %.2f s, write %.2f s] -> %s\n",
+                total_frames, K.width, K.height, static_cast<double>(rays) * 1e-6, total_s,
+                cast_s > 0 ? static_cast<double>(rays) * 1e-6 / cast_s : 0.0,
+                total_s > 0 ? static_cast<double>(rays) * 1e-6 / total_s : 0.0,
+                total_s > 0 ? static_cast<double>(total_frames) / total_s : 0.0, cast_s, cars_s, overlay_s, other_s,
+                write_s, final_dir.string().c_str());
+  });
+}
+
+void add_buffers_commands(CLI::App& app) {
+  auto a = std::make_shared<BuffersArgs>();
+  CLI::App* cmd = app.add_subcommand(
+      "buffers", "Stage 2: render guidance buffers (semantic, instance, depth, coordinate) along a trajectory");
+  cmd->add_option("world", a->world, "World file (.icw)")->required()->type_name("WORLD");
+  cmd->add_option("--scene", a->scene, "Scene: ego trajectory, camera, static and dynamic cars")->type_name("SCENE");
+  cmd->add_option("--record", a->record, "Waymo TFRecord only: which record, by index or scenario id")->type_name("SEL");
+  cmd->add_option("--trajectory", a->trajectory,
+                  "Camera poses: .npy [N,4,4] or [P,N,4,4] OpenCV camera-to-world in the scene's world frame, or "
+                  "icube-trajectory JSON")
+      ->type_name("FILE");
+  cmd->add_option("--camera", a->camera, "Pinhole intrinsics in pixels")->type_name("fx,fy,cx,cy,w,h");
+  cmd->add_option("--camera-preset", a->preset, "waymo-front-480p: Waymo FRONT rescaled to 832x480")
+      ->type_name("NAME");
+  cmd->add_option("--frames", a->frames, "Frames [A, B) of the trajectory, every S-th with A:B:S (A:, :B, ::S and A also work)")->type_name("A:B[:S]");
+  cmd->add_option("--seed", a->seed, "Seed of the instance colours and the coordinate-range sampling")
+      ->type_name("N")
+      ->capture_default_str();
+  cmd->add_flag("--pixel-centres", a->pixel_centres, "Rays through pixel centres (u + 0.5) instead of InfiniCube's integer pixels");
+  cmd->add_flag("--normals", a->normals, "Also write face-normal PNGs");
+  cmd->add_flag("--no-video", a->no_video, "Do not write mp4 previews even when ffmpeg is found");
+  cmd->add_option("--clip", a->clip, "Clip name (default: the scenario id, else the world file's stem)")->type_name("NAME");
+  cmd->add_option("-o,--output", a->output, "Output folder (gets <clip>/ and contact_sheet.png)")->required()->type_name("OUTDIR");
+  cmd->footer(
+      "Per frame the world's vehicle voxels are replaced by the scene's cars voxelised from the built-in car mesh "
+      "(static cars once, dynamic cars per frame). Poses are written in InfiniCube's voxel world (first camera's "
+      "FLU frame); world_to_voxel_world.npy maps back. mp4s need ffmpeg on PATH.");
+  cmd->callback([a] { cmd_buffers(*a); });
+}
+
+const CommandRegistrar kRegistrar(add_buffers_commands, 45);
+
+}  // namespace
+
+}  // namespace icube::tools

@@ -1,0 +1,226 @@
+// `icube lidar`: a spinning LiDAR swept along the scene's ego track against a
+// voxel world (dynamic cars per frame, as `icube buffers`), written as PLY,
+// KITTI .bin, range-image PNGs and sensor poses.
+//
+//   icube lidar WORLD --scene SCENE [--record SEL] [--preset waymo-top]
+//               [--beams N] [--elevation MIN:MAX | --elevations e0,e1,...]
+//               [--columns N] [--range MIN:MAX] [--mount-height M]
+//               [--start-azimuth DEG] [--frames A:B] [--ply-world] -o OUTDIR
+//
+// Model: the preset (waymo-top, lidar_model.h), then the overrides: --beams
+// and/or --elevation give uniform beams (the missing one from the preset),
+// --elevations an explicit list; --mount-height puts the sensor M metres
+// above the ego origin. --frames selects positions of the ego track like
+// `icube buffers`. Every option is checked before anything is read or
+// written. Output (lidar_io.h) is built in a hidden staging folder next to
+// OUTDIR and renamed into place at the end, so a failure leaves nothing
+// half-written; an existing OUTDIR is replaced only if it is empty or an
+// earlier `icube lidar` output (has lidar.json).
+// Engine: engine/render/lidar/.
+#include "cli_common.h"
+#include "command_registry.h"
+#include "progress.h"
+
+#include "gpu/context.h"
+#include "render/buffers/frame_scene.h"
+#include "render/buffers/overlay_world.h"
+#include "render/buffers/trajectory.h"
+#include "render/lidar/lidar_io.h"
+#include "render/lidar/lidar_model.h"
+#include "render/lidar/lidar_sequence.h"
+#include "scene/atomic_file.h"
+#include "scene/scene_load.h"
+#include "world/car_mesh.h"
+#include "world/world_file.h"
+
+#include <CLI/CLI.hpp>
+
+#include <unistd.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <memory>
+#include <optional>
+#include <stdexcept>
+#include <string>
+
+namespace icube::tools {
+
+namespace {
+
+namespace fs = std::filesystem;
+
+struct LidarArgs {
+  std::string world, scene, record, preset = "waymo-top", beams, elevation, elevations, columns, range, mount_height,
+      start_azimuth, frames, output;
+  bool ply_world = false;
+};
+
+uint32_t parse_count(const std::string& s, const char* option, uint32_t max) {
+  char* end = nullptr;
+  const long long v = std::strtoll(s.c_str(), &end, 10);
+  if (s.empty() || *end != '\0' || v < 1 || v > static_cast<long long>(max))
+    throw std::invalid_argument(std::string(option) + ": expected an integer in 1.." + std::to_string(max) + ", got '" +
+                                s + "'");
+  return static_cast<uint32_t>(v);
+}
+
+double parse_real(const std::string& s, const char* option) {
+  char* end = nullptr;
+  const double v = std::strtod(s.c_str(), &end);
+  if (s.empty() || *end != '\0' || !std::isfinite(v))
+    throw std::invalid_argument(std::string(option) + ": expected a number, got '" + s + "'");
+  return v;
+}
+
+render::LidarModel model_from_args(const LidarArgs& a) {
+  render::LidarModel m = render::lidar_preset(a.preset);
+  if (!a.elevations.empty() && (!a.beams.empty() || !a.elevation.empty()))
+    throw std::invalid_argument("give --elevations, or --beams / --elevation, not both");
+  if (!a.elevations.empty()) m.elevations_deg = render::parse_elevation_list(a.elevations);
+  if (!a.beams.empty() || !a.elevation.empty()) {
+    const uint32_t beams = a.beams.empty() ? m.beams() : parse_count(a.beams, "--beams", 65535);
+    double lo = m.elevations_deg.back(), hi = m.elevations_deg.front();
+    if (!a.elevation.empty()) render::parse_min_max(a.elevation, "--elevation", &lo, &hi);
+    m.elevations_deg = render::uniform_elevations(beams, lo, hi);
+  }
+  if (!a.columns.empty()) m.columns = parse_count(a.columns, "--columns", 65535);
+  if (!a.range.empty()) render::parse_min_max(a.range, "--range", &m.min_range, &m.max_range);
+  if (!a.mount_height.empty()) {
+    const double h = parse_real(a.mount_height, "--mount-height");
+    if (std::fabs(h) > 100.0) throw std::invalid_argument("--mount-height: expected metres in -100..100");
+    m.sensor_to_ego[3].z = h;
+  }
+  if (!a.start_azimuth.empty()) m.start_azimuth_deg = parse_real(a.start_azimuth, "--start-azimuth");
+  render::validate_lidar(m);
+  return m;
+}
+
+// Removes the staging folder unless released.
+struct StagingDir {
+  fs::path path;
+  bool keep = false;
+  ~StagingDir() {
+    if (keep || path.empty()) return;
+    std::error_code ec;
+    fs::remove_all(path, ec);
+  }
+};
+
+// OUTDIR may be replaced: absent, an empty folder, or an earlier lidar output.
+void check_output(const fs::path& out) {
+  std::error_code ec;
+  if (!fs::exists(out, ec)) return;
+  if (!fs::is_directory(out, ec)) throw std::runtime_error(out.string() + ": exists and is not a folder");
+  if (fs::is_empty(out, ec) || fs::exists(out / "lidar.json", ec)) return;
+  throw std::runtime_error(out.string() + ": exists and is not an earlier `icube lidar` output (no lidar.json); "
+                                          "choose another -o or remove it");
+}
+
+void cmd_lidar(const LidarArgs& a) {
+  run_command([&](scene::Diagnostics& diag) {
+    using Clock = std::chrono::steady_clock;
+    const auto t_start = Clock::now();
+    const render::LidarModel model = model_from_args(a);
+    std::optional<render::FrameRange> range;
+    if (!a.frames.empty()) range = render::parse_frame_range(a.frames);
+    if (a.output.empty()) throw std::invalid_argument("-o OUTDIR is empty");
+    fs::path out = fs::absolute(a.output).lexically_normal();
+    if (out.filename().empty()) out = out.parent_path();
+    check_output(out);
+
+    const world::VoxelGrid world = world::load_world(a.world);
+    scene::LoadOptions lo;
+    lo.waymo_selector = a.record;
+    scene::Scene sc = scene::load_scene(a.scene, lo, &diag);
+    bool unassigned = false;
+    for (const auto& t : sc.tracks) unassigned = unassigned || (t.type == scene::ObjectType::Vehicle && t.instance_id == 0);
+    if (unassigned) scene::classify_tracks(sc);
+    if (sc.ego.empty()) throw scene::InputError(a.scene, "ego", "the scene has no ego trajectory");
+    render::Trajectory traj = render::lidar_ego_trajectory(sc, model.sensor_to_ego);
+    if (traj.size() == 0) throw scene::InputError(a.scene, "ego", "no valid ego pose");
+    if (range) traj = render::select_frames(traj, *range);
+
+    // Static scene on the GPU once; dynamic cars per frame.
+    const world::TriangleMesh mesh = world::builtin_car_mesh();
+    const world::VoxelGrid static_world = render::make_static_world(world, sc, std::max(0, traj.time_index[0]), mesh);
+    gpu::Context ctx(gpu::ContextOptions::from_env());
+    render::OverlayWorld overlay(ctx, static_world);
+
+    fs::create_directories(out.parent_path());
+    StagingDir staging;
+    staging.path = out.parent_path() / ("." + out.filename().string() + ".partial-" + std::to_string(getpid()));
+    fs::remove_all(staging.path);
+    fs::create_directories(staging.path);
+
+    ProgressBar bar("lidar", "frames");
+    render::LidarWriteOptions wo;
+    wo.world_frame_ply = a.ply_world;
+    double write_s = 0.0;
+    render::LidarSequenceOptions so;
+    so.progress = [&](size_t done, size_t total) { bar.update(done, total); };
+    so.on_frame = [&](const render::LidarScan& s) {
+      const auto t0 = Clock::now();
+      render::write_lidar_frame(staging.path.string(), s, model, wo);
+      write_s += std::chrono::duration<double>(Clock::now() - t0).count();
+    };
+    const render::LidarSequenceStats st = render::cast_lidar_sequence(ctx, overlay, &sc, mesh, model, traj, so);
+    const auto t0 = Clock::now();
+    scene::write_file_atomic((staging.path / "poses.npy").string(), render::lidar_poses_npy(traj.c2w));
+    scene::write_file_atomic((staging.path / "lidar.json").string(),
+                             render::lidar_meta_json(model, traj.frame_index, wo, a.world + " + " + a.scene));
+    write_s += std::chrono::duration<double>(Clock::now() - t0).count();
+
+    if (fs::exists(out)) fs::remove_all(out);
+    fs::rename(staging.path, out);
+    staging.keep = true;
+    const double total_s = std::chrono::duration<double>(Clock::now() - t_start).count();
+    const double mrays = static_cast<double>(st.rays) * 1e-6;
+    std::printf("lidar: %zu frames, %u beams x %u columns, %.2f Mrays, %llu returns (%.1f %%), %.2f s, %.2f Mrays/s ray "
+                "casting (%.2f overall) [cast %.2f s, rays up %.2f s, cars %.2f s, overlay %.2f s, readback %.2f s, "
+                "returns %.2f s, write %.2f s] -> %s\n",
+                st.frames, model.beams(), model.columns, mrays, static_cast<unsigned long long>(st.returns),
+                st.rays ? 100.0 * static_cast<double>(st.returns) / static_cast<double>(st.rays) : 0.0, total_s,
+                st.cast_s > 0 ? mrays / st.cast_s : 0.0, total_s > 0 ? mrays / total_s : 0.0, st.cast_s, st.upload_s,
+                st.cars_s, st.overlay_s, st.download_s, st.post_s, write_s, out.string().c_str());
+  });
+}
+
+void add_lidar_commands(CLI::App& app) {
+  auto a = std::make_shared<LidarArgs>();
+  CLI::App* cmd = app.add_subcommand("lidar", "Spinning LiDAR along the ego track: PLY, KITTI .bin, range images");
+  cmd->add_option("world", a->world, "World file (.icw)")->required()->type_name("WORLD");
+  cmd->add_option("--scene", a->scene, "Scene: ego trajectory, static and dynamic cars")->required()->type_name("SCENE");
+  cmd->add_option("--record", a->record, "Waymo TFRecord only: which record, by index or scenario id")->type_name("SEL");
+  cmd->add_option("--preset", a->preset, "Sensor preset: waymo-top (64 beams, +2.4..-17.6 deg, 2650 columns, 75 m)")
+      ->type_name("NAME")
+      ->capture_default_str();
+  cmd->add_option("--beams", a->beams, "Number of beams, spaced uniformly over --elevation")->type_name("N");
+  cmd->add_option("--elevation", a->elevation, "Vertical field of view in degrees (uniform beams)")->type_name("MIN:MAX");
+  cmd->add_option("--elevations", a->elevations, "Explicit beam elevations in degrees")->type_name("e0,e1,...");
+  cmd->add_option("--columns", a->columns, "Azimuth steps per rotation")->type_name("N");
+  cmd->add_option("--range", a->range, "Returns kept between MIN and MAX metres")->type_name("MIN:MAX");
+  cmd->add_option("--mount-height", a->mount_height, "Sensor height above the ego origin, metres")->type_name("M");
+  cmd->add_option("--start-azimuth", a->start_azimuth, "Azimuth of column 0's leading edge, degrees (CCW from forward)")
+      ->type_name("DEG");
+  cmd->add_option("--frames", a->frames, "Frames [A, B) of the ego track (A:, :B, A and A:B:S also work)")->type_name("A:B");
+  cmd->add_flag("--ply-world", a->ply_world, "PLY points in the world frame instead of the sensor frame");
+  cmd->add_option("-o,--output", a->output, "Output folder (ply/, bin/, range/, range_color/, poses.npy, lidar.json)")
+      ->required()
+      ->type_name("OUTDIR");
+  cmd->footer(
+      "Each sweep is cast from the frame's ego pose (motion during the rotation is ignored) with the voxel ray caster: "
+      "range = entry of the first >= 0.1 m run of voxels, class/instance = the first voxel with a >= 1 cm chord, "
+      "intensity = per-class reflectivity x |cos(incidence)|. The world's vehicle voxels are replaced by the scene's "
+      "cars (static once, dynamic per frame), as in `icube buffers`.");
+  cmd->callback([a] { cmd_lidar(*a); });
+}
+
+const CommandRegistrar kRegistrar(add_lidar_commands, 46);
+
+}  // namespace
+
+}  // namespace icube::tools
