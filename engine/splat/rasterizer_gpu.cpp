@@ -1,0 +1,203 @@
+// GPU host module of the Gaussian splatting rasterizer; see rasterizer_gpu.h.
+#include "splat/rasterizer_gpu.h"
+
+#include <algorithm>
+#include <bit>
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <stdexcept>
+
+namespace icube::splat {
+
+namespace {
+constexpr uint32_t kLocal = 64;  // non-cooperative kernels: any multiple of the subgroup size
+
+gpu::SpecConstants local_size() { return gpu::SpecConstants{}.set(0, kLocal /* local_size_x */); }
+
+// Grows `b` to at least `bytes` (rounded up by 1.5x to avoid reallocating every frame).
+void ensure(gpu::Context& ctx, gpu::Buffer& b, VkDeviceSize bytes, const char* name,
+            gpu::MemoryUsage usage = gpu::MemoryUsage::DeviceLocal) {
+  bytes = std::max<VkDeviceSize>(bytes, 16);
+  if (b.valid() && b.size() >= bytes) return;
+  b = gpu::Buffer(ctx, bytes + bytes / 2, usage, name);
+}
+}  // namespace
+
+struct SplatRendererGpu::Frame {
+  gpu::Buffer proj, rects, touched, offsets, scan_scratch, keys, values, ranges, rgba, depth, total;
+  std::unique_ptr<kernels::RadixSortScratch> sort_scratch;
+  std::unique_ptr<gpu::GpuTimer> t1, t2;
+  uint64_t bytes() const {
+    uint64_t s = 0;
+    for (const gpu::Buffer* b : {&proj, &rects, &touched, &offsets, &scan_scratch, &keys, &values, &ranges, &rgba, &depth})
+      s += b->valid() ? b->size() : 0;
+    if (sort_scratch)
+      s += sort_scratch->keys.size() + sort_scratch->values.size() + sort_scratch->histogram.size() +
+           sort_scratch->scan_scratch.size();
+    return s;
+  }
+};
+
+SplatRendererGpu::SplatRendererGpu(gpu::Context& ctx)
+    : ctx_(ctx),
+      preprocess_(ctx.program("splat_preprocess", local_size())),
+      duplicate_(ctx.program("splat_duplicate", local_size())),
+      ranges_(ctx.program("splat_ranges", local_size())),
+      blend_(ctx.program("splat_blend", local_size())),
+      scan_(ctx),
+      sort_(ctx, kernels::KeyWidth::Bits64),
+      f_(std::make_unique<Frame>()) {
+  f_->t1 = std::make_unique<gpu::GpuTimer>(ctx, 2);
+  f_->t2 = std::make_unique<gpu::GpuTimer>(ctx, 4);
+  f_->total = gpu::Buffer(ctx, 16, gpu::MemoryUsage::Readback, "splat-total");
+}
+
+SplatRendererGpu::~SplatRendererGpu() = default;
+
+GpuGaussians SplatRendererGpu::upload(const GaussianCloud& cloud) {
+  cloud.validate();
+  if (cloud.size() > UINT32_MAX / 4) throw std::invalid_argument("splat: too many Gaussians");
+  GpuGaussians g;
+  g.count = static_cast<uint32_t>(cloud.size());
+  g.sh_degree = cloud.sh_degree;
+  const uint32_t K = cloud.sh_coeffs();
+  g.sh_stride = (3 * K + 3) / 4 * 4;
+  if (!cloud.positions.empty()) {
+    glm::dvec3 lo = cloud.positions[0], hi = lo;
+    for (const auto& p : cloud.positions) {
+      lo = glm::min(lo, p);
+      hi = glm::max(hi, p);
+    }
+    g.origin = glm::floor(0.5 * (lo + hi));  // whole metres: exact in float for any planet-sized scene
+  }
+  std::vector<shader::SplatGaussian> rows(cloud.size());
+  std::vector<float> sh(cloud.size() * g.sh_stride, 0.0f);
+  for (size_t i = 0; i < cloud.size(); ++i) {
+    const glm::dvec3 d = cloud.positions[i] - g.origin;
+    const auto cov = covariance3d(cloud.scales[i], cloud.rotations[i]);
+    rows[i] = shader::SplatGaussian{static_cast<float>(d.x), static_cast<float>(d.y), static_cast<float>(d.z),
+                                    cloud.opacities[i], cov[0], cov[1], cov[2], cov[3], cov[4], cov[5], 0.0f, 0.0f};
+    std::memcpy(&sh[i * g.sh_stride], &cloud.sh[i * K * 3], K * 3 * sizeof(float));
+  }
+  g.gaussians = gpu::upload_vector(ctx_, rows, "splat-gaussians");
+  g.sh = gpu::upload_vector(ctx_, sh, "splat-sh");
+  return g;
+}
+
+SplatImage SplatRendererGpu::render(const GpuGaussians& g, const render::Camera& cam, const SplatOptions& opts,
+                                    SplatTimings* timings, SplatDebug* debug, bool download) {
+  const auto t0 = std::chrono::steady_clock::now();
+  SplatFrame frame = make_frame(cam, opts, g.origin);
+  const uint32_t W = cam.K.width, H = cam.K.height;
+  const uint32_t tiles = frame.grid_x * frame.grid_y;
+  const uint64_t n = g.count;
+  Frame& f = *f_;
+  const uint64_t limit = ctx_.info().max_storage_buffer_range;
+  if (n * sizeof(shader::SplatProjected) > limit)
+    throw std::invalid_argument("splat: " + std::to_string(n) + " Gaussians exceed one storage binding");
+  ensure(ctx_, f.proj, n * sizeof(shader::SplatProjected), "splat-proj");
+  ensure(ctx_, f.rects, n * 16, "splat-rects");
+  ensure(ctx_, f.touched, n * 4, "splat-touched");
+  ensure(ctx_, f.offsets, n * 4, "splat-offsets");
+  ensure(ctx_, f.scan_scratch, kernels::PrefixScan::scratch_elements(n) * 4, "splat-scan-scratch");
+  ensure(ctx_, f.ranges, uint64_t{tiles} * 8, "splat-ranges");
+  ensure(ctx_, f.rgba, uint64_t{W} * H * 16, "splat-rgba");
+  ensure(ctx_, f.depth, uint64_t{W} * H * 8, "splat-depth");
+
+  // Submission 1: preprocess, scan of the tile counts, total to the host.
+  uint32_t total = 0;
+  double pre_ms = 0.0;
+  if (n > 0) {
+    const auto windows = gpu::storage_windows(ctx_.info(), n, g.sh_stride * 4);
+    ctx_.submit_and_wait([&](gpu::CommandList& cmd) {
+      f.t1->reset(cmd);
+      const int ti = f.t1->begin(cmd, "preprocess");
+      for (const auto& w : windows) {
+        shader::SplatPreprocessParams p = frame.pre;
+        p.n = static_cast<uint32_t>(w.count);
+        p.first = static_cast<uint32_t>(w.first);
+        p.sh_stride = g.sh_stride;
+        p.sh_degree = g.sh_degree;
+        cmd.dispatch(preprocess_, {w.count}, p,
+                     {g.gaussians.binding(0, n * sizeof(shader::SplatGaussian)),
+                      g.sh.binding(w.first * g.sh_stride * 4, w.count * g.sh_stride * 4),
+                      f.proj.binding(0, n * sizeof(shader::SplatProjected)), f.rects.binding(0, n * 16),
+                      f.touched.binding(0, n * 4)});
+      }
+      cmd.barrier(gpu::deps::kComputeToCompute);  // the scan reads touched[]
+      scan_.record(cmd, f.touched, f.offsets, n, kernels::ScanKind::Inclusive, &f.scan_scratch);
+      cmd.barrier(gpu::deps::kComputeToTransfer);  // the copy reads the last offset
+      cmd.copy_buffer(f.offsets.binding((n - 1) * 4, 4), f.total.binding(0, 4));
+      f.t1->end(cmd, ti);
+    });
+    std::memcpy(&total, f.total.mapped(), 4);
+    pre_ms = f.t1->milliseconds(0);
+  }
+
+  // Submission 2: keys, sort, ranges, blend.
+  const uint64_t inst = total;
+  if (inst > sort_.max_elements())
+    throw std::runtime_error("splat: " + std::to_string(inst) + " tile instances exceed the radix sort limit of " +
+                             std::to_string(sort_.max_elements()));
+  if (inst > 0) {
+    ensure(ctx_, f.keys, inst * 8, "splat-keys");
+    ensure(ctx_, f.values, inst * 4, "splat-values");
+    if (!f.sort_scratch || f.sort_scratch->capacity < inst)
+      f.sort_scratch = std::make_unique<kernels::RadixSortScratch>(ctx_, inst + inst / 2, kernels::KeyWidth::Bits64);
+  }
+  const uint32_t key_bits = 32 + std::max<uint32_t>(1, static_cast<uint32_t>(std::bit_width(tiles - 1u)));
+  shader::SplatBlendParams bp{W, H, frame.grid_x, frame.grid_y, static_cast<float>(render::pixel_offset(opts.pixels)),
+                              opts.background.x, opts.background.y, opts.background.z};
+  ctx_.submit_and_wait([&](gpu::CommandList& cmd) {
+    f.t2->reset(cmd);
+    const int ts = f.t2->begin(cmd, "sort");
+    if (inst > 0) {
+      cmd.dispatch(duplicate_, {n}, shader::SplatDuplicateParams{static_cast<uint32_t>(n), frame.grid_x, 0, 0},
+                   {f.proj.binding(0, n * sizeof(shader::SplatProjected)), f.rects.binding(0, n * 16),
+                    f.touched.binding(0, n * 4), f.offsets.binding(0, n * 4), f.keys.binding(0, inst * 8),
+                    f.values.binding(0, inst * 4)});
+      cmd.barrier(gpu::deps::kComputeToCompute);  // the sort reads the keys and values
+      sort_.record(cmd, f.keys, f.values, inst, *f.sort_scratch, key_bits);
+    }
+    cmd.fill_buffer(f.ranges.binding(0, uint64_t{tiles} * 8), 0u);
+    cmd.barrier(gpu::deps::kTransferToCompute);  // the ranges kernel writes into the zeroed ranges
+    cmd.barrier(gpu::deps::kComputeToCompute);   // ... and reads the sorted keys
+    if (inst > 0)
+      cmd.dispatch(ranges_, {inst}, shader::SplatRangesParams{static_cast<uint32_t>(inst), 0, 0, 0},
+                   {f.keys.binding(0, inst * 8), f.ranges.binding(0, uint64_t{tiles} * 8)});
+    f.t2->end(cmd, ts);
+    cmd.barrier(gpu::deps::kComputeToCompute);  // blend reads the ranges
+    const int tb = f.t2->begin(cmd, "blend");
+    cmd.dispatch(blend_, {uint64_t{tiles} * 32 /* invocations per tile: 16 rows x 2 halves */}, bp,
+                 {f.ranges.binding(0, uint64_t{tiles} * 8), inst > 0 ? f.values.binding(0, inst * 4) : f.ranges.binding(0, 8),
+                  n > 0 ? f.proj.binding(0, n * sizeof(shader::SplatProjected)) : f.rgba.binding(0, 48),
+                  f.rgba.binding(0, uint64_t{W} * H * 16), f.depth.binding(0, uint64_t{W} * H * 8)});
+    f.t2->end(cmd, tb);
+  });
+
+  SplatImage img;
+  img.width = W;
+  img.height = H;
+  if (download) {
+    img.rgba = gpu::download_vector<float>(ctx_, f.rgba, size_t{W} * H * 4);
+    img.depth = gpu::download_vector<float>(ctx_, f.depth, size_t{W} * H * 2);
+  }
+  if (debug) {
+    debug->proj = gpu::download_vector<shader::SplatProjected>(ctx_, f.proj, n);
+    debug->keys = inst ? gpu::download_vector<uint64_t>(ctx_, f.keys, inst) : std::vector<uint64_t>{};
+    debug->values = inst ? gpu::download_vector<uint32_t>(ctx_, f.values, inst) : std::vector<uint32_t>{};
+    debug->ranges = gpu::download_vector<uint32_t>(ctx_, f.ranges, size_t{tiles} * 2);
+  }
+  if (timings) {
+    timings->preprocess_ms = pre_ms;
+    timings->sort_ms = f.t2->milliseconds(0);
+    timings->blend_ms = f.t2->milliseconds(1);
+    timings->instances = inst;
+    timings->frame_bytes = f.bytes();
+    timings->wall_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  }
+  return img;
+}
+
+}  // namespace icube::splat

@@ -1,0 +1,91 @@
+// Push constants and per-Gaussian records of the Gaussian splatting
+// rasterizer (shaders/splat_*.comp; host module engine/splat/rasterizer_gpu.h,
+// CPU reference engine/splat/rasterizer_cpu.h). Shared by GLSL and C++.
+//
+// Inputs per Gaussian: SplatGaussian (position relative to the scene origin,
+// activated opacity, Σ as 6 floats) and a row of sh_stride floats of raw SH
+// coefficients (k-major, then RGB). The camera position is relative to the same
+// scene origin (split on the host in double), so scenes far from the world
+// origin render like scenes at it.
+#ifndef ICUBE_SPLAT_PARAMS_H
+#define ICUBE_SPLAT_PARAMS_H
+#include "gpu_types.h"
+
+#define SPLAT_TILE 16
+#define SPLAT_TILE_PIXELS 256
+
+ICUBE_SHADER_NAMESPACE_BEGIN
+
+// std430, 48 bytes (three vec4).
+struct SplatGaussian {
+  float px, py, pz;  // metres, relative to the scene origin
+  float opacity;     // sigmoid(raw)
+  float c00, c01, c02, c11, c12, c22;  // Σ (world), metres²
+  float pad0, pad1;
+};
+
+// Result of preprocessing, 48 bytes. radius == 0 marks a culled Gaussian.
+struct SplatProjected {
+  float mean_x, mean_y;  // pixels: fx·x/z + cx, fy·y/z + cy
+  float depth;           // view z (metres)
+  float opacity;         // opacity · antialiasing compensation
+  float conic_x, conic_y, conic_z;  // inverse 2-D covariance (a', b', c')
+  float radius;                     // pixels (integer valued)
+  float r, g, b;                    // SH colour + 0.5, clamped at 0
+  float pad;
+};
+
+struct SplatPreprocessParams {
+  uint n;          // Gaussians in this window
+  uint first;      // index of the window's first Gaussian
+  uint sh_stride;  // floats per Gaussian in the SH binding
+  uint sh_degree;
+  float r00, r01, r02, r10, r11, r12, r20, r21, r22;  // world-to-camera rotation (row-major)
+  float cam_x, cam_y, cam_z;                          // camera position relative to the scene origin
+  float fx, fy, cx, cy;
+  float lim_x_pos, lim_x_neg, lim_y_pos, lim_y_neg;  // Jacobian clamp on x/z and y/z
+  float near_z, far_z, eps2d;
+  uint antialiased;
+  uint width, height, grid_x, grid_y;
+};
+
+struct SplatDuplicateParams {
+  uint n;  // Gaussians
+  uint grid_x;
+  uint pad0, pad1;
+};
+
+struct SplatRangesParams {
+  uint n;  // instances (sorted keys)
+  uint pad0, pad1, pad2;
+};
+
+struct SplatBlendParams {
+  uint width, height, grid_x, grid_y;
+  float pixel_offset;  // pixel (u, v) is sampled at (u + o, v + o)
+  float bg_r, bg_g, bg_b;
+};
+
+ICUBE_SHADER_NAMESPACE_END
+
+ICUBE_CHECK_SIZE(SplatGaussian, 48);
+ICUBE_CHECK_LAYOUT(SplatGaussian, opacity, 12);
+ICUBE_CHECK_LAYOUT(SplatGaussian, c00, 16);
+ICUBE_CHECK_SIZE(SplatProjected, 48);
+ICUBE_CHECK_LAYOUT(SplatProjected, opacity, 12);
+ICUBE_CHECK_LAYOUT(SplatProjected, conic_x, 16);
+ICUBE_CHECK_LAYOUT(SplatProjected, radius, 28);
+ICUBE_CHECK_LAYOUT(SplatProjected, r, 32);
+ICUBE_CHECK_SIZE(SplatPreprocessParams, 128);
+ICUBE_CHECK_LAYOUT(SplatPreprocessParams, r00, 16);
+ICUBE_CHECK_LAYOUT(SplatPreprocessParams, cam_x, 52);
+ICUBE_CHECK_LAYOUT(SplatPreprocessParams, fx, 64);
+ICUBE_CHECK_LAYOUT(SplatPreprocessParams, lim_x_pos, 80);
+ICUBE_CHECK_LAYOUT(SplatPreprocessParams, near_z, 96);
+ICUBE_CHECK_LAYOUT(SplatPreprocessParams, width, 112);
+ICUBE_CHECK_SIZE(SplatDuplicateParams, 16);
+ICUBE_CHECK_SIZE(SplatRangesParams, 16);
+ICUBE_CHECK_SIZE(SplatBlendParams, 32);
+ICUBE_CHECK_LAYOUT(SplatBlendParams, pixel_offset, 16);
+
+#endif

@@ -1,0 +1,48 @@
+#version 460
+#extension GL_GOOGLE_include_directive : require
+// splat_preprocess: one invocation per Gaussian of a window [first, first + n):
+// camera-relative position, EWA projection, conic, radius, tile rect, SH colour
+// (common/splat_project.glsl; rules in engine/splat/rasterizer_cpu.h).
+// Inputs: gaussians[3i..3i+2] = (pos - origin, opacity), (Σ00 Σ01 Σ02 Σ11),
+// (Σ12 Σ22, 0, 0), i.e. SplatGaussian (48 B, read as three vec4); the SH
+// window holds sh_stride floats per Gaussian starting at Gaussian `first`.
+// Outputs (global index): proj[3i..3i+2] (SplatProjected), rects[i] (tile rect,
+// zero when culled), touched[i] = tiles in the rect (0 when culled).
+// Host module: engine/splat/rasterizer_gpu.cpp; test: tests/test_splat.cpp.
+#include "shared/splat_params.h"
+#include "common/dispatch.glsl"
+
+layout(local_size_x_id = 0) in;
+layout(push_constant) uniform Push { SplatPreprocessParams p; };
+layout(std430, binding = 0) readonly buffer Gaussians { vec4 gaussians[]; };
+layout(std430, binding = 1) readonly buffer Sh { float sh_coeffs[]; };
+layout(std430, binding = 2) writeonly buffer Proj { vec4 proj[]; };
+layout(std430, binding = 3) writeonly buffer Rects { uvec4 rects[]; };
+layout(std430, binding = 4) writeonly buffer Touched { uint touched[]; };
+
+#include "common/splat_project.glsl"
+
+void main() {
+  const uint li = ICUBE_THREAD_LINEAR();
+  if (li >= p.n) return;
+  const uint i = p.first + li;
+  const vec4 g0 = gaussians[3u * i];
+  const vec4 g1 = gaussians[3u * i + 1u];
+  const vec4 g2 = gaussians[3u * i + 2u];
+  float cov[6];
+  cov[0] = g1.x;
+  cov[1] = g1.y;
+  cov[2] = g1.z;
+  cov[3] = g1.w;
+  cov[4] = g2.x;
+  cov[5] = g2.y;
+  vec4 o0, o1, o2;
+  uvec4 rect;
+  const vec3 d = g0.xyz - vec3(p.cam_x, p.cam_y, p.cam_z);
+  const bool vis = splat_project(d, g0.w, cov, li * p.sh_stride, o0, o1, o2, rect);
+  proj[3u * i] = o0;
+  proj[3u * i + 1u] = o1;
+  proj[3u * i + 2u] = o2;
+  rects[i] = rect;
+  touched[i] = vis ? (rect.z - rect.x) * (rect.w - rect.y) : 0u;
+}
