@@ -170,6 +170,7 @@ void Context::create_device() {
   std::vector<const char*> extensions;
   if (d.push_descriptor) extensions.push_back(VK_KHR_PUSH_DESCRIPTOR_EXTENSION_NAME);
   if (d.atomic_float_add) extensions.push_back(VK_EXT_SHADER_ATOMIC_FLOAT_EXTENSION_NAME);
+  for (const char* e : options_.extra_device_extensions) extensions.push_back(e);
 
   VkDeviceCreateInfo dci{VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO};
   dci.pNext = &f2;

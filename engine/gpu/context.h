@@ -29,6 +29,7 @@ struct ContextOptions {
   bool disable_push_descriptors = false;  // use pooled descriptor sets even where push descriptors exist (tests)
   bool headless = true;        // no surface extensions (the viewer turns this off)
   std::vector<const char*> extra_instance_extensions;
+  std::vector<const char*> extra_device_extensions;  // e.g. VK_KHR_swapchain for the viewer
 
   // Reads ICUBE_VALIDATION (1/0) and ICUBE_DEVICE.
   static ContextOptions from_env();
