@@ -7,6 +7,7 @@
 #include <doctest/doctest.h>
 
 #include "gpu_test_context.h"
+#include "test_world_util.h"
 #include "test_stb_image.h"
 
 #include "render/buffers/contact_sheet.h"
@@ -248,29 +249,11 @@ TEST_CASE("guidance buffers: dynamic cars are overlaid per frame, the static wor
   CHECK(diff == 0);
 }
 
-namespace {
-
-// The procedural prior on the first `limit` chunks only (keeps the test fast).
-class FirstChunks : public world::WorldGenerator {
- public:
-  FirstChunks(const world::WorldGenerator& inner, size_t limit) : inner_(inner), limit_(limit) {}
-  std::string name() const override { return "first-chunks"; }
-  world::ChunkVoxels generate(const world::ChunkRequest& r) const override {
-    if (r.chunk >= limit_) return {};
-    return inner_.generate(r);
-  }
-
- private:
-  const world::WorldGenerator& inner_;
-  size_t limit_;
-};
-
-}  // namespace
 
 TEST_CASE("guidance buffers: a procedural demo world along the demo ego drive, written in the Stage-2 layout") {
   const scene::Scene s = world::make_demo_scene();
   const world::ProceduralPrior prior(s);
-  const FirstChunks gen(prior, 2);
+  const test::FirstChunks gen(prior, 2);
   world::WorldBuildOptions bo;
   bo.threads = 2;
   const world::WorldBuildResult built = world::build_world(s, gen, bo);
@@ -407,7 +390,7 @@ TEST_CASE("guidance buffers: the real Waymo scenario renders along its ego track
   }
   const scene::Scene s = scene::load_scene(data + "/maps/waymo/motion_data_one_scenario.tfrecord");
   const world::ProceduralPrior prior(s);
-  const FirstChunks gen(prior, 1);
+  const test::FirstChunks gen(prior, 1);
   world::WorldBuildOptions bo;
   bo.threads = 2;
   const world::WorldBuildResult built = world::build_world(s, gen, bo);

@@ -7,6 +7,7 @@
 #include <doctest/doctest.h>
 
 #include "gpu_test_context.h"
+#include "test_world_util.h"
 #include "test_stb_image.h"
 
 #include "render/buffers/frame_scene.h"
@@ -372,30 +373,12 @@ TEST_CASE("lidar: PLY, KITTI .bin, range PNGs and poses read back") {
   std::filesystem::remove_all(dir);
 }
 
-namespace {
-
-// The procedural prior on the first `limit` chunks only (keeps the test fast).
-class FirstChunksOnly : public world::WorldGenerator {
- public:
-  FirstChunksOnly(const world::WorldGenerator& inner, size_t limit) : inner_(inner), limit_(limit) {}
-  std::string name() const override { return "first-chunks"; }
-  world::ChunkVoxels generate(const world::ChunkRequest& r) const override {
-    if (r.chunk >= limit_) return {};
-    return inner_.generate(r);
-  }
-
- private:
-  const world::WorldGenerator& inner_;
-  size_t limit_;
-};
-
-}  // namespace
 
 TEST_CASE("lidar: two frames of the procedural demo world with dynamic cars") {
   using Clock = std::chrono::steady_clock;
   const scene::Scene s = world::make_demo_scene();
   const world::ProceduralPrior prior(s);
-  const FirstChunksOnly gen(prior, 2);
+  const test::FirstChunks gen(prior, 2);
   world::WorldBuildOptions bo;
   bo.threads = 2;
   const world::WorldBuildResult built = world::build_world(s, gen, bo);

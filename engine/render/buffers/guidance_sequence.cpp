@@ -1,6 +1,8 @@
 // Rendering a trajectory into guidance frames; see guidance_sequence.h.
 #include "render/buffers/guidance_sequence.h"
 
+#include "render/buffers/dynamic_cars.h"
+
 #include "render/buffers/overlay_world.h"
 
 #include <algorithm>
@@ -31,24 +33,16 @@ GuidanceSequence render_sequence(gpu::Context& ctx, OverlayWorld& world, const s
   const glm::dmat4 inv0 = glm::inverse(traj.c2w[0]);
   const RaycastWorld& rw = world.world();
   std::set<uint16_t> ids;
-  int cached_time = -2;
-  std::vector<CarCell> cells;
-  CarVoxelCache car_cache;
+  DynamicCarOverlay cars(world, scene, mesh);
+  DynamicCarCosts car_costs;
   for (size_t f = 0; f < traj.size(); ++f) {
-    auto t0 = Clock::now();
     const int ti = traj.time_index[f];
-    if (ti != cached_time) {
-      cells.clear();
-      if (scene && ti >= 0) cells = dynamic_car_cells(*scene, ti, mesh, rw.gpu.origin, rw.gpu.voxel_size, nullptr, &car_cache);
-      cached_time = ti;
-      seq.cars_s += seconds_since(t0);
-      t0 = Clock::now();
-      const OverlayStats st = world.set_overlay(cells);
-      seq.max_overlay_bricks = std::max(seq.max_overlay_bricks, st.bricks);
-      seq.overlay_bytes += st.uploaded_bytes;
-      seq.overlay_s += seconds_since(t0);
-    }
-    t0 = Clock::now();
+    cars.set_time(ti, car_costs);
+    seq.cars_s = car_costs.cars_s;
+    seq.overlay_s = car_costs.overlay_s;
+    seq.max_overlay_bricks = car_costs.max_overlay_bricks;
+    seq.overlay_bytes = car_costs.overlay_bytes;
+    auto t0 = Clock::now();
     Camera cam;
     cam.K = K;
     cam.c2w = traj.c2w[f];

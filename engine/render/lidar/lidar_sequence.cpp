@@ -1,6 +1,7 @@
 // LiDAR sweeps along a trajectory with per-frame dynamic cars; see lidar_sequence.h.
 #include "render/lidar/lidar_sequence.h"
 
+#include "render/buffers/dynamic_cars.h"
 #include "render/buffers/overlay_world.h"
 
 #include <algorithm>
@@ -32,24 +33,16 @@ LidarSequenceStats cast_lidar_sequence(gpu::Context& ctx, OverlayWorld& world, c
   LidarCaster caster(ctx, model);
   LidarSequenceStats st;
   const RaycastWorld& rw = world.world();
-  int cached_time = -2;
-  std::vector<CarCell> cells;
-  CarVoxelCache car_cache;
+  DynamicCarOverlay cars(world, scene, mesh);
+  DynamicCarCosts car_costs;
   for (size_t f = 0; f < traj.size(); ++f) {
-    auto t0 = Clock::now();
     const int ti = traj.time_index[f];
-    if (ti != cached_time) {
-      cells.clear();
-      if (scene && ti >= 0)
-        cells = dynamic_car_cells(*scene, ti, mesh, rw.gpu.origin, rw.gpu.voxel_size, nullptr, &car_cache);
-      cached_time = ti;
-      st.cars_s += seconds_since(t0);
-      t0 = Clock::now();
-      const OverlayStats os = world.set_overlay(cells);
-      st.max_overlay_bricks = std::max(st.max_overlay_bricks, os.bricks);
-      st.overlay_bytes += os.uploaded_bytes;
-      st.overlay_s += seconds_since(t0);
-    }
+    cars.set_time(ti, car_costs);
+    st.cars_s = car_costs.cars_s;
+    st.overlay_s = car_costs.overlay_s;
+    st.max_overlay_bricks = car_costs.max_overlay_bricks;
+    st.overlay_bytes = car_costs.overlay_bytes;
+    auto t0 = Clock::now();
     LidarScan scan = caster.cast(rw, traj.c2w[f]);
     scan.frame_index = traj.frame_index[f];
     scan.time_index = ti;
