@@ -75,6 +75,7 @@ Compare compare(splat::SplatRendererGpu& gpu, const splat::GaussianCloud& cloud,
                   double(b.depth), double(a.conic_x), double(a.conic_y), double(a.conic_z), double(b.conic_x),
                   double(b.conic_y), double(b.conic_z));
   }
+  INFO("splat_preprocess.comp: radii, means, conics, depths, opacities, colours");
   CHECK(bad == 0);
   r.instances = bins.keys.size();
   // Tile-intersection lists: the (tile, Gaussian) sequence must be identical. The depth
@@ -83,12 +84,15 @@ Compare compare(splat::SplatRendererGpu& gpu, const splat::GaussianCloud& cloud,
   std::vector<uint32_t> gt(dbg.keys.size()), ct(bins.keys.size());
   for (size_t i = 0; i < gt.size(); ++i) gt[i] = static_cast<uint32_t>(dbg.keys[i] >> 32);
   for (size_t i = 0; i < ct.size(); ++i) ct[i] = static_cast<uint32_t>(bins.keys[i] >> 32);
+  INFO("splat_duplicate.comp + radix sort: the sorted (tile, Gaussian) list");
   CHECK(test::equal_report(gt, ct, "key tile ids"));
   size_t same_keys = 0;
   for (size_t i = 0; i < std::min(dbg.keys.size(), bins.keys.size()); ++i) same_keys += dbg.keys[i] == bins.keys[i];
   r.equal_keys = same_keys;
   CHECK(test::equal_report(dbg.values, bins.values, "values"));
+  INFO("splat_ranges.comp: per-tile ranges");
   CHECK(test::equal_report(dbg.ranges, bins.ranges, "ranges"));
+  INFO("splat_blend.comp: RGBA and expected/median depth per pixel");
 
   r.pixels = size_t{gi.width} * gi.height;
   REQUIRE(gi.rgba.size() == ci.rgba.size());
@@ -155,7 +159,7 @@ TEST_CASE("splat cpu: one isotropic Gaussian matches hand-computed values") {
   CHECK(splat::preprocess_cpu(c, cam, o)[0].radius == 0.0f);
 }
 
-TEST_CASE("splat gpu vs cpu: random scenes") {
+TEST_CASE("splat gpu vs cpu, stage by stage (splat_preprocess, splat_duplicate + sort, splat_ranges, splat_blend): random scenes") {
   Renderer R;
   struct Case {
     uint32_t seed, degree;
@@ -181,7 +185,7 @@ TEST_CASE("splat gpu vs cpu: random scenes") {
   }
 }
 
-TEST_CASE("splat gpu vs cpu: the real .ply") {
+TEST_CASE("splat gpu vs cpu, stage by stage (splat_preprocess, splat_duplicate + sort, splat_ranges, splat_blend): the real .ply") {
   Renderer R;
   const std::string dir = test::test_data_dir();
   const std::string path = dir + "/splats/pc_short.ply";
