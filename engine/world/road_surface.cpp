@@ -13,6 +13,9 @@
 // cells) and then cropped to its own cells; see build_block_margin.
 #include "world/road_surface.h"
 
+#include "world/nearest_points_2d.h"
+#include "world/plane_fit.h"
+
 #include "world/polyline_resample.h"
 
 #include <algorithm>
@@ -33,11 +36,6 @@ constexpr double kMaxLatticeIndex = 1 << 30;
 constexpr double kMaxSegmentLength = 1e5;
 // Cells per block side above this are rejected (mask memory).
 constexpr int kMaxCellsPerSide = 8192;
-// A fitted plane whose unit normal has |z| below this (steeper than ~84°) is
-// not a road: the block gets the horizontal fallback plane instead.
-constexpr double kMinNormalZ = 0.1;
-// Collinearity test: middle eigenvalue <= this times the largest.
-constexpr double kCollinearRatio = 1e-12;
 
 uint64_t pack_block(int x, int y) {
   return (static_cast<uint64_t>(static_cast<uint32_t>(x)) << 32) | static_cast<uint64_t>(static_cast<uint32_t>(y));
@@ -298,76 +296,11 @@ size_t flood_from_lanes(Raster& r, const BlockWork& w, const std::vector<glm::dv
 
 // ---- nearest-point search for the split rule ----------------------------------------
 
-// A static 2-D k-d tree over points (median splits on the wider axis, small
-// leaves), answering "squared distance to the nearest point, if below a limit".
-class NearestPoints {
- public:
-  explicit NearestPoints(std::vector<glm::dvec2> pts) : points_(std::move(pts)) {
-    for (const glm::dvec2& p : points_) lo_ = glm::min(lo_, p), hi_ = glm::max(hi_, p);
-    if (!points_.empty()) build(0, points_.size(), 0);
-  }
-  bool empty() const { return points_.empty(); }
-
-  // Lowers `best` (a squared distance) to that of the nearest point when it is nearer.
-  void nearest2(const glm::dvec2& q, double& best) const {
-    if (points_.empty()) return;
-    const glm::dvec2 d = glm::max(glm::max(lo_ - q, q - hi_), glm::dvec2(0.0));
-    if (d.x * d.x + d.y * d.y < best) search(q, 0, points_.size(), 0, best);
-  }
-
- private:
-  static constexpr size_t kLeaf = 8;
-  struct Node {
-    double split = 0.0;
-    int axis = 0;
-  };
-
-  void build(size_t lo, size_t hi, size_t node) {
-    if (hi - lo <= kLeaf) return;
-    if (nodes_.size() <= node) nodes_.resize(node + 1);
-    glm::dvec2 mn(std::numeric_limits<double>::infinity()), mx(-std::numeric_limits<double>::infinity());
-    for (size_t i = lo; i < hi; ++i) mn = glm::min(mn, points_[i]), mx = glm::max(mx, points_[i]);
-    const int axis = mx.x - mn.x >= mx.y - mn.y ? 0 : 1;
-    const size_t mid = lo + (hi - lo) / 2;
-    std::nth_element(points_.begin() + static_cast<std::ptrdiff_t>(lo), points_.begin() + static_cast<std::ptrdiff_t>(mid),
-                     points_.begin() + static_cast<std::ptrdiff_t>(hi),
-                     [axis](const glm::dvec2& a, const glm::dvec2& b) { return a[axis] < b[axis]; });
-    nodes_[node] = {points_[mid][axis], axis};
-    build(lo, mid, 2 * node + 1);
-    build(mid, hi, 2 * node + 2);
-  }
-
-  // Points [lo, mid) are <= split on the node's axis, [mid, hi) are >= split.
-  void search(const glm::dvec2& q, size_t lo, size_t hi, size_t node, double& best) const {
-    if (hi - lo <= kLeaf) {
-      for (size_t i = lo; i < hi; ++i) {
-        const glm::dvec2 d = points_[i] - q;
-        best = std::min(best, d.x * d.x + d.y * d.y);
-      }
-      return;
-    }
-    const Node& n = nodes_[node];
-    const size_t mid = lo + (hi - lo) / 2;
-    const double diff = q[n.axis] - n.split;
-    if (diff < 0.0) {
-      search(q, lo, mid, 2 * node + 1, best);
-      if (diff * diff < best) search(q, mid, hi, 2 * node + 2, best);
-    } else {
-      search(q, mid, hi, 2 * node + 2, best);
-      if (diff * diff < best) search(q, lo, mid, 2 * node + 1, best);
-    }
-  }
-
-  std::vector<glm::dvec2> points_;
-  std::vector<Node> nodes_;
-  glm::dvec2 lo_{std::numeric_limits<double>::infinity()}, hi_{-std::numeric_limits<double>::infinity()};
-};
-
 // One k-d tree per block and kind, built on first use.
 class BlockTrees {
  public:
   BlockTrees(const PointBins& bins, const std::vector<glm::dvec3>& pts) : bins_(bins), pts_(pts) {}
-  const NearestPoints& at(const glm::ivec2& b) {
+  const NearestPoints2d& at(const glm::ivec2& b) {
     const uint64_t key = pack_block(b.x, b.y);
     auto it = trees_.find(key);
     if (it != trees_.end()) return it->second;
@@ -375,13 +308,13 @@ class BlockTrees {
     const auto bin = bins_.find(key);
     if (bin != bins_.end())
       for (uint32_t i : bin->second) local.emplace_back(pts_[i]);
-    return trees_.emplace(key, NearestPoints(std::move(local))).first->second;
+    return trees_.emplace(key, NearestPoints2d(std::move(local))).first->second;
   }
 
  private:
   const PointBins& bins_;
   const std::vector<glm::dvec3>& pts_;
-  std::unordered_map<uint64_t, NearestPoints> trees_;
+  std::unordered_map<uint64_t, NearestPoints2d> trees_;
 };
 
 // Nearest-point queries over the points of a block and its 8 neighbours.
@@ -392,19 +325,19 @@ class Neighbourhood {
     for (int dx = -1; dx <= 1; ++dx)
       for (int dy = -1; dy <= 1; ++dy)
         if (dx != 0 || dy != 0) trees_.push_back(&trees.at(b + glm::ivec2(dx, dy)));
-    trees_.erase(std::remove_if(trees_.begin(), trees_.end(), [](const NearestPoints* t) { return t->empty(); }),
+    trees_.erase(std::remove_if(trees_.begin(), trees_.end(), [](const NearestPoints2d* t) { return t->empty(); }),
                  trees_.end());
   }
   bool empty() const { return trees_.empty(); }
   // Squared distance to the nearest point closer than sqrt(limit2), or limit2 when none is.
   double nearest2(const glm::dvec2& q, double limit2) const {
     double best = limit2;
-    for (const NearestPoints* t : trees_) t->nearest2(q, best);
+    for (const NearestPoints2d* t : trees_) t->nearest2(q, best);
     return best;
   }
 
  private:
-  std::vector<const NearestPoints*> trees_;
+  std::vector<const NearestPoints2d*> trees_;
 };
 
 // Step 3: of the kept cells, keep those whose centre is strictly nearer a lane
@@ -500,46 +433,6 @@ size_t split_block(Raster& r, const Neighbourhood& lanes, const Neighbourhood& e
 
 // ---- plane fit ----------------------------------------------------------------------
 
-// Eigen-decomposition of a symmetric 3x3 matrix by cyclic Jacobi rotations.
-// Returns the eigenvalues (ascending) and the matching unit eigenvectors.
-void symmetric_eigen(std::array<std::array<double, 3>, 3> a, std::array<double, 3>& values,
-                     std::array<glm::dvec3, 3>& vectors) {
-  std::array<std::array<double, 3>, 3> v{{{1, 0, 0}, {0, 1, 0}, {0, 0, 1}}};
-  for (int sweep = 0; sweep < 64; ++sweep) {
-    const double off = a[0][1] * a[0][1] + a[0][2] * a[0][2] + a[1][2] * a[1][2];
-    const double diag = a[0][0] * a[0][0] + a[1][1] * a[1][1] + a[2][2] * a[2][2];
-    if (off <= 1e-36 * diag || off == 0.0) break;
-    for (int p = 0; p < 2; ++p)
-      for (int q = p + 1; q < 3; ++q) {
-        if (a[p][q] == 0.0) continue;
-        const double theta = (a[q][q] - a[p][p]) / (2.0 * a[p][q]);
-        const double t = (theta >= 0.0 ? 1.0 : -1.0) / (std::fabs(theta) + std::sqrt(theta * theta + 1.0));
-        const double c = 1.0 / std::sqrt(t * t + 1.0), s = t * c;
-        for (int k = 0; k < 3; ++k) {  // a = J^T a J
-          const double akp = a[k][p], akq = a[k][q];
-          a[k][p] = c * akp - s * akq;
-          a[k][q] = s * akp + c * akq;
-        }
-        for (int k = 0; k < 3; ++k) {
-          const double apk = a[p][k], aqk = a[q][k];
-          a[p][k] = c * apk - s * aqk;
-          a[q][k] = s * apk + c * aqk;
-        }
-        for (int k = 0; k < 3; ++k) {
-          const double vkp = v[k][p], vkq = v[k][q];
-          v[k][p] = c * vkp - s * vkq;
-          v[k][q] = s * vkp + c * vkq;
-        }
-      }
-  }
-  std::array<int, 3> order{0, 1, 2};
-  std::sort(order.begin(), order.end(), [&](int i, int j) { return a[i][i] < a[j][j]; });
-  for (int k = 0; k < 3; ++k) {
-    values[k] = a[order[k]][order[k]];
-    vectors[k] = glm::dvec3(v[0][order[k]], v[1][order[k]], v[2][order[k]]);
-  }
-}
-
 // Draws min(k, n) distinct indices of `from` (partial Fisher-Yates).
 void draw_subset(std::vector<uint32_t> from, size_t k, SplitMix64& rng, std::vector<glm::dvec3>& out,
                  const std::vector<glm::dvec3>& pts) {
@@ -549,42 +442,6 @@ void draw_subset(std::vector<uint32_t> from, size_t k, SplitMix64& rng, std::vec
     std::swap(from[i], from[j]);
     out.push_back(pts[from[i]]);
   }
-}
-
-SurfacePlane horizontal_plane(std::vector<glm::dvec3> pts) {
-  SurfacePlane p;
-  if (pts.empty()) return p;
-  std::vector<double> z;
-  for (const glm::dvec3& q : pts) z.push_back(q.z);
-  const size_t mid = z.size() / 2;
-  std::nth_element(z.begin(), z.begin() + static_cast<std::ptrdiff_t>(mid), z.end());
-  double median = z[mid];
-  if (z.size() % 2 == 0) median = 0.5 * (median + *std::max_element(z.begin(), z.begin() + static_cast<std::ptrdiff_t>(mid)));
-  p.d = -median;
-  return p;
-}
-
-// Total least squares: the normal is the covariance's smallest eigenvector.
-bool fit_plane(const std::vector<glm::dvec3>& pts, SurfacePlane& out) {
-  if (pts.size() < 3) return false;
-  glm::dvec3 mean(0.0);
-  for (const glm::dvec3& p : pts) mean += p;
-  mean /= static_cast<double>(pts.size());
-  std::array<std::array<double, 3>, 3> cov{};
-  for (const glm::dvec3& p : pts) {
-    const glm::dvec3 d = p - mean;
-    for (int i = 0; i < 3; ++i)
-      for (int j = 0; j < 3; ++j) cov[i][j] += d[i] * d[j];
-  }
-  std::array<double, 3> values;
-  std::array<glm::dvec3, 3> vectors;
-  symmetric_eigen(cov, values, vectors);
-  if (!(values[2] > 0.0) || values[1] <= kCollinearRatio * values[2]) return false;
-  glm::dvec3 n = glm::normalize(vectors[0]);
-  if (n.z < 0.0) n = -n;
-  if (!(n.z >= kMinNormalZ)) return false;
-  out = {n.x, n.y, n.z, -glm::dot(n, mean)};
-  return true;
 }
 
 void fit_block_plane(SurfaceBlock& sb, const BlockWork& w, const RoadSurfaceOptions& o,
