@@ -190,6 +190,39 @@ TEST_CASE("guidance buffers: trajectories from .npy and JSON, frame ranges, came
   std::filesystem::remove_all(dir);
 }
 
+TEST_CASE("guidance buffers: a route along the lanes as the trajectory, timed by the scene") {
+  scene::Scene s;
+  s.provenance.source_file = "straight.json";
+  scene::Lane l;
+  l.id = 7;
+  l.type = scene::LaneType::SurfaceStreet;
+  for (int i = 0; i <= 100; ++i) l.points.emplace_back(static_cast<double>(i), 5.0, 1.0);
+  s.map.lanes.push_back(l);
+  s.timestamps = {0.0, 0.1, 0.2, 0.3};
+  scene::RouteOptions ro;
+  ro.length_m = 30.0;
+  ro.speed_mps = 10.0;
+  scene::RouteReport rep;
+  const scene::Camera cam = render::camera_preset("waymo-front-480p");
+  const render::Trajectory t = render::route_trajectory(s, cam, ro, &rep);
+  REQUIRE(t.size() == 31);  // 30 m at 1 m per pose (10 m/s, 10 Hz), both ends included
+  CHECK(rep.lanes == std::vector<int64_t>{7});
+  for (size_t i = 0; i < t.size(); ++i) {
+    CHECK(t.frame_index[i] == static_cast<int>(i));
+    CHECK(t.time_index[i] == static_cast<int>(std::min<size_t>(i, 3)));  // past the scene: its last state
+    // Camera forward (OpenCV +z) along +x, down (+y) along world -z; position = lane point + mount.
+    const glm::dvec3 fwd(t.c2w[i][2]), down(t.c2w[i][1]), pos(t.c2w[i][3]);
+    CHECK(fwd.x == doctest::Approx(1.0).epsilon(1e-9));
+    CHECK(down.z == doctest::Approx(-1.0).epsilon(1e-9));
+    const glm::dvec3 mount = glm::dvec3(cam.camera_to_ego[3]);
+    CHECK(pos.x == doctest::Approx(static_cast<double>(t.frame_index[i]) + mount.x).epsilon(1e-6));
+    CHECK(pos.y == doctest::Approx(5.0 + mount.y).epsilon(1e-6));
+    CHECK(pos.z == doctest::Approx(1.0 + mount.z).epsilon(1e-6));
+  }
+  scene::Scene no_lanes;
+  no_lanes.provenance.source_file = "empty.json";
+  CHECK_THROWS_AS(render::route_trajectory(no_lanes, cam, ro), scene::InputError);
+}
 
 TEST_CASE("guidance buffers: camera_from_scene gives InfiniCube's OpenCV camera-to-world") {
   scene::Camera cam = render::camera_preset("waymo-front-480p");

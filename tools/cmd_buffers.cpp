@@ -4,12 +4,14 @@
 //
 //   icube buffers WORLD [--scene SCENE] [--record SEL] [--trajectory FILE]
 //                 [--camera fx,fy,cx,cy,w,h | --camera-preset waymo-front-480p]
+//                 [--route METRES [--route-seed N] [--route-speed MPS] [--route-start-lane ID]]
 //                 [--frames A:B[:S]] [--seed N] [--pixel-centres] [--normals] [--no-video]
 //                 [--clip NAME] -o OUTDIR
 //
 // Trajectory: --trajectory (.npy [N,4,4] / [P,N,4,4] or icube-trajectory
-// JSON, OpenCV camera-to-world in the scene's world frame), else the scene's
-// ego track with its first camera. Camera: --camera, --camera-preset, the
+// JSON, OpenCV camera-to-world in the scene's world frame), or --route (a
+// seeded drive along the scene's lanes, render/buffers/trajectory.h
+// route_trajectory), else the scene's ego track with its first camera. Camera: --camera, --camera-preset, the
 // trajectory JSON's camera, the scene's first camera, else waymo-front-480p.
 // Output: OUTDIR/<clip>/ (pass_<k>/ per pass for [P,N,4,4]) is built in a
 // hidden staging folder and renamed into place at the end, so a failure
@@ -27,6 +29,7 @@
 #include "render/buffers/stage2_writer.h"
 #include "render/buffers/trajectory.h"
 #include "scene/frames.h"
+#include "scene/route.h"
 #include "scene/scene_load.h"
 #include "world/car_mesh.h"
 #include "world/npy.h"
@@ -53,6 +56,10 @@ namespace fs = std::filesystem;
 struct BuffersArgs {
   std::string world, scene, record, trajectory, camera, preset, frames, clip, output;
   uint64_t seed = 0;
+  double route_m = 0.0;  // > 0: drive this far along the lanes
+  scene::RouteOptions route;
+  int64_t route_start_lane = 0;
+  bool route_start_given = false;
   bool pixel_centres = false, normals = false, no_video = false;
 };
 
@@ -101,7 +108,21 @@ void cmd_buffers(const BuffersArgs& a) {
     // Trajectory and camera.
     std::vector<render::Trajectory> passes;
     std::optional<render::PinholeIntrinsics> file_K;
-    if (!a.trajectory.empty()) {
+    if (a.route_m > 0.0 && !a.trajectory.empty()) throw std::invalid_argument("give --route or --trajectory, not both");
+    if (a.route_m > 0.0) {
+      if (!sc) throw std::invalid_argument("--route needs --scene (its lanes)");
+      scene::RouteOptions ro = a.route;
+      ro.length_m = a.route_m;
+      if (a.route_start_given) ro.start_lane = a.route_start_lane;
+      scene::Camera cam = !sc->cameras.empty() ? sc->cameras[0] : scene::waymo_front_camera();
+      if (preset) cam = *preset;
+      scene::RouteReport rep;
+      passes.push_back(render::route_trajectory(*sc, cam, ro, &rep));
+      for (const std::string& n : rep.notes) diag.warn(a.scene, "route", n);
+      std::fprintf(stderr, "route: %.1f m over %zu lane(s), %zu poses%s\n", rep.length_m, rep.lanes.size(), rep.poses,
+                   rep.dead_end ? " (dead end)" : "");
+      if (passes[0].size() == 0) throw scene::InputError(a.scene, "route", "the route has no pose");
+    } else if (!a.trajectory.empty()) {
       render::TrajectoryFile tf = render::load_trajectory(a.trajectory, sc ? sc->timestamps.size() : 0);
       passes = std::move(tf.passes);
       file_K = tf.camera;
@@ -222,6 +243,25 @@ void add_buffers_commands(CLI::App& app) {
                   "Camera poses: .npy [N,4,4] or [P,N,4,4] OpenCV camera-to-world in the scene's world frame, or "
                   "icube-trajectory JSON")
       ->type_name("FILE");
+  cmd->add_option("--route", a->route_m,
+                  "Trajectory: a seeded drive of this many metres along the scene's lanes (instead of its ego track)")
+      ->type_name("METRES")
+      ->check(CLI::PositiveNumber);
+  cmd->add_option("--route-seed", a->route.seed, "Seed of --route's start lane and fork choices")
+      ->type_name("N")
+      ->capture_default_str();
+  cmd->add_option("--route-speed", a->route.speed_mps, "Speed of --route in m/s (poses at 10 Hz)")
+      ->type_name("MPS")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  cmd->add_option_function<int64_t>(
+         "--route-start-lane",
+         [a](const int64_t& id) {
+           a->route_start_lane = id;
+           a->route_start_given = true;
+         },
+         "Lane id --route starts on (default: chosen by the seed)")
+      ->type_name("ID");
   cmd->add_option("--camera", a->camera, "Pinhole intrinsics in pixels")->type_name("fx,fy,cx,cy,w,h");
   cmd->add_option("--camera-preset", a->preset, "waymo-front-480p: Waymo FRONT rescaled to 832x480")
       ->type_name("NAME");

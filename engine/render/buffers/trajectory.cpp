@@ -152,6 +152,19 @@ Trajectory ego_trajectory(const scene::Scene& s, const scene::Camera& cam) {
   return t;
 }
 
+Trajectory route_trajectory(const scene::Scene& s, const scene::Camera& cam, const scene::RouteOptions& options,
+                            scene::RouteReport* report) {
+  // The route only needs the lanes: the cars keep the original scene's clock (below), so
+  // sample_route's "tracks dropped" does not apply here.
+  scene::Scene lanes_only = s;
+  lanes_only.tracks.clear();
+  const scene::Scene routed = scene::sample_route(lanes_only, options, report);
+  Trajectory t = ego_trajectory(routed, cam);
+  const size_t states = s.timestamps.size();
+  for (size_t i = 0; i < t.size(); ++i) t.time_index[i] = time_for(static_cast<size_t>(t.frame_index[i]), states);
+  return t;
+}
+
 TrajectoryFile load_trajectory(const std::string& path, size_t scene_states) {
   const bool npy = ends_with(path, ".npy") || scene::read_file(path).rfind("\x93NUMPY", 0) == 0;
   return npy ? load_npy_trajectory(path, scene_states) : load_json_trajectory(path, scene_states);

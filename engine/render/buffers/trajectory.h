@@ -8,6 +8,10 @@
 //  - the scene's ego track with a scene camera: pose_i =
 //    flu_to_opencv(ego_to_world_i · camera_to_ego) (frames.h), frame i = time
 //    index i; invalid ego poses are skipped.
+//  - a route sampled along the map's lanes (scene/route.h sample_route):
+//    the route's ego poses with the camera, frame i seeing the original
+//    scene's state min(i, T - 1), like a recorded trajectory (the route
+//    drives at its own pace, so dynamic cars move on their own clock);
 //  - a .npy: float32/float64 [N,4,4] (one pass) or [P,N,4,4] (P passes, as
 //    InfiniCube's multi_pass_camera_poses.npy), C order, row-major matrices.
 //  - a JSON file:
@@ -23,6 +27,7 @@
 #pragma once
 
 #include "render/camera.h"
+#include "scene/route.h"
 #include "scene/scene.h"
 
 #include <glm/glm.hpp>
@@ -46,6 +51,9 @@ struct TrajectoryFile {
 };
 
 Trajectory ego_trajectory(const scene::Scene& s, const scene::Camera& cam);
+// Throws like scene::sample_route (no usable lanes, unknown start lane, bad options).
+Trajectory route_trajectory(const scene::Scene& s, const scene::Camera& cam, const scene::RouteOptions& options,
+                            scene::RouteReport* report = nullptr);
 // `scene_states`: number of scene timestamps (0 = no scene).
 TrajectoryFile load_trajectory(const std::string& path, size_t scene_states);
 
