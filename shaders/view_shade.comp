@@ -3,15 +3,19 @@
 // view_shade: the viewer's picture from the ray caster's hits, one invocation
 // per pixel, packed RGBA8 (R in the low byte) into out_rgba for a copy to an
 // R8G8B8A8 image. Modes (shared/view_params.h):
-//  shaded   class colour (guidance palette) · (ambient + sun · max(0, n·sun))
-//           with n the world-axis entry face of the hit voxel, blended into
-//           the sky colour by exp2 distance fog on t_sem; sky = gradient by
-//           the ray's elevation
+//  shaded   class colour (guidance palette) · (ambient · (0.6 + 0.4·sky) · ao
+//           + (1 - ambient) · max(0, n·sun) · lit) with n the world-axis entry
+//           face of the hit voxel, sky = 0.5 + 0.5·n.z; with use_vis the
+//           visibility word vis[i] (view_rays.comp): lit = 0 when its shadow
+//           bit is set, ao = 1 - ao_scale · (AO rays blocked); else lit = ao = 1.
+//           Blended into the sky colour by exp2 distance fog on t_sem; sky =
+//           gradient by the ray's elevation
 //  semantic the guidance palette (sky = palette entry 8), unlit
 //  depth    z-depth = t_depth · d_cam.z through a blue-to-yellow ramp over [0, depth_max], none = black
 //  instance hashed colour per instance id, class colour darkened for instance 0
 //  coords   (ijk mod 64) / 64 as RGB
-// palette[c] = 0xAABBGGRR of class c (23 entries). Host: viewer/view_renderer.cpp.
+// palette[c] = 0xAABBGGRR of class c (23 entries); vis: one uint per pixel (bound
+// always, read only with use_vis). Host: viewer/view_renderer.cpp.
 #include "shared/raycast_params.h"
 #include "shared/view_params.h"
 #include "common/dispatch.glsl"
@@ -21,6 +25,7 @@ layout(push_constant) uniform Push { ViewShadeParams p; };
 layout(std430, binding = 0) readonly buffer Hits { RaycastHit hits[]; };
 layout(std430, binding = 1) readonly buffer Palette { uint palette[]; };
 layout(std430, binding = 2) writeonly buffer Out { uint out_rgba[]; };
+layout(std430, binding = 3) readonly buffer Vis { uint vis[]; };
 
 vec3 unpack_rgb(uint c) { return unpackUnorm4x8(c).rgb; }
 
@@ -77,7 +82,13 @@ void main() {
       const float lambert = max(0.0, dot(nrm, sun));
       const float sky_light = 0.5 + 0.5 * nrm.z;  // faces towards the sky get more ambient
       const vec3 albedo = unpack_rgb(palette[h.sem_class]);
-      const vec3 lit = albedo * (p.ambient * (0.6 + 0.4 * sky_light) + (1.0 - p.ambient) * lambert);
+      float sun_vis = 1.0, ao = 1.0;
+      if (p.use_vis != 0u) {
+        const uint w = vis[i];
+        sun_vis = (w & VIEW_VIS_SHADOW_BIT) != 0u ? 0.0 : 1.0;
+        ao = 1.0 - p.ao_scale * float(w & VIEW_VIS_AO_MASK);
+      }
+      const vec3 lit = albedo * (p.ambient * (0.6 + 0.4 * sky_light) * ao + (1.0 - p.ambient) * lambert * sun_vis);
       const float fd = p.fog_density * h.t_sem;
       const float fog = 1.0 - exp2(-fd * fd);
       c = mix(lit, s, clamp(fog, 0.0, 1.0));

@@ -1,29 +1,41 @@
 #!/usr/bin/env bash
 # Drives icube-view as a person would, under Xvfb: builds the demo town
 # (icube world demo-scene + world build), runs viewer/sessions/two_passes.script
-# (keys, autopilot, two recorded passes, screenshots, save), then checks the
-# saved trajectory with icube-view --verify (2 passes x 93 frames, forward
-# progress, camera 2 m above the ground) and that both PNGs exist. The
-# semantic screenshot's class histogram is compared with the headless buffer
-# inside the session (it fails the run when they differ).
+# (keys, autopilot, two recorded passes, screenshots, save, load + replay,
+# teleports), then checks
+#  - the saved trajectory with icube-view --verify (2 passes x 93 frames,
+#    forward progress, camera 2 m above the ground) and that the PNGs exist;
+#  - replay through Stage 2: `icube buffers --trajectory passes.npy` renders
+#    frame 40 of both passes and icube-view --compare-semantic requires the
+#    viewer's frame-shot of the same frame to equal its semantic_buffer PNG
+#    (instance-coloured cars aside) on all but 0.1 % of the pixels.
+# The class histograms of the semantic and shaded screenshots (the latter with
+# shadows + AO too) are compared with the headless buffer inside the session
+# (it fails the run when they differ).
 #
 #   viewer/check_session.sh [BUILD_DIR]      (default build/; output in BUILD_DIR/viewer-check)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 build="${1:-build}"
 out="$build/viewer-check"
-icube="${ICUBE_BIN:-$build/icube}"  # the CLI that builds the demo town
+icube="${ICUBE_BIN:-$build/icube}"  # the CLI that builds the demo town and renders Stage 2 buffers
 rm -rf "$out"
 mkdir -p "$out"
 "$icube" world demo-scene -o "$out/scene.json" >/dev/null
 "$icube" world build "$out/scene.json" -o "$out/world.icw" >/dev/null
-sed "s|@SEMANTIC@|$out/semantic.png|" viewer/sessions/two_passes.script > "$out/session.script"
+sed "s|@OUT@|$out|g" viewer/sessions/two_passes.script > "$out/session.script"
 timeout 600 xvfb-run -a -s "-screen 0 1280x720x24" "$build/icube-view" "$out/world.icw" --scene "$out/scene.json" \
   --script "$out/session.script" --record-out "$out/passes.npy" --screenshot-out "$out/shaded.png" \
   --size 640 --scale 0.5 --stats --no-vsync
 "$build/icube-view" "$out/world.icw" --verify "$out/passes.npy" --expect-passes 2
 "$build/icube-view" "$out/world.icw" --verify "$out/passes_pass1.json" --expect-passes 1
-for f in shaded.png semantic.png passes.npy passes_pass0.json passes_pass1.json; do
+for f in shaded.png semantic.png shaded_shadows.png passes.npy passes_pass0.json passes_pass1.json frame_p0_f40.png \
+         frame_p1_f40.png; do
   [ -s "$out/$f" ] || { echo "check_session: missing $out/$f" >&2; exit 1; }
+done
+"$icube" buffers "$out/world.icw" --scene "$out/scene.json" --trajectory "$out/passes.npy" --frames 40 --no-video \
+  --clip replay -o "$out/buffers" >/dev/null 2>&1
+for p in 0 1; do
+  "$build/icube-view" --compare-semantic "$out/frame_p${p}_f40.png" "$out/buffers/replay/pass_$p/semantic_buffer/000040.png"
 done
 echo "check_session: ok ($out)"

@@ -34,7 +34,13 @@ const std::map<std::string, CommandSpec>& command_specs() {
       {"record", {1, 1, {"start", "stop", "key", "pass", "clear"}}},
       {"save", {0, 1, {}}},
       {"screenshot", {0, 1, {}}},
-      {"teleport", {1, 1, {"ego", "origin"}}},
+      {"teleport", {1, 8, {}}},
+      {"shadows", {1, 1, {"on", "off"}}},
+      {"ui", {1, 1, {"on", "off"}}},
+      {"occupancy", {1, 1, {"on", "off"}}},
+      {"ao", {1, 1, {}}},
+      {"load", {0, 1, {}}},
+      {"frame-shot", {3, 3, {}}},
       {"quit", {0, 0, {}}},
   };
   return specs;
@@ -86,6 +92,15 @@ std::vector<ScriptEvent> parse_script(const std::string& text, const std::string
       if (std::find(key_names().begin(), key_names().end(), k) == key_names().end()) fail("unknown key '" + e.args[0] + "'");
       e.args[0] = k;
     }
+    if (e.command == "ao" && e.args[0] != "off") {
+      const long k = std::strtol(e.args[0].c_str(), &end, 10);
+      if (*end != '\0' || k < 0 || k > 16) fail("ao takes off or a sample count 0..16");
+    }
+    if (e.command == "frame-shot")
+      for (size_t i = 1; i < 3; ++i) {
+        const long k = std::strtol(e.args[i].c_str(), &end, 10);
+        if (*end != '\0' || k < 0) fail("frame-shot PATH PASS FRAME: bad index '" + e.args[i] + "'");
+      }
     if (e.command == "scale") {
       const double s = std::strtod(e.args[0].c_str(), &end);
       if (*end != '\0' || !(s >= 0.25 && s <= 1.0)) fail("scale must be in [0.25, 1]");

@@ -16,7 +16,14 @@
 //   record start|stop|key|pass|clear   continuous 10 Hz on/off, keyframe, close the pass, forget all
 //   save [PATH]                interpolate the passes and write .npy + JSON (PATH or --record-out)
 //   screenshot [PATH]          PNG of the view (PATH or --screenshot-out)
-//   teleport ego|origin        to the ego track start / the world's centre
+//   teleport ego|origin|chunk N|feature N|LABEL   to the ego track start, the world's centre, the
+//                              N-th chunk or map feature (teleport.h) or the map feature of that label
+//   shadows on|off             sun shadows in the shaded mode
+//   ui on|off                  the panels (F1)
+//   occupancy on|off           the ray caster's occupancy masks (measurements)
+//   ao off|K                   ambient occlusion with K rays per pixel (0..16)
+//   load [PATH]                load a trajectory (PATH or --record-out) and replay it
+//   frame-shot PATH P F        semantic PNG of frame F of loaded pass P as `icube buffers` renders it
 //   quit                       end the session
 // Parse errors throw std::invalid_argument "FILE:LINE: what".
 #pragma once

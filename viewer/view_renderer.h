@@ -2,6 +2,11 @@
 // engine/render/raycast_gpu.h) into a hit buffer, then shaders/view_shade.comp
 // into packed RGBA8 (mode, sun, fog: shared/view_params.h). The presenter
 // copies the RGBA buffer to an image and blits it to the swapchain.
+// Shaded mode with shadows / ambient occlusion: extra ray passes through the
+// ray caster's ray-list mode, one per kind and sample (sun ray: t_max
+// shadow_distance; AO rays: t_max ao_radius), generated from the camera hits
+// and summed into a per-pixel visibility word by shaders/view_rays.comp; the
+// other modes never run them, so they stay exactly the camera hits' picture.
 #pragma once
 
 #include "gpu/buffer.h"
@@ -30,7 +35,17 @@ struct ShadeSettings {
   double depth_max = 80.0;              // m
   double ambient = 0.45;
   double max_distance = 400.0;          // m: rays stop here
+  bool shadows = false;                 // shaded: sun shadows (one ray per pixel)
+  double shadow_distance = 120.0;       // m: sun rays stop here
+  int ao_samples = 0;                   // shaded: ambient-occlusion rays per pixel (0 = off, <= 16)
+  double ao_radius = 1.0;               // m: AO rays stop here
+  double ao_strength = 0.6;             // ambient · (1 - strength · blocked / samples)
 };
+
+// The AO ray direction of view_rays.comp (same hash, pattern and basis) in
+// double, for CPU references: pixel (x, y), sample s of k, entry-face normal
+// ±(axis + 1).
+glm::dvec3 ao_direction(uint32_t x, uint32_t y, uint32_t s, uint32_t k, int normal);
 
 class ViewRenderer {
  public:
@@ -47,12 +62,19 @@ class ViewRenderer {
   void reserve(uint32_t w, uint32_t h);
   // The last frame's pixels (RGBA8, after it finished).
   std::vector<uint8_t> download_rgba();
+  // The camera / ray passes' ray caster (e.g. set_occupancy for measurements).
+  render::RaycasterGpu& raycaster() { return raycaster_; }
 
  private:
   gpu::Context& ctx_;
+  void record_visibility(gpu::CommandList& cmd, const render::RaycastWorld& w, const shader::RaycastParams& rp,
+                         const ShadeSettings& s, const glm::dvec3& sun);
+
   render::RaycasterGpu raycaster_;
   gpu::Program& shade_;
-  gpu::Buffer palette_, hits_, rgba_;
+  gpu::Program& rays_;
+  gpu::Buffer palette_, hits_, rgba_, vis_, prev_;
+  render::GpuRayBatch batch_;  // shadow / AO rays, reused by every pass
   uint64_t capacity_ = 0;
   uint32_t width_ = 0, height_ = 0;
 };

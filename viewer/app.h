@@ -1,0 +1,179 @@
+// icube-view's application state and the jobs it does each frame. The methods
+// live in one file per job:
+//   app_load.cpp    world / scene loading, teleport (teleport.h does the placing)
+//   app_input.cpp   keyboard, mouse and gamepad: drive input, free fly, shortcuts
+//   app_sim.cpp     simulation step, camera poses, the cars shown, adaptive resolution
+//   app_record.cpp  recording, save / load, screenshots and the headless comparison
+//   app_script.cpp  --script events
+//   app_ui.cpp      the Dear ImGui panels and the path preview
+//   app_frame.cpp   the frame loop
+// Window and Vulkan set-up are in viewer_main.cpp, command-line options in options.h.
+#pragma once
+
+#include "options.h"
+#include "presenter.h"
+#include "recorder.h"
+#include "residency.h"
+#include "screenshot_check.h"
+#include "script.h"
+#include "teleport.h"
+#include "vehicle.h"
+#include "view_renderer.h"
+
+#include "gpu/context.h"
+#include "render/buffers/frame_scene.h"
+#include "render/buffers/overlay_world.h"
+#include "world/mesh_voxelize.h"
+
+#include <deque>
+#include <map>
+#include <memory>
+#include <optional>
+#include <set>
+#include <string>
+#include <vector>
+
+namespace icube::viewer {
+
+inline constexpr double kScriptDt = 1.0 / 30.0;  // simulated seconds per frame in scripted / autopilot runs
+inline constexpr double kPi = 3.14159265358979323846;
+// Worlds with more bricks than fit one GPU world get a residency radius by default (--resident-radius).
+inline constexpr size_t kAutoResidencyBricks = kMaxResidentBricks;
+inline constexpr double kAutoResidencyRadius = 150.0;  // m
+
+enum class Control { Drive, Fly, Replay };
+
+struct App {
+  App(const Options& o, gpu::Context& c, GLFWwindow* w);
+
+  Options opt;
+  gpu::Context& ctx;
+  GLFWwindow* window;
+  Presenter presenter;
+  ViewRenderer renderer;
+
+  // Content.
+  world::VoxelGrid grid;  // the whole static world (CPU; ground following and teleport see it)
+  bool have_world = false;
+  std::optional<scene::Scene> scene;
+  std::unique_ptr<Residency> residency;  // the static world (near the camera) on the GPU + the cars
+  render::OverlayWorld& gpu_world() { return residency->world(); }
+  world::TriangleMesh car_mesh;
+  render::CarVoxelCache car_cache;
+  int time_index = 0, shown_time_index = -1;
+  static constexpr uint32_t kOwnInstance = 9999;  // our car: below the dynamic ids, above static ones
+  std::vector<render::CarCell> scene_cells, own_cells;
+  world::BoxVoxelization own_box;
+  bool own_shown = false;
+  glm::dvec4 own_pose_shown{0.0};
+  bool play_time = false;
+  double time_accum = 0.0;
+  scene::Camera target_cam;
+  std::string world_name = "(none)";
+  std::vector<TeleportTarget> map_targets, chunk_targets;
+
+  // Control.
+  Control control = Control::Drive;
+  bool chase = true;
+  VehicleState car;
+  VehicleLimits limits;
+  GroundOptions ground;
+  FlyCamera fly;
+  Autopilot autopilot;
+  bool autopilot_on = false;
+  VehicleInput last_input;
+  std::set<std::string> script_keys;
+  std::map<int, bool> prev_keys;
+  double mouse_x = 0.0, mouse_y = 0.0;
+  bool mouse_look = false;
+
+  // View.
+  ShadeSettings shade;
+  double scale = 1.0, eff_scale = 1.0;
+  bool adaptive = false;
+  bool show_path = true;
+  bool show_ui = true;  // F1 hides the panels
+
+  // Recording / replay.
+  Recorder recorder;
+  int interp_frames = kDefaultInterpolatedFrames;
+  std::vector<Pass> replay;
+  int replay_pass = 0;
+  double replay_t = 0.0;
+  char out_path[512] = {};
+  char load_path[512] = {};
+  char shot_path[512] = {};
+  char teleport_filter[128] = {};
+  std::string status;
+  bool screenshot_pending = false;
+  std::string screenshot_target;
+
+  // Session.
+  std::optional<ScriptPlayer> script;
+  bool scripted = false;
+  double sim_time = 0.0;
+  bool quit = false;
+  int failures = 0;
+  FrameStats stats;
+  // Per-frame parts (--stats): waiting for the previous frame (its GPU work), host work, submit + present.
+  FrameStats wait_ms, host_ms, present_ms;
+  std::deque<float> frame_graph;
+  double last_frame_ms = 0.0, avg_ms = 16.0;
+  render::Camera last_cam;
+
+  // app_load.cpp
+  void load();
+  void teleport(const std::string& where);  // "ego", "origin", "chunk N", "feature N" or a feature label
+  void teleport_to(const TeleportTarget& t);
+  void after_teleport();
+
+  // app_input.cpp
+  bool held(const std::string& k) const;
+  bool pressed(int key);
+  void shortcuts();
+  VehicleInput drive_input();
+  void fly_update(double dt);
+  bool moving() const;
+
+  // app_sim.cpp
+  void simulate(double dt);
+  glm::dmat4 recorded_pose() const;
+  glm::dmat4 replay_pose() const;
+  glm::dmat4 view_pose() const;
+  render::Camera view_camera(uint32_t w, uint32_t h) const;
+  void update_cars();
+  void apply_cars();  // scene_cells + own_cells into the GPU world
+  void update_residency();
+  void adapt_resolution();
+
+  // app_record.cpp
+  void toggle_continuous();
+  void keyframe();
+  void end_pass();
+  void save(const std::string& path_in);
+  void load_recording(const std::string& path);
+  void request_screenshot(const std::string& path);
+  void take_screenshot();
+  void compare_with_headless(const std::vector<uint8_t>& px);
+  void frame_shot(const std::string& path, size_t pass, size_t frame);
+  render::PinholeIntrinsics target_intrinsics() const;
+  void finish_autopilot();
+
+  // app_script.cpp
+  void run_event(const ScriptEvent& e);
+
+  // app_ui.cpp
+  void ui();
+  void chunk_panel();
+  void view_panel();
+  void world_panel();
+  void drive_panel();
+  void teleport_panel();
+  void record_panel();
+  void draw_paths();
+
+  // app_frame.cpp
+  int run();
+};
+
+}  // namespace icube::viewer

@@ -1,0 +1,135 @@
+// icube-view: simulation step, camera poses, the cars shown, adaptive resolution; see app.h.
+#include "app.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+
+namespace icube::viewer {
+
+void App::simulate(double dt) {
+  if (control == Control::Drive) {
+    last_input = autopilot_on ? autopilot_input(autopilot, car, limits) : drive_input();
+    step_vehicle(car, last_input, dt, limits, have_world ? &grid : nullptr, ground);
+  } else if (control == Control::Fly) {
+    fly_update(dt);
+  } else if (!replay.empty()) {
+    replay_t += dt;
+    const Pass& p = replay[static_cast<size_t>(replay_pass)];
+    if (replay_t * 10.0 >= static_cast<double>(p.size())) replay_t = 0.0;
+    // The cars as `icube buffers` shows them for this frame: time index = frame (load_trajectory's rule).
+    if (scene && !scene->timestamps.empty())
+      time_index = static_cast<int>(std::min(static_cast<size_t>(replay_t * 10.0), scene->timestamps.size() - 1));
+  }
+  recorder.update(sim_time, recorded_pose());
+  if (scene && !scene->timestamps.empty() && play_time) {
+    time_accum += dt * 10.0;
+    while (time_accum >= 1.0) {
+      time_accum -= 1.0;
+      time_index = (time_index + 1) % static_cast<int>(scene->timestamps.size());
+    }
+  }
+}
+
+glm::dmat4 App::recorded_pose() const {
+  if (control == Control::Fly) return fly_camera_c2w(fly);
+  if (control == Control::Replay && !replay.empty()) return replay_pose();
+  return dash_camera_c2w(car, target_cam);
+}
+
+glm::dmat4 App::replay_pose() const {
+  const Pass& p = replay[static_cast<size_t>(replay_pass)];
+  return p[std::min(p.size() - 1, static_cast<size_t>(replay_t * 10.0))];
+}
+
+glm::dmat4 App::view_pose() const {
+  if (control == Control::Drive && chase) return chase_camera_c2w(car);
+  return recorded_pose();
+}
+
+render::Camera App::view_camera(uint32_t w, uint32_t h) const {
+  render::Camera cam;
+  // The target camera's vertical field of view (35 deg for the Waymo front preset) unless overridden.
+  double vfov = opt.vfov * kPi / 180.0;
+  if (target_cam.fy > 0.0 && target_cam.height > 0 && opt.vfov <= 0.0)
+    vfov = 2.0 * std::atan(0.5 * target_cam.height / target_cam.fy);
+  cam.K.fy = cam.K.fx = 0.5 * h / std::tan(0.5 * vfov);
+  cam.K.cx = 0.5 * w;
+  cam.K.cy = 0.5 * h;
+  cam.K.width = w;
+  cam.K.height = h;
+  cam.c2w = view_pose();
+  return cam;
+}
+
+// The scene's dynamic cars at the time index, plus our own car where the view
+// shows it (chase and fly), as OverlayWorld cells (re-uploaded when they change).
+void App::update_cars() {
+  if (!residency) return;
+  bool changed = false;
+  if (scene && !scene->timestamps.empty() && time_index != shown_time_index) {
+    scene_cells = render::dynamic_car_cells(*scene, time_index, car_mesh, grid.origin(), grid.voxel_size(), nullptr,
+                                            &car_cache);
+    shown_time_index = time_index;
+    changed = true;
+  }
+  const bool show_own = control == Control::Fly || (control == Control::Drive && chase);
+  const glm::dvec4 own_pose(car.position, car.yaw + car.pitch);
+  if (show_own != own_shown || (show_own && own_pose != own_pose_shown)) {
+    own_cells.clear();
+    if (show_own) {
+      if (own_box.sub_voxels.empty()) own_box = world::voxelize_mesh_in_box(car_mesh, 4.6, 2.0, 1.6);
+      scene::BoxState box;
+      const glm::dvec3 fwd{std::cos(car.yaw) * std::cos(car.pitch), std::sin(car.yaw) * std::cos(car.pitch), std::sin(car.pitch)};
+      box.center = car.position + 0.5 * limits.wheelbase * fwd + glm::dvec3(0.0, 0.0, 0.8);
+      box.length = 4.6;
+      box.width = 2.0;
+      box.height = 1.6;
+      box.heading = car.yaw;
+      box.pitch = -car.pitch;  // Ry(pitch) turns +x down for positive angles
+      box.valid = true;
+      world::VoteOptions vo;
+      vo.cell = grid.voxel_size();
+      vo.grid_origin = grid.origin();
+      for (const world::VehicleVoxel& v : world::vote_into_cells(own_box, box, kOwnInstance, vo))
+        own_cells.push_back({v.ijk, static_cast<uint16_t>(kOwnInstance)});
+    }
+    own_shown = show_own;
+    own_pose_shown = own_pose;
+    changed = true;
+  }
+  if (!changed) return;
+  presenter.wait();  // the table is rewritten: no frame may still read it
+  apply_cars();
+}
+
+void App::apply_cars() {
+  std::vector<render::CarCell> all = scene_cells;
+  all.insert(all.end(), own_cells.begin(), own_cells.end());
+  gpu_world().set_overlay(all);
+}
+
+// Chunks near the camera on the GPU (residency.h): a background rebuild starts when the camera
+// has moved far enough; a finished one is swapped in between frames (the upload is the stall).
+void App::update_residency() {
+  if (!residency || residency->radius() <= 0.0) return;
+  residency->update(glm::dvec2(view_pose()[3]));
+  if (!residency->ready()) return;
+  presenter.wait();  // the old world may still be read by the frame in flight
+  residency->swap();
+  apply_cars();
+  const ResidencyStats& st = residency->stats();
+  std::printf("icube-view: resident chunks swapped: %zu bricks, copy %.1f ms (background), upload %.1f ms\n",
+              st.resident_bricks, st.last_build_ms, st.last_upload_ms);
+}
+
+void App::adapt_resolution() {
+  if (!adaptive || !moving()) {
+    eff_scale = scale;
+    return;
+  }
+  const double ratio = opt.target_ms / std::max(1.0, avg_ms);
+  eff_scale = std::clamp(eff_scale * std::clamp(std::sqrt(ratio), 0.85, 1.08), 0.3, scale);
+}
+
+}  // namespace icube::viewer

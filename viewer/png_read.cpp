@@ -1,0 +1,43 @@
+// PNG decoding; see png_read.h. stb_image's own warnings are silenced.
+#include "png_read.h"
+
+#include <stdexcept>
+
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wpragmas"
+#pragma GCC diagnostic ignored "-Wunknown-warning-option"
+#pragma GCC diagnostic ignored "-Wunused-function"
+#pragma GCC diagnostic ignored "-Wdouble-promotion"
+#pragma GCC diagnostic ignored "-Wshadow"
+#pragma GCC diagnostic ignored "-Wcast-align"
+#pragma GCC diagnostic ignored "-Wnull-dereference"
+#pragma GCC diagnostic ignored "-Wimplicit-fallthrough"
+#pragma GCC diagnostic ignored "-Wsign-compare"
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#pragma GCC diagnostic ignored "-Wconversion"
+#pragma GCC diagnostic ignored "-Wsign-conversion"
+#pragma GCC diagnostic ignored "-Wold-style-cast"
+#pragma GCC diagnostic ignored "-Wuseless-cast"
+#define STB_IMAGE_STATIC
+#define STB_IMAGE_IMPLEMENTATION
+#define STBI_ONLY_PNG
+#include <stb/stb_image.h>
+#pragma GCC diagnostic pop
+
+namespace icube::viewer {
+
+Image8 read_png(const std::string& path, int channels) {
+  if (channels < 1 || channels > 4) throw std::invalid_argument("read_png: channels must be 1..4");
+  int w = 0, h = 0, n = 0;
+  uint8_t* data = stbi_load(path.c_str(), &w, &h, &n, channels);
+  if (!data) throw std::runtime_error(path + ": cannot read PNG (" + stbi_failure_reason() + ")");
+  Image8 img;
+  img.width = w;
+  img.height = h;
+  img.channels = channels;
+  img.pixels.assign(data, data + static_cast<size_t>(w) * static_cast<size_t>(h) * static_cast<size_t>(channels));
+  stbi_image_free(data);
+  return img;
+}
+
+}  // namespace icube::viewer

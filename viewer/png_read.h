@@ -1,0 +1,18 @@
+// PNG decoding for the viewer's checks (stb_image; library icube_viewer_core).
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace icube::viewer {
+
+struct Image8 {
+  int width = 0, height = 0, channels = 0;  // channels as requested
+  std::vector<uint8_t> pixels;              // rows tightly packed
+};
+
+// Decodes `path` to `channels` channels (1-4). Throws std::runtime_error "PATH: reason".
+Image8 read_png(const std::string& path, int channels);
+
+}  // namespace icube::viewer
