@@ -6,6 +6,22 @@
 //               [--beams N] [--elevation MIN:MAX | --elevations e0,e1,...]
 //               [--columns N] [--range MIN:MAX] [--mount-height M]
 //               [--start-azimuth DEG] [--frames A:B] [--ply-world] -o OUTDIR
+//   icube lidar --gaussians SPLATS (--scene SCENE | --trajectory POSES.npy)
+//               [--gs-range median|expected] [--alpha-threshold A] [model and
+//               frame options as above] -o OUTDIR
+//
+// With --gaussians the sweeps are cast against 3D Gaussians (a 3DGS .ply,
+// a .splat, or a splat scene .json with dynamic objects: splat/splat_scene.h,
+// composed per sweep at the frame's scene state) instead of a voxel world (engine/splat/lidar_gaussians_gpu.h; range
+// = median (default) or expected depth of the front-to-back composite, a
+// return when the accumulated alpha >= --alpha-threshold (default 0.5),
+// intensity = the blend-weighted luminance of the Gaussians' DC colour;
+// class/instance 0). Sensor poses: the scene's ego track with the mount, as
+// for voxels, or --trajectory: a float32/float64 [N,4,4] .npy of
+// SENSOR-TO-WORLD matrices (FLU sensor axes, row-major: exactly the
+// poses.npy an earlier `icube lidar` run writes; --mount-height does not
+// apply), frame i = position i, scene state min(i, frames − 1) of a splat
+// scene with objects (as `icube buffers` does for recorded poses).
 //
 // Model: the preset (waymo-top, lidar_model.h), then the overrides: --beams
 // and/or --elevation give uniform beams (the missing one from the preset),
@@ -29,6 +45,8 @@
 #include "render/lidar/lidar_model.h"
 #include "render/lidar/lidar_sequence.h"
 #include "scene/atomic_file.h"
+#include "splat/lidar_gaussians_gpu.h"
+#include "splat/splat_scene.h"
 #include "scene/scene_load.h"
 #include "world/car_mesh.h"
 #include "world/world_file.h"
@@ -56,6 +74,7 @@ namespace fs = std::filesystem;
 struct LidarArgs {
   std::string world, scene, record, preset = "waymo-top", beams, elevation, elevations, columns, range, mount_height,
       start_azimuth, frames, output;
+  std::string gaussians, trajectory, gs_range, alpha_threshold;  // Gaussian mode
   bool ply_world = false;
 };
 
@@ -120,8 +139,150 @@ void check_output(const fs::path& out) {
                                           "choose another -o or remove it");
 }
 
+// Replaces the first `from` in `text` by `to` (lidar.json's voxel-specific convention lines).
+std::string replace_once(std::string text, const std::string& from, const std::string& to) {
+  const size_t at = text.find(from);
+  if (at != std::string::npos) text.replace(at, from.size(), to);
+  return text;
+}
+
+void cmd_lidar_gaussians(const LidarArgs& a, scene::Diagnostics& diag) {
+  using Clock = std::chrono::steady_clock;
+  const auto t_start = Clock::now();
+  if (!a.world.empty()) throw std::invalid_argument("give a WORLD or --gaussians FILE, not both");
+  if (a.scene.empty() == a.trajectory.empty())
+    throw std::invalid_argument("--gaussians needs exactly one of --scene SCENE or --trajectory POSES.npy");
+  if (!a.trajectory.empty() && !a.record.empty()) throw std::invalid_argument("--record needs --scene");
+  if (!a.trajectory.empty() && !a.mount_height.empty())
+    throw std::invalid_argument("--mount-height does not apply to --trajectory (its poses are sensor poses)");
+  const render::LidarModel model = model_from_args(a);
+  splat::LidarGaussianOptions go;
+  if (!a.gs_range.empty()) {
+    if (a.gs_range == "median") go.range = splat::LidarRangeMode::Median;
+    else if (a.gs_range == "expected") go.range = splat::LidarRangeMode::Expected;
+    else throw std::invalid_argument("--gs-range: expected 'median' or 'expected', got '" + a.gs_range + "'");
+  }
+  if (!a.alpha_threshold.empty()) {
+    go.alpha_threshold = parse_real(a.alpha_threshold, "--alpha-threshold");
+    if (!(go.alpha_threshold > 0.0 && go.alpha_threshold <= 1.0))
+      throw std::invalid_argument("--alpha-threshold: expected a number in (0, 1], got '" + a.alpha_threshold + "'");
+  }
+  std::optional<render::FrameRange> range;
+  if (!a.frames.empty()) range = render::parse_frame_range(a.frames);
+  if (a.output.empty()) throw std::invalid_argument("-o OUTDIR is empty");
+  fs::path out = fs::absolute(a.output).lexically_normal();
+  if (out.filename().empty()) out = out.parent_path();
+  check_output(out);
+
+  const auto t_read = Clock::now();
+  const splat::SplatScene gs = splat::read_splat_scene(a.gaussians);
+  const double read_s = std::chrono::duration<double>(Clock::now() - t_read).count();
+  render::Trajectory traj;
+  std::string pose_source;
+  if (!a.scene.empty()) {
+    scene::LoadOptions lo;
+    lo.waymo_selector = a.record;
+    const scene::Scene sc = scene::load_scene(a.scene, lo, &diag);
+    if (sc.ego.empty()) throw scene::InputError(a.scene, "ego", "the scene has no ego trajectory");
+    traj = render::lidar_ego_trajectory(sc, model.sensor_to_ego);
+    if (traj.size() == 0) throw scene::InputError(a.scene, "ego", "no valid ego pose");
+    pose_source = a.scene;
+  } else {
+    render::TrajectoryFile tf = render::load_trajectory(a.trajectory, gs.frames());
+    if (tf.passes.size() != 1)
+      throw scene::InputError(a.trajectory, "shape", "expected one pass of [N,4,4] sensor-to-world poses");
+    traj = std::move(tf.passes[0]);
+    pose_source = a.trajectory;
+  }
+  if (range) traj = render::select_frames(traj, *range);
+
+  gpu::Context ctx(gpu::ContextOptions::from_env());
+  splat::LidarGaussiansGpu caster(ctx, model);
+  // The frame's Gaussians: the static set once, or static + objects placed at the frame's scene state.
+  splat::GpuLidarGaussians g;
+  size_t uploaded = SIZE_MAX, max_gaussians = 0;
+  double compose_s = 0.0;
+  auto gaussians_for = [&](int time_index) -> const splat::GpuLidarGaussians& {
+    const size_t frame = gs.has_objects() && time_index > 0 ? static_cast<size_t>(time_index) : 0;
+    if (frame == uploaded) return g;
+    const auto t0 = Clock::now();
+    const splat::GaussianCloud cloud = splat::compose_frame(gs, frame);
+    g = caster.upload(cloud, splat::lidar_gaussian_intensity(cloud));
+    max_gaussians = std::max(max_gaussians, cloud.size());
+    uploaded = frame;
+    compose_s += std::chrono::duration<double>(Clock::now() - t0).count();
+    return g;
+  };
+
+  fs::create_directories(out.parent_path());
+  StagingDir staging;
+  staging.path = out.parent_path() / ("." + out.filename().string() + ".partial-" + std::to_string(getpid()));
+  fs::remove_all(staging.path);
+  fs::create_directories(staging.path);
+
+  ProgressBar bar("lidar", "frames");
+  render::LidarWriteOptions wo;
+  wo.world_frame_ply = a.ply_world;
+  double write_s = 0.0, cast_s = 0.0, gpu_ms = 0.0;
+  uint64_t returns = 0, instances = 0;
+  for (size_t f = 0; f < traj.size(); ++f) {
+    splat::LidarGaussianTimings tm;
+    const splat::GpuLidarGaussians& frame_gaussians = gaussians_for(traj.time_index[f]);
+    auto t0 = Clock::now();
+    render::LidarScan s = caster.scan(frame_gaussians, traj.c2w[f], go, &tm);
+    cast_s += std::chrono::duration<double>(Clock::now() - t0).count();
+    gpu_ms += tm.bin_ms + tm.sort_ms + tm.cast_ms;
+    instances += tm.instances;
+    s.frame_index = traj.frame_index[f];
+    s.time_index = traj.time_index[f];
+    returns += s.returns.size();
+    t0 = Clock::now();
+    render::write_lidar_frame(staging.path.string(), s, model, wo);
+    write_s += std::chrono::duration<double>(Clock::now() - t0).count();
+    bar.update(f + 1, traj.size());
+  }
+  const auto t0 = Clock::now();
+  scene::write_file_atomic((staging.path / "poses.npy").string(), render::lidar_poses_npy(traj.c2w));
+  std::string meta = render::lidar_meta_json(model, traj.frame_index, wo, a.gaussians + " + " + pose_source);
+  meta = replace_once(meta, "\"entry distance of the first >= 0.1 m run of occupied voxels\"",
+                      go.range == splat::LidarRangeMode::Median
+                          ? "\"Gaussians: median depth (t* where the front-to-back transmittance first falls to <= 0.5); "
+                            "a return when the accumulated alpha >= " + std::to_string(go.alpha_threshold) + "\""
+                          : "\"Gaussians: expected depth (blend-weighted mean t*); a return when the accumulated "
+                            "alpha >= " + std::to_string(go.alpha_threshold) + "\"");
+  meta = replace_once(meta, "\"reflectivity(class) * |cos(incidence)| on the voxel face entering the depth run, [0, 1]\"",
+                      "\"Gaussians: blend-weighted mean of each Gaussian's DC-colour luminance, [0, 1]; class and "
+                      "instance 0\"");
+  scene::write_file_atomic((staging.path / "lidar.json").string(), meta);
+  write_s += std::chrono::duration<double>(Clock::now() - t0).count();
+
+  if (fs::exists(out)) fs::remove_all(out);
+  fs::rename(staging.path, out);
+  staging.keep = true;
+  const double total_s = std::chrono::duration<double>(Clock::now() - t_start).count();
+  const double mrays = static_cast<double>(model.rays() * traj.size()) * 1e-6;
+  std::printf("lidar: %zu Gaussians (%zu objects), %zu frames, %u beams x %u columns, %.2f Mrays, %llu returns "
+              "(%.1f %%), %.2f s, %.2f Mrays/s casting (%.2f overall) [read %.2f s, compose + upload %.2f s, cast %.2f s "
+              "(GPU %.2f ms), %.1f tile instances per frame, write %.2f s] -> %s\n",
+              max_gaussians, gs.objects.size(), traj.size(), model.beams(), model.columns, mrays,
+              static_cast<unsigned long long>(returns),
+              mrays > 0 ? 100.0 * static_cast<double>(returns) * 1e-6 / mrays : 0.0, total_s,
+              cast_s > 0 ? mrays / cast_s : 0.0, total_s > 0 ? mrays / total_s : 0.0, read_s, compose_s, cast_s, gpu_ms,
+              traj.size() ? static_cast<double>(instances) / static_cast<double>(traj.size()) : 0.0, write_s,
+              out.string().c_str());
+}
+
 void cmd_lidar(const LidarArgs& a) {
   run_command([&](scene::Diagnostics& diag) {
+    if (!a.gaussians.empty()) {
+      cmd_lidar_gaussians(a, diag);
+      return;
+    }
+    if (a.world.empty()) throw std::invalid_argument("give a WORLD file (.icw) or --gaussians FILE");
+    if (a.scene.empty()) throw std::invalid_argument("--scene SCENE is required with a WORLD");
+    if (!a.trajectory.empty()) throw std::invalid_argument("--trajectory works with --gaussians only");
+    if (!a.gs_range.empty() || !a.alpha_threshold.empty())
+      throw std::invalid_argument("--gs-range and --alpha-threshold work with --gaussians only");
     using Clock = std::chrono::steady_clock;
     const auto t_start = Clock::now();
     const render::LidarModel model = model_from_args(a);
@@ -192,8 +353,19 @@ void cmd_lidar(const LidarArgs& a) {
 void add_lidar_commands(CLI::App& app) {
   auto a = std::make_shared<LidarArgs>();
   CLI::App* cmd = app.add_subcommand("lidar", "Spinning LiDAR along the ego track: PLY, KITTI .bin, range images");
-  cmd->add_option("world", a->world, "World file (.icw)")->required()->type_name("WORLD");
-  cmd->add_option("--scene", a->scene, "Scene: ego trajectory, static and dynamic cars")->required()->type_name("SCENE");
+  cmd->add_option("world", a->world, "World file (.icw); optional with --gaussians")->type_name("WORLD");
+  cmd->add_option("--gaussians", a->gaussians,
+                  "Cast against 3D Gaussians (.ply, .splat or a splat scene .json) instead of a voxel world")
+      ->type_name("FILE");
+  cmd->add_option("--scene", a->scene, "Scene: ego trajectory, static and dynamic cars")->type_name("SCENE");
+  cmd->add_option("--trajectory", a->trajectory,
+                  "--gaussians only: sensor-to-world poses (.npy [N,4,4], FLU sensor axes, like poses.npy)")
+      ->type_name("POSES.npy");
+  cmd->add_option("--gs-range", a->gs_range, "--gaussians only: range = median (default) or expected depth")
+      ->type_name("MODE");
+  cmd->add_option("--alpha-threshold", a->alpha_threshold,
+                  "--gaussians only: a return when the accumulated alpha >= A (default 0.5)")
+      ->type_name("A");
   cmd->add_option("--record", a->record, "Waymo TFRecord only: which record, by index or scenario id")->type_name("SEL");
   cmd->add_option("--preset", a->preset, "Sensor preset: waymo-top (64 beams, +2.4..-17.6 deg, 2650 columns, 75 m)")
       ->type_name("NAME")
@@ -215,7 +387,9 @@ void add_lidar_commands(CLI::App& app) {
       "Each sweep is cast from the frame's ego pose (motion during the rotation is ignored) with the voxel ray caster: "
       "range = entry of the first >= 0.1 m run of voxels, class/instance = the first voxel with a >= 1 cm chord, "
       "intensity = per-class reflectivity x |cos(incidence)|. The world's vehicle voxels are replaced by the scene's "
-      "cars (static once, dynamic per frame), as in `icube buffers`.");
+      "cars (static once, dynamic per frame), as in `icube buffers`. With --gaussians: every Gaussian's peak along the "
+      "ray (t*, alpha = min(0.99, opacity x response)), composited front to back (skip alpha < 1/255, stop at T < "
+      "1e-4); range = median or expected depth, intensity = blend-weighted DC-colour luminance.");
   cmd->callback([a] { cmd_lidar(*a); });
 }
 

@@ -1,0 +1,239 @@
+// LiDAR on Gaussians, GPU host module; see lidar_gaussians_gpu.h.
+#include "splat/lidar_gaussians_gpu.h"
+
+#include "shared/splat_params.h"  // SplatRangesParams (splat_ranges.comp)
+
+#include <algorithm>
+#include <bit>
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <numbers>
+#include <stdexcept>
+
+namespace icube::splat {
+
+namespace {
+constexpr uint32_t kLocal = 64;  // = SPLAT_LIDAR_TILE_RAYS; the other kernels take any multiple of the subgroup size
+static_assert(SPLAT_LIDAR_TILE_ROWS * SPLAT_LIDAR_TILE_COLS == SPLAT_LIDAR_TILE_RAYS);
+
+gpu::SpecConstants local_size() { return gpu::SpecConstants{}.set(0, kLocal /* local_size_x */); }
+
+void ensure(gpu::Context& ctx, gpu::Buffer& b, VkDeviceSize bytes, const char* name) {
+  bytes = std::max<VkDeviceSize>(bytes, 16);
+  if (b.valid() && b.size() >= bytes) return;
+  b = gpu::Buffer(ctx, bytes + bytes / 2, gpu::MemoryUsage::DeviceLocal, name);
+}
+
+const render::LidarModel& validated(const render::LidarModel& m) {
+  render::validate_lidar(m);
+  return m;
+}
+}  // namespace
+
+std::vector<shader::SplatLidarGaussian> lidar_gaussian_rows(const GaussianCloud& cloud,
+                                                            const std::vector<float>& intensity,
+                                                            const glm::dvec3& origin) {
+  if (intensity.size() != cloud.size()) throw std::invalid_argument("lidar gaussians: one intensity per Gaussian");
+  std::vector<shader::SplatLidarGaussian> rows(cloud.size());
+  for (size_t i = 0; i < cloud.size(); ++i) {
+    const LidarGaussian g =
+        lidar_gaussian(cloud.positions[i], cloud.scales[i], cloud.rotations[i], cloud.opacities[i], intensity[i]);
+    const glm::dvec3 p = g.mean - origin;
+    auto w = [&](int r, int c) { return static_cast<float>(g.W[c][r]); };
+    // Binning margin: float rounding of the cast's 1/255 test and of the distances.
+    const float r_cut = g.r_cut > 0.0 ? static_cast<float>(g.r_cut * 1.001 + 1e-4) : 0.0f;
+    rows[i] = shader::SplatLidarGaussian{static_cast<float>(p.x),
+                                         static_cast<float>(p.y),
+                                         static_cast<float>(p.z),
+                                         static_cast<float>(g.opacity),
+                                         w(0, 0),
+                                         w(0, 1),
+                                         w(0, 2),
+                                         static_cast<float>(g.intensity),
+                                         w(1, 0),
+                                         w(1, 1),
+                                         w(1, 2),
+                                         r_cut,
+                                         w(2, 0),
+                                         w(2, 1),
+                                         w(2, 2),
+                                         0.0f};
+  }
+  return rows;
+}
+
+struct LidarGaussiansGpu::Frame {
+  gpu::Buffer rects, touched, offsets, bound, scan_scratch, keys, values, ranges, total;
+  std::unique_ptr<kernels::RadixSortScratch> sort_scratch;
+  std::unique_ptr<gpu::GpuTimer> t1, t2;
+};
+
+LidarGaussiansGpu::LidarGaussiansGpu(gpu::Context& ctx, const render::LidarModel& model)
+    : ctx_(ctx),
+      model_(validated(model)),
+      dirs_(render::lidar_directions(model_)),
+      tiles_x_((model_.columns + SPLAT_LIDAR_TILE_COLS - 1) / SPLAT_LIDAR_TILE_COLS),
+      tiles_y_((model_.beams() + SPLAT_LIDAR_TILE_ROWS - 1) / SPLAT_LIDAR_TILE_ROWS),
+      bin_(ctx.program("splat_lidar_bin", local_size())),
+      duplicate_(ctx.program("splat_lidar_duplicate", local_size())),
+      ranges_(ctx.program("splat_ranges", local_size())),
+      cast_(ctx.program("splat_lidar_cast", local_size())),
+      scan_(ctx),
+      sort_(ctx, kernels::KeyWidth::Bits64),
+      f_(std::make_unique<Frame>()) {
+  if (model_.rays() * sizeof(shader::SplatLidarHit) > ctx_.info().max_storage_buffer_range)
+    throw std::invalid_argument("lidar gaussians: " + std::to_string(model_.rays()) +
+                                " rays per sweep exceed one storage binding of hits");
+  std::vector<glm::vec4> d(dirs_.size());
+  for (size_t i = 0; i < d.size(); ++i) d[i] = glm::vec4(glm::vec3(dirs_[i]), 0.0f);
+  dirs_gpu_ = gpu::upload_vector(ctx_, d, "lidar-gs-dirs");
+  std::vector<float> e(model_.beams());
+  for (size_t r = 0; r < e.size(); ++r) e[r] = static_cast<float>(model_.elevations_deg[r] * std::numbers::pi / 180.0);
+  elev_gpu_ = gpu::upload_vector(ctx_, e, "lidar-gs-elevations");
+  hits_ = gpu::Buffer(ctx_, model_.rays() * sizeof(shader::SplatLidarHit), gpu::MemoryUsage::DeviceLocal, "lidar-gs-hits");
+  f_->t1 = std::make_unique<gpu::GpuTimer>(ctx, 2);
+  f_->t2 = std::make_unique<gpu::GpuTimer>(ctx, 4);
+  f_->total = gpu::Buffer(ctx, 16, gpu::MemoryUsage::Readback, "lidar-gs-total");
+  f_->ranges = gpu::Buffer(ctx, uint64_t{tiles_x_} * tiles_y_ * 8, gpu::MemoryUsage::DeviceLocal, "lidar-gs-ranges");
+}
+
+LidarGaussiansGpu::~LidarGaussiansGpu() = default;
+
+GpuLidarGaussians LidarGaussiansGpu::upload(const GaussianCloud& cloud, const std::vector<float>& intensity) {
+  cloud.validate();
+  if (cloud.size() > UINT32_MAX / 8) throw std::invalid_argument("lidar gaussians: too many Gaussians");
+  const uint64_t bytes = cloud.size() * sizeof(shader::SplatLidarGaussian);
+  if (bytes > ctx_.info().max_storage_buffer_range)
+    throw std::invalid_argument("lidar gaussians: " + std::to_string(cloud.size()) +
+                                " Gaussians exceed one storage binding");
+  GpuLidarGaussians g;
+  g.count = static_cast<uint32_t>(cloud.size());
+  if (!cloud.positions.empty()) {
+    glm::dvec3 lo = cloud.positions[0], hi = lo;
+    for (const auto& p : cloud.positions) {
+      lo = glm::min(lo, p);
+      hi = glm::max(hi, p);
+    }
+    g.origin = glm::floor(0.5 * (lo + hi));  // whole metres: exact in float
+  }
+  g.gaussians = gpu::upload_vector(ctx_, lidar_gaussian_rows(cloud, intensity, g.origin), "lidar-gs-gaussians");
+  return g;
+}
+
+std::vector<shader::SplatLidarHit> LidarGaussiansGpu::cast(const GpuLidarGaussians& g, const glm::dmat4& s2w,
+                                                           LidarGaussianTimings* timings, bool download) {
+  const auto t0 = std::chrono::steady_clock::now();
+  Frame& f = *f_;
+  const uint64_t n = g.count;
+  const uint32_t tiles = tiles_x_ * tiles_y_;
+  const glm::dmat3 R(s2w);
+  const glm::dvec3 o = glm::dvec3(s2w[3]) - g.origin;
+  shader::SplatLidarParams p{};
+  p.n = g.count;
+  p.beams = model_.beams();
+  p.columns = model_.columns;
+  p.tiles_x = tiles_x_;
+  p.tiles_y = tiles_y_;
+  p.min_range = static_cast<float>(model_.min_range);
+  p.max_range = static_cast<float>(model_.max_range);
+  const double two_pi = 2.0 * std::numbers::pi;
+  double start = std::fmod(model_.start_azimuth_deg * std::numbers::pi / 180.0, two_pi);
+  if (start < 0.0) start += two_pi;
+  p.start_azimuth = static_cast<float>(start);
+  float* s = &p.s00;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) s[3 * r + c] = static_cast<float>(R[c][r]);  // row-major
+  p.ox = static_cast<float>(o.x);
+  p.oy = static_cast<float>(o.y);
+  p.oz = static_cast<float>(o.z);
+
+  ensure(ctx_, f.rects, n * 16, "lidar-gs-rects");
+  ensure(ctx_, f.touched, n * 4, "lidar-gs-touched");
+  ensure(ctx_, f.offsets, n * 4, "lidar-gs-offsets");
+  ensure(ctx_, f.bound, n * 4, "lidar-gs-bound");
+  ensure(ctx_, f.scan_scratch, kernels::PrefixScan::scratch_elements(n) * 4, "lidar-gs-scan-scratch");
+
+  // Submission 1: bin, scan of the tile counts, the total to the host.
+  uint32_t total = 0;
+  double bin_ms = 0.0;
+  if (n > 0) {
+    ctx_.submit_and_wait([&](gpu::CommandList& cmd) {
+      f.t1->reset(cmd);
+      const int ti = f.t1->begin(cmd, "bin");
+      cmd.dispatch(bin_, {n}, p,
+                   {g.gaussians.binding(0, n * sizeof(shader::SplatLidarGaussian)),
+                    elev_gpu_.binding(0, uint64_t{model_.beams()} * 4), f.rects.binding(0, n * 16),
+                    f.touched.binding(0, n * 4), f.bound.binding(0, n * 4)});
+      cmd.barrier(gpu::deps::kComputeToCompute);  // the scan reads touched[]
+      scan_.record(cmd, f.touched, f.offsets, n, kernels::ScanKind::Inclusive, &f.scan_scratch);
+      cmd.barrier(gpu::deps::kComputeToTransfer);  // the copy reads the last offset
+      cmd.copy_buffer(f.offsets.binding((n - 1) * 4, 4), f.total.binding(0, 4));
+      f.t1->end(cmd, ti);
+    });
+    std::memcpy(&total, f.total.mapped(), 4);
+    bin_ms = f.t1->milliseconds(0);
+  }
+
+  // Submission 2: keys, sort, ranges, cast.
+  const uint64_t inst = total;
+  const uint64_t limit = ctx_.info().max_storage_buffer_range;
+  if (inst > sort_.max_elements() || inst * 8 > limit)
+    throw std::runtime_error("lidar gaussians: " + std::to_string(inst) +
+                             " tile instances exceed the radix sort / storage binding limit");
+  if (inst > 0) {
+    ensure(ctx_, f.keys, inst * 8, "lidar-gs-keys");
+    ensure(ctx_, f.values, inst * 4, "lidar-gs-values");
+    if (!f.sort_scratch || f.sort_scratch->capacity < inst)
+      f.sort_scratch = std::make_unique<kernels::RadixSortScratch>(ctx_, inst + inst / 2, kernels::KeyWidth::Bits64);
+  } else {
+    ensure(ctx_, f.keys, 16, "lidar-gs-keys");
+    ensure(ctx_, f.values, 16, "lidar-gs-values");
+  }
+  const uint32_t key_bits = 32 + std::max<uint32_t>(1, static_cast<uint32_t>(std::bit_width(tiles - 1u)));
+  const uint64_t rays = model_.rays();
+  ctx_.submit_and_wait([&](gpu::CommandList& cmd) {
+    f.t2->reset(cmd);
+    const int ts = f.t2->begin(cmd, "sort");
+    if (inst > 0) {
+      cmd.dispatch(duplicate_, {n}, p,
+                   {f.rects.binding(0, n * 16), f.touched.binding(0, n * 4), f.offsets.binding(0, n * 4),
+                    f.bound.binding(0, n * 4), f.keys.binding(0, inst * 8), f.values.binding(0, inst * 4)});
+      cmd.barrier(gpu::deps::kComputeToCompute);  // the sort reads the keys and values
+      sort_.record(cmd, f.keys, f.values, inst, *f.sort_scratch, key_bits);
+    }
+    cmd.fill_buffer(f.ranges.binding(0, uint64_t{tiles} * 8), 0u);
+    cmd.barrier(gpu::deps::kTransferToCompute);  // the ranges kernel writes into the zeroed ranges
+    cmd.barrier(gpu::deps::kComputeToCompute);   // ... and reads the sorted keys
+    if (inst > 0)
+      cmd.dispatch(ranges_, {inst}, shader::SplatRangesParams{static_cast<uint32_t>(inst), 0, 0, 0},
+                   {f.keys.binding(0, inst * 8), f.ranges.binding(0, uint64_t{tiles} * 8)});
+    f.t2->end(cmd, ts);
+    cmd.barrier(gpu::deps::kComputeToCompute);  // the cast reads the ranges
+    const int tc = f.t2->begin(cmd, "cast");
+    const uint64_t gbytes = std::max<uint64_t>(1, n) * sizeof(shader::SplatLidarGaussian);
+    cmd.dispatch(cast_, {uint64_t{tiles} * SPLAT_LIDAR_TILE_RAYS}, p,
+                 {f.ranges.binding(0, uint64_t{tiles} * 8), f.keys.binding(0, std::max<uint64_t>(inst, 1) * 8),
+                  f.values.binding(0, std::max<uint64_t>(inst, 1) * 4),
+                  n > 0 ? g.gaussians.binding(0, gbytes) : f.rects.binding(0, 16),
+                  dirs_gpu_.binding(0, rays * 16), hits_.binding(0, rays * sizeof(shader::SplatLidarHit))});
+    f.t2->end(cmd, tc);
+  });
+  std::vector<shader::SplatLidarHit> hits;
+  if (download) hits = gpu::download_vector<shader::SplatLidarHit>(ctx_, hits_, rays);
+  if (timings) {
+    timings->bin_ms = bin_ms;
+    timings->sort_ms = f.t2->milliseconds(0);
+    timings->cast_ms = f.t2->milliseconds(1);
+    timings->instances = inst;
+    timings->wall_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  }
+  return hits;
+}
+
+render::LidarScan LidarGaussiansGpu::scan(const GpuLidarGaussians& g, const glm::dmat4& s2w,
+                                          const LidarGaussianOptions& opts, LidarGaussianTimings* timings) {
+  return lidar_scan_from_gaussian_hits(model_, dirs_, s2w, cast(g, s2w, timings), opts);
+}
+
+}  // namespace icube::splat
