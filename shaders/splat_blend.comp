@@ -4,39 +4,79 @@
 // range of the sorted instance list (rules and thresholds in
 // engine/splat/rasterizer_cpu.h: skip power > 0 and α < 1/255, α ≤ 0.99, stop
 // before T·(1−α) < 1e-4, per pixel).
-// One invocation blends SPLAT_BLEND_PIXELS (8) consecutive pixels of one tile
-// row in registers, so each Gaussian's 48 bytes are loaded once for 8 pixels;
-// 32 invocations per tile (16 rows × 2 halves), numbered tile-major, so a
-// subgroup shares one tile's list. Per Gaussian and row, the largest value of
-// the Gaussian along the row, o·exp(−½dy²(c' − b'²/a')), is tested first: when
-// it is below 0.9/255 no pixel of the row can pass the 1/255 test and the
-// Gaussian is skipped for the row (the 10 % margin covers rounding, so results
-// equal the per-pixel loop). No shared memory or barriers (slow on lavapipe).
-// Outputs per pixel (row-major): rgba = (C + T·bg, 1 − T), depth = (expected
-// Σwz/(1 − T), median).
-// Host module: engine/splat/rasterizer_gpu.cpp; test: tests/test_splat.cpp.
+// One invocation blends P = SPLAT_BLEND_PIXELS (splat_params.h) consecutive
+// pixels of one tile row in registers, so each Gaussian's record is loaded
+// once for P pixels; S = 16/P segments per row, 16·S invocations per tile,
+// numbered tile-major: invocation l covers row (l & 7) + 8·((l >> 3) / S),
+// columns P·((l >> 3) % S) + [0, P), so 8 consecutive invocations (lavapipe's
+// subgroup) cover a P × 8 block. P = 16 (whole tile rows) measured fastest
+// on lavapipe (bench/README.md); 4 and 8 are valid too.
+// Per invocation, a cheap inner loop skips the Gaussians that cannot reach
+// α >= 1/255 on its P-pixel segment, reading only the first two vec4 of the
+// blend record (SplatBlendRecord): along the row, power(px) is a parabola with
+// maximum fmax = −½dy²(c' − b'²/a') at px* = mean_x + b'dy/a' and it exceeds
+// log_cut = ln(0.9/(255·o)) only on px* ± √(2(fmax − log_cut)/a'); segments
+// more than one pixel outside that interval are skipped. The 10 % margin in
+// log_cut and the pixel cover rounding, so the per-pixel loop sees every
+// Gaussian that can pass its tests and results equal the reference loop; the
+// skip is a real loop (not a masked branch), which is what saves time on
+// lavapipe. No shared memory or barriers (slow on lavapipe).
 #include "shared/splat_params.h"
 #include "common/dispatch.glsl"
 
-#define SPLAT_BLEND_PIXELS 8
+#define SPLAT_BLEND_SEGS (SPLAT_TILE / SPLAT_BLEND_PIXELS)  // segments per tile row
+#define SPLAT_BLEND_PER_TILE (SPLAT_TILE * SPLAT_BLEND_SEGS)  // invocations per tile
 
 layout(local_size_x_id = 0) in;
 layout(push_constant) uniform Push { SplatBlendParams p; };
 layout(std430, binding = 0) readonly buffer Ranges { uvec2 ranges[]; };
 layout(std430, binding = 1) readonly buffer Values { uint values[]; };
-layout(std430, binding = 2) readonly buffer Proj { vec4 proj[]; };
+layout(std430, binding = 2) readonly buffer Records { vec4 records[]; };
 layout(std430, binding = 3) writeonly buffer Rgba { vec4 rgba[]; };
 layout(std430, binding = 4) writeonly buffer Depth { vec2 depth[]; };
+layout(std430, binding = 5) readonly buffer Sky { uint sky_texels[]; };
+
+vec3 sky_texel(int x, int y) { return unpackUnorm4x8(sky_texels[uint(y) * p.sky_w + uint(x)]).xyz; }
+
+// Mirrors engine/splat/sky.cpp sky_ray_dir + sky_color operation by operation.
+vec3 splat_sky(float px, float py) {
+  if (p.sky_kind == SPLAT_SKY_BACKGROUND) return vec3(p.bg_r, p.bg_g, p.bg_b);
+  const float x = p.m00 * px + p.m01 * py + p.m02;
+  const float y = p.m10 * px + p.m11 * py + p.m12;
+  const float z = p.m20 * px + p.m21 * py + p.m22;
+  const float inv = 1.0 / sqrt(x * x + y * y + z * z);
+  const vec3 d = vec3(x * inv, y * inv, z * inv);
+  if (p.sky_kind == SPLAT_SKY_GRADIENT) {
+    const vec3 hor = vec3(p.hor_r, p.hor_g, p.hor_b);
+    if (d.z >= 0.0) return hor + (vec3(p.zen_r, p.zen_g, p.zen_b) - hor) * d.z;
+    return hor + (vec3(p.gnd_r, p.gnd_g, p.gnd_b) - hor) * (-d.z);
+  }
+  const float kPi = 3.14159265358979;
+  const float lon = atan(d.y, d.x);
+  const float theta = atan(sqrt(d.x * d.x + d.y * d.y), d.z);
+  const float sx = (0.5 - lon / (2.0 * kPi)) * float(p.sky_w) - 0.5;
+  const float sy = (theta / kPi) * float(p.sky_h) - 0.5;
+  const float xf = floor(sx), yf = floor(sy);
+  const float ax = sx - xf, ay = sy - yf;
+  const int W = int(p.sky_w), H = int(p.sky_h);
+  const int xi = int(xf);
+  const int x0 = xi < 0 ? xi + W : (xi >= W ? xi - W : xi), x1 = x0 + 1 == W ? 0 : x0 + 1;
+  const int y0 = clamp(int(yf), 0, H - 1), y1 = clamp(int(yf) + 1, 0, H - 1);
+  const vec3 top = sky_texel(x0, y0) * (1.0 - ax) + sky_texel(x1, y0) * ax;
+  const vec3 bot = sky_texel(x0, y1) * (1.0 - ax) + sky_texel(x1, y1) * ax;
+  return top * (1.0 - ay) + bot * ay;
+}
 
 void main() {
   const uint t = ICUBE_THREAD_LINEAR();
-  const uint tile = t >> 5;
+  const uint tile = t / SPLAT_BLEND_PER_TILE;
   if (tile >= p.grid_x * p.grid_y) return;
-  const uint local = t & 31u;
-  const uint u0 = (tile % p.grid_x) * SPLAT_TILE + (local & 1u) * SPLAT_BLEND_PIXELS;
-  const uint v = (tile / p.grid_x) * SPLAT_TILE + (local >> 1);
+  const uint local = t % SPLAT_BLEND_PER_TILE;
+  const uint u0 = (tile % p.grid_x) * SPLAT_TILE + ((local >> 3) % SPLAT_BLEND_SEGS) * SPLAT_BLEND_PIXELS;
+  const uint v = (tile / p.grid_x) * SPLAT_TILE + (local & 7u) + 8u * ((local >> 3) / SPLAT_BLEND_SEGS);
   if (u0 >= p.width || v >= p.height) return;
   const float py = float(v) + p.pixel_offset;
+  const float px0 = float(u0) + p.pixel_offset;  // sample x of the segment's first pixel
   float T[SPLAT_BLEND_PIXELS], wz[SPLAT_BLEND_PIXELS], median[SPLAT_BLEND_PIXELS];
   vec3 C[SPLAT_BLEND_PIXELS];
   uint alive = 0u;  // bit j: pixel u0 + j is inside the image and not finished
@@ -48,22 +88,36 @@ void main() {
     if (u0 + uint(j) < p.width) alive |= 1u << j;
   }
   const uvec2 range = ranges[tile];
-  for (uint k = range.x; k < range.y && alive != 0u; ++k) {
-    const uint gi = values[k];
-    const vec4 g0 = proj[3u * gi];
-    const vec4 g1 = proj[3u * gi + 1u];
-    const float dy = g0.y - py;
-    if (g1.x > 0.0) {
-      const float row_max = -0.5 * dy * dy * (g1.z - g1.y * g1.y / g1.x);
-      if (g0.w * exp(row_max) < 0.9 / 255.0) continue;
+  uint k = range.x;
+  while (alive != 0u) {
+    // Next Gaussian that can reach α >= 1/255 on this segment.
+    uint gi = 0u;
+    vec4 g0 = vec4(0.0), g1 = vec4(0.0);
+    bool found = false;
+    while (k < range.y) {
+      gi = values[k];
+      g0 = records[3u * gi];
+      g1 = records[3u * gi + 1u];
+      ++k;
+      const float dy = g0.y - py;
+      const float fmax = -0.5 * dy * dy * (g1.x - g0.w * g0.w / g0.z);
+      const float xc = g0.x + g0.w * dy / g0.z;
+      const float h = sqrt(2.0 * (fmax - g1.y) / g0.z) + 1.0;
+      const bool miss = fmax < g1.y || xc - h > px0 + float(SPLAT_BLEND_PIXELS - 1) || xc + h < px0;
+      if (!miss) {  // NaN anywhere: not a miss (conservative)
+        found = true;
+        break;
+      }
     }
-    const vec3 rgb = proj[3u * gi + 2u].xyz;
+    if (!found) break;
+    const vec3 rgb = records[3u * gi + 2u].xyz;
+    const float dy = g0.y - py;
     for (int j = 0; j < SPLAT_BLEND_PIXELS; ++j) {
       if ((alive & (1u << j)) == 0u) continue;
       const float dx = g0.x - (float(u0 + uint(j)) + p.pixel_offset);
-      const float power = -0.5 * (g1.x * dx * dx + g1.z * dy * dy) - g1.y * dx * dy;
+      const float power = -0.5 * (g0.z * dx * dx + g1.x * dy * dy) - g0.w * dx * dy;
       if (power > 0.0) continue;
-      const float alpha = min(0.99, g0.w * exp(power));
+      const float alpha = min(0.99, g1.z * exp(power));
       if (alpha < 1.0 / 255.0) continue;
       const float test_t = T[j] * (1.0 - alpha);
       if (test_t < 1e-4) {
@@ -72,8 +126,8 @@ void main() {
       }
       const float w = alpha * T[j];
       C[j] += rgb * w;
-      wz[j] += g0.z * w;
-      if (T[j] > 0.5 && test_t <= 0.5) median[j] = g0.z;
+      wz[j] += g1.w * w;
+      if (T[j] > 0.5 && test_t <= 0.5) median[j] = g1.w;
       T[j] = test_t;
     }
   }
@@ -81,7 +135,7 @@ void main() {
     const uint u = u0 + uint(j);
     if (u >= p.width) break;
     const uint pix = v * p.width + u;
-    rgba[pix] = vec4(C[j] + T[j] * vec3(p.bg_r, p.bg_g, p.bg_b), 1.0 - T[j]);
+    rgba[pix] = vec4(C[j] + T[j] * splat_sky(float(u) + p.pixel_offset, py), 1.0 - T[j]);
     depth[pix] = vec2(T[j] < 1.0 ? wz[j] / (1.0 - T[j]) : 0.0, median[j]);
   }
 }

@@ -1,35 +1,37 @@
 #version 460
 #extension GL_GOOGLE_include_directive : require
-// splat_duplicate: one invocation per Gaussian; writes one (key, value) per
-// tile of its rect, row-major over the rect, at offsets from the inclusive
-// scan of touched[] (no atomics, so the order is deterministic).
-// key = uvec2(float bits of view z, tile id) = tile_id << 32 | depth bits as a
-// little-endian uint64; value = Gaussian index. z > near > 0, so the float
-// bits order like the depths.
+// splat_duplicate: one invocation per depth-sorted position j (order[] =
+// Gaussian indices stably sorted by view depth); writes one (key, value) per
+// tile of Gaussian order[j]'s rect, row-major over the rect, at offsets from
+// the inclusive scan of the depth-ordered tile counts (splat_sorted_counts).
+// key = tile id (uint32), value = Gaussian index. The instances are thus in
+// (depth, Gaussian index) order, and the host's stable radix sort by the
+// tile-id bits only yields the reference order (tile, depth, index) of the
+// 64-bit keys tile << 32 | depth bits. No atomics: deterministic.
 // Host module: engine/splat/rasterizer_gpu.cpp; test: tests/test_splat.cpp.
 #include "shared/splat_params.h"
 #include "common/dispatch.glsl"
 
 layout(local_size_x_id = 0) in;
 layout(push_constant) uniform Push { SplatDuplicateParams p; };
-layout(std430, binding = 0) readonly buffer Proj { vec4 proj[]; };
+layout(std430, binding = 0) readonly buffer Order { uint order[]; };
 layout(std430, binding = 1) readonly buffer Rects { uvec4 rects[]; };
-layout(std430, binding = 2) readonly buffer Touched { uint touched[]; };
+layout(std430, binding = 2) readonly buffer Counts { uint counts[]; };
 layout(std430, binding = 3) readonly buffer Offsets { uint offsets_incl[]; };
-layout(std430, binding = 4) writeonly buffer Keys { uvec2 keys[]; };
+layout(std430, binding = 4) writeonly buffer Keys { uint keys[]; };
 layout(std430, binding = 5) writeonly buffer Values { uint values[]; };
 
 void main() {
-  const uint i = ICUBE_THREAD_LINEAR();
-  if (i >= p.n) return;
-  const uint count = touched[i];
+  const uint j = ICUBE_THREAD_LINEAR();
+  if (j >= p.n) return;
+  const uint count = counts[j];
   if (count == 0u) return;
-  uint o = offsets_incl[i] - count;
+  const uint i = order[j];
+  uint o = offsets_incl[j] - count;
   const uvec4 r = rects[i];
-  const uint zbits = floatBitsToUint(proj[3u * i].z);
   for (uint y = r.y; y < r.w; ++y)
     for (uint x = r.x; x < r.z; ++x) {
-      keys[o] = uvec2(zbits, y * p.grid_x + x);
+      keys[o] = y * p.grid_x + x;
       values[o] = i;
       ++o;
     }

@@ -2,7 +2,7 @@
 //
 //   icube splat render SCENE.ply|SCENE.splat|scene.json --camera fx,fy,cx,cy,w,h
 //                      --trajectory POSES.npy [--antialiased] [--near Z] [--far Z]
-//                      [--background r,g,b] [--integer-pixels] [--depth] -o OUTDIR
+//                      [--background r,g,b] [--sky background|gradient|FILE.png] [--integer-pixels] [--depth] -o OUTDIR
 //   icube splat info FILE.ply|FILE.splat|scene.json
 //   icube splat convert IN.ply|IN.splat OUT.ply|OUT.splat
 //
@@ -26,6 +26,7 @@
 #include "splat/gaussians.h"
 #include "splat/rasterizer_gpu.h"
 #include "splat/splat_format.h"
+#include "splat/sky.h"
 #include "splat/splat_scene.h"
 #include "world/npy.h"
 
@@ -48,7 +49,7 @@ namespace {
 namespace fs = std::filesystem;
 
 struct SplatRenderArgs {
-  std::string scene, camera, trajectory, background = "0,0,0", output;
+  std::string scene, camera, trajectory, background = "0,0,0", sky = "background", output;
   double near_z = 0.01, far_z = 1e10;
   bool antialiased = false, integer_pixels = false, depth = false;
 };
@@ -84,6 +85,7 @@ void cmd_render(const SplatRenderArgs& a) {
     opts.antialiased = a.antialiased;
     opts.pixels = a.integer_pixels ? render::PixelConvention::Integer : render::PixelConvention::Centre;
     opts.background = parse_rgb(a.background);
+    opts.sky = splat::parse_sky(a.sky);
     const auto& traj = tf.passes[0];
     if (scn.has_objects() && traj.size() > scn.frames() && scn.frames() > 0)
       diag.warn(a.trajectory, "",
@@ -223,6 +225,11 @@ void add_splat_commands(CLI::App& app) {
   r->add_option("--near", a->near_z, "Near plane: view z <= Z is culled")->type_name("Z")->capture_default_str();
   r->add_option("--far", a->far_z, "Far plane: view z > Z is culled")->type_name("Z")->capture_default_str();
   r->add_option("--background", a->background, "Background colour")->type_name("r,g,b")->capture_default_str();
+  r->add_option("--sky", a->sky,
+                "Colour behind the Gaussians: background (the --background colour), gradient (z-up zenith/horizon/ground) "
+                "or an equirectangular panorama .png (centre column looks along world +x, row 0 = zenith)")
+      ->type_name("background|gradient|FILE.png")
+      ->capture_default_str();
   r->add_flag("--integer-pixels", a->integer_pixels, "Sample pixel u at u (Inria) instead of u + 0.5 (gsplat)");
   r->add_flag("--depth", a->depth, "Also write NNNNNN_depth.npy (float32 [H,W,2]: expected, median depth)");
   r->add_option("-o,--output", a->output, "Output folder")->required()->type_name("OUTDIR");

@@ -209,6 +209,9 @@ SplatImage blend_cpu(const std::vector<shader::SplatProjected>& proj, const Tile
   img.rgba.assign(size_t{img.width} * img.height * 4, 0.0f);
   img.depth.assign(size_t{img.width} * img.height * 2, 0.0f);
   const float o = static_cast<float>(render::pixel_offset(opts.pixels));
+  validate_sky(opts.sky);
+  float m[9];
+  sky_ray_matrix(cam, m);
   for (uint32_t v = 0; v < img.height; ++v)
     for (uint32_t u = 0; u < img.width; ++u) {
       const uint32_t tile = (v / SPLAT_TILE) * gx + u / SPLAT_TILE;
@@ -232,9 +235,12 @@ SplatImage blend_cpu(const std::vector<shader::SplatProjected>& proj, const Tile
         T = test_t;
       }
       const size_t p = size_t{v} * img.width + u;
-      img.rgba[4 * p + 0] = cr + T * opts.background.x;
-      img.rgba[4 * p + 1] = cg + T * opts.background.y;
-      img.rgba[4 * p + 2] = cb + T * opts.background.z;
+      const glm::vec3 sky = opts.sky.kind == SkyKind::Background
+                                ? opts.background
+                                : sky_color(opts.sky, opts.background, sky_ray_dir(m, px, py));
+      img.rgba[4 * p + 0] = cr + T * sky.x;
+      img.rgba[4 * p + 1] = cg + T * sky.y;
+      img.rgba[4 * p + 2] = cb + T * sky.z;
       img.rgba[4 * p + 3] = 1.0f - T;
       img.depth[2 * p + 0] = T < 1.0f ? wz / (1.0f - T) : 0.0f;
       img.depth[2 * p + 1] = median;

@@ -24,11 +24,14 @@
 //   Gaussian) when T·(1−α) < 1e-4. Outputs C + T·background, alpha = 1 − T,
 //   expected depth Σwz/Σw (0 where Σw = 0), median depth = z of the Gaussian
 //   after which T <= 0.5 first (0 if never).
+// - Sky: SplatOptions::sky replaces the constant background by sky(d) for the
+//   pixel's world ray direction d (engine/splat/sky.h): C + T·sky(d).
 #pragma once
 
 #include "render/camera.h"
 #include "shared/splat_params.h"
 #include "splat/gaussians.h"
+#include "splat/sky.h"
 
 #include <glm/glm.hpp>
 
@@ -44,6 +47,7 @@ struct SplatOptions {
   bool antialiased = false;
   render::PixelConvention pixels = render::PixelConvention::Centre;
   glm::vec3 background{0.0f};
+  SkyModel sky;  // default: the constant `background`
 };
 
 // Per-frame constants shared by the CPU reference and the GPU push constants.

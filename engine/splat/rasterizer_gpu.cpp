@@ -12,6 +12,7 @@ namespace icube::splat {
 
 namespace {
 constexpr uint32_t kLocal = 64;  // non-cooperative kernels: any multiple of the subgroup size
+constexpr uint64_t kBlendInvocationsPerTile = SPLAT_TILE_PIXELS / SPLAT_BLEND_PIXELS;  // splat_blend.comp
 
 gpu::SpecConstants local_size() { return gpu::SpecConstants{}.set(0, kLocal /* local_size_x */); }
 
@@ -25,12 +26,15 @@ void ensure(gpu::Context& ctx, gpu::Buffer& b, VkDeviceSize bytes, const char* n
 }  // namespace
 
 struct SplatRendererGpu::Frame {
-  gpu::Buffer proj, rects, touched, offsets, scan_scratch, keys, values, ranges, rgba, depth, total;
+  gpu::Buffer proj, records, rects, touched, depth_keys, order, counts, offsets, scan_scratch, keys, values, ranges, rgba,
+      depth, total, sky;
+  std::shared_ptr<const SkyImage> sky_image;  // the image currently in `sky`
   std::unique_ptr<kernels::RadixSortScratch> sort_scratch;
   std::unique_ptr<gpu::GpuTimer> t1, t2;
   uint64_t bytes() const {
     uint64_t s = 0;
-    for (const gpu::Buffer* b : {&proj, &rects, &touched, &offsets, &scan_scratch, &keys, &values, &ranges, &rgba, &depth})
+    for (const gpu::Buffer* b : {&proj, &records, &rects, &touched, &depth_keys, &order, &counts, &offsets, &scan_scratch, &keys,
+                                 &values, &ranges, &rgba, &depth, &sky})
       s += b->valid() ? b->size() : 0;
     if (sort_scratch)
       s += sort_scratch->keys.size() + sort_scratch->values.size() + sort_scratch->histogram.size() +
@@ -42,13 +46,14 @@ struct SplatRendererGpu::Frame {
 SplatRendererGpu::SplatRendererGpu(gpu::Context& ctx)
     : ctx_(ctx),
       preprocess_(ctx.program("splat_preprocess", local_size())),
+      counts_(ctx.program("splat_sorted_counts", local_size())),
       duplicate_(ctx.program("splat_duplicate", local_size())),
-      ranges_(ctx.program("splat_ranges", local_size())),
+      ranges_(ctx.program("splat_tile_ranges", local_size())),
       blend_(ctx.program("splat_blend", local_size())),
       scan_(ctx),
-      sort_(ctx, kernels::KeyWidth::Bits64),
+      sort_(ctx, kernels::KeyWidth::Bits32),
       f_(std::make_unique<Frame>()) {
-  f_->t1 = std::make_unique<gpu::GpuTimer>(ctx, 2);
+  f_->t1 = std::make_unique<gpu::GpuTimer>(ctx, 4);
   f_->t2 = std::make_unique<gpu::GpuTimer>(ctx, 4);
   f_->total = gpu::Buffer(ctx, 16, gpu::MemoryUsage::Readback, "splat-total");
 }
@@ -89,6 +94,7 @@ SplatImage SplatRendererGpu::render(const GpuGaussians& g, const render::Camera&
                                     SplatTimings* timings, SplatDebug* debug, bool download) {
   const auto t0 = std::chrono::steady_clock::now();
   SplatFrame frame = make_frame(cam, opts, g.origin);
+  validate_sky(opts.sky);
   const uint32_t W = cam.K.width, H = cam.K.height;
   const uint32_t tiles = frame.grid_x * frame.grid_y;
   const uint64_t n = g.count;
@@ -96,19 +102,43 @@ SplatImage SplatRendererGpu::render(const GpuGaussians& g, const render::Camera&
   const uint64_t limit = ctx_.info().max_storage_buffer_range;
   if (n * sizeof(shader::SplatProjected) > limit)
     throw std::invalid_argument("splat: " + std::to_string(n) + " Gaussians exceed one storage binding");
+  if (uint64_t{W} * H * 16 > limit)
+    throw std::invalid_argument("splat: a " + std::to_string(W) + "x" + std::to_string(H) +
+                                " image exceeds one storage binding");
   ensure(ctx_, f.proj, n * sizeof(shader::SplatProjected), "splat-proj");
+  ensure(ctx_, f.records, n * sizeof(shader::SplatBlendRecord), "splat-blend-records");
   ensure(ctx_, f.rects, n * 16, "splat-rects");
   ensure(ctx_, f.touched, n * 4, "splat-touched");
+  ensure(ctx_, f.depth_keys, n * 4, "splat-depth-keys");
+  ensure(ctx_, f.order, n * 4, "splat-order");
+  ensure(ctx_, f.counts, n * 4, "splat-counts");
   ensure(ctx_, f.offsets, n * 4, "splat-offsets");
   ensure(ctx_, f.scan_scratch, kernels::PrefixScan::scratch_elements(n) * 4, "splat-scan-scratch");
   ensure(ctx_, f.ranges, uint64_t{tiles} * 8, "splat-ranges");
   ensure(ctx_, f.rgba, uint64_t{W} * H * 16, "splat-rgba");
   ensure(ctx_, f.depth, uint64_t{W} * H * 8, "splat-depth");
+  if (opts.sky.kind == SkyKind::Equirect && f.sky_image != opts.sky.image) {
+    const SkyImage& im = *opts.sky.image;
+    if (im.rgba.size() > limit)
+      throw std::invalid_argument("splat sky: a " + std::to_string(im.width) + "x" + std::to_string(im.height) +
+                                  " image exceeds one storage binding");
+    f.sky = gpu::upload_vector(ctx_, im.rgba, "splat-sky");
+    f.sky_image = opts.sky.image;
+  }
+  auto ensure_sort_scratch = [&](uint64_t count) {
+    if (!f.sort_scratch || f.sort_scratch->capacity < count)
+      f.sort_scratch = std::make_unique<kernels::RadixSortScratch>(ctx_, count + count / 2, kernels::KeyWidth::Bits32);
+  };
+  if (n > sort_.max_elements())
+    throw std::invalid_argument("splat: " + std::to_string(n) + " Gaussians exceed the radix sort limit of " +
+                                std::to_string(sort_.max_elements()));
 
-  // Submission 1: preprocess, scan of the tile counts, total to the host.
+  // Submission 1: preprocess, depth sort of the Gaussians, scan of the tile counts in depth
+  // order, total to the host.
   uint32_t total = 0;
-  double pre_ms = 0.0;
+  double pre_ms = 0.0, depth_sort_ms = 0.0;
   if (n > 0) {
+    ensure_sort_scratch(n);
     const auto windows = gpu::storage_windows(ctx_.info(), n, g.sh_stride * 4);
     ctx_.submit_and_wait([&](gpu::CommandList& cmd) {
       f.t1->reset(cmd);
@@ -123,56 +153,88 @@ SplatImage SplatRendererGpu::render(const GpuGaussians& g, const render::Camera&
                      {g.gaussians.binding(0, n * sizeof(shader::SplatGaussian)),
                       g.sh.binding(w.first * g.sh_stride * 4, w.count * g.sh_stride * 4),
                       f.proj.binding(0, n * sizeof(shader::SplatProjected)), f.rects.binding(0, n * 16),
-                      f.touched.binding(0, n * 4)});
+                      f.touched.binding(0, n * 4), f.depth_keys.binding(0, n * 4), f.order.binding(0, n * 4),
+                      f.records.binding(0, n * sizeof(shader::SplatBlendRecord))});
       }
-      cmd.barrier(gpu::deps::kComputeToCompute);  // the scan reads touched[]
-      scan_.record(cmd, f.touched, f.offsets, n, kernels::ScanKind::Inclusive, &f.scan_scratch);
+      f.t1->end(cmd, ti);
+      cmd.barrier(gpu::deps::kComputeToCompute);  // the sort reads the depth keys
+      const int td = f.t1->begin(cmd, "depth sort");
+      sort_.record(cmd, f.depth_keys, f.order, n, *f.sort_scratch, 32);
+      cmd.barrier(gpu::deps::kComputeToCompute);  // counts read the order
+      cmd.dispatch(counts_, {n}, shader::SplatDuplicateParams{static_cast<uint32_t>(n), frame.grid_x, 0, 0},
+                   {f.order.binding(0, n * 4), f.touched.binding(0, n * 4), f.counts.binding(0, n * 4)});
+      cmd.barrier(gpu::deps::kComputeToCompute);  // the scan reads counts[]
+      scan_.record(cmd, f.counts, f.offsets, n, kernels::ScanKind::Inclusive, &f.scan_scratch);
       cmd.barrier(gpu::deps::kComputeToTransfer);  // the copy reads the last offset
       cmd.copy_buffer(f.offsets.binding((n - 1) * 4, 4), f.total.binding(0, 4));
-      f.t1->end(cmd, ti);
+      f.t1->end(cmd, td);
     });
     std::memcpy(&total, f.total.mapped(), 4);
     pre_ms = f.t1->milliseconds(0);
+    depth_sort_ms = f.t1->milliseconds(1);
   }
 
-  // Submission 2: keys, sort, ranges, blend.
+  // Submission 2: instances in depth order, stable sort by tile id, ranges, blend.
   const uint64_t inst = total;
-  if (inst > sort_.max_elements())
+  if (inst > sort_.max_elements() || inst * 4 > limit)
     throw std::runtime_error("splat: " + std::to_string(inst) + " tile instances exceed the radix sort limit of " +
                              std::to_string(sort_.max_elements()));
   if (inst > 0) {
-    ensure(ctx_, f.keys, inst * 8, "splat-keys");
+    ensure(ctx_, f.keys, inst * 4, "splat-keys");
     ensure(ctx_, f.values, inst * 4, "splat-values");
-    if (!f.sort_scratch || f.sort_scratch->capacity < inst)
-      f.sort_scratch = std::make_unique<kernels::RadixSortScratch>(ctx_, inst + inst / 2, kernels::KeyWidth::Bits64);
+    ensure_sort_scratch(inst);
   }
-  const uint32_t key_bits = 32 + std::max<uint32_t>(1, static_cast<uint32_t>(std::bit_width(tiles - 1u)));
-  shader::SplatBlendParams bp{W, H, frame.grid_x, frame.grid_y, static_cast<float>(render::pixel_offset(opts.pixels)),
-                              opts.background.x, opts.background.y, opts.background.z};
+  const uint32_t tile_bits = std::max<uint32_t>(1, static_cast<uint32_t>(std::bit_width(tiles - 1u)));
+  shader::SplatBlendParams bp{};
+  bp.width = W;
+  bp.height = H;
+  bp.grid_x = frame.grid_x;
+  bp.grid_y = frame.grid_y;
+  bp.pixel_offset = static_cast<float>(render::pixel_offset(opts.pixels));
+  bp.sky_kind = static_cast<uint32_t>(opts.sky.kind);
+  if (opts.sky.kind == SkyKind::Equirect) {
+    bp.sky_w = opts.sky.image->width;
+    bp.sky_h = opts.sky.image->height;
+  }
+  bp.bg_r = opts.background.x;
+  bp.bg_g = opts.background.y;
+  bp.bg_b = opts.background.z;
+  const SkyGradient& sg = opts.sky.gradient;
+  bp.zen_r = sg.zenith.x;
+  bp.zen_g = sg.zenith.y;
+  bp.zen_b = sg.zenith.z;
+  bp.hor_r = sg.horizon.x;
+  bp.hor_g = sg.horizon.y;
+  bp.hor_b = sg.horizon.z;
+  bp.gnd_r = sg.ground.x;
+  bp.gnd_g = sg.ground.y;
+  bp.gnd_b = sg.ground.z;
+  sky_ray_matrix(cam, &bp.m00);
   ctx_.submit_and_wait([&](gpu::CommandList& cmd) {
     f.t2->reset(cmd);
     const int ts = f.t2->begin(cmd, "sort");
     if (inst > 0) {
       cmd.dispatch(duplicate_, {n}, shader::SplatDuplicateParams{static_cast<uint32_t>(n), frame.grid_x, 0, 0},
-                   {f.proj.binding(0, n * sizeof(shader::SplatProjected)), f.rects.binding(0, n * 16),
-                    f.touched.binding(0, n * 4), f.offsets.binding(0, n * 4), f.keys.binding(0, inst * 8),
-                    f.values.binding(0, inst * 4)});
+                   {f.order.binding(0, n * 4), f.rects.binding(0, n * 16), f.counts.binding(0, n * 4),
+                    f.offsets.binding(0, n * 4), f.keys.binding(0, inst * 4), f.values.binding(0, inst * 4)});
       cmd.barrier(gpu::deps::kComputeToCompute);  // the sort reads the keys and values
-      sort_.record(cmd, f.keys, f.values, inst, *f.sort_scratch, key_bits);
+      sort_.record(cmd, f.keys, f.values, inst, *f.sort_scratch, tile_bits);
     }
     cmd.fill_buffer(f.ranges.binding(0, uint64_t{tiles} * 8), 0u);
     cmd.barrier(gpu::deps::kTransferToCompute);  // the ranges kernel writes into the zeroed ranges
     cmd.barrier(gpu::deps::kComputeToCompute);   // ... and reads the sorted keys
     if (inst > 0)
       cmd.dispatch(ranges_, {inst}, shader::SplatRangesParams{static_cast<uint32_t>(inst), 0, 0, 0},
-                   {f.keys.binding(0, inst * 8), f.ranges.binding(0, uint64_t{tiles} * 8)});
+                   {f.keys.binding(0, inst * 4), f.ranges.binding(0, uint64_t{tiles} * 8)});
     f.t2->end(cmd, ts);
     cmd.barrier(gpu::deps::kComputeToCompute);  // blend reads the ranges
     const int tb = f.t2->begin(cmd, "blend");
-    cmd.dispatch(blend_, {uint64_t{tiles} * 32 /* invocations per tile: 16 rows x 2 halves */}, bp,
+    cmd.dispatch(blend_, {uint64_t{tiles} * kBlendInvocationsPerTile}, bp,
                  {f.ranges.binding(0, uint64_t{tiles} * 8), inst > 0 ? f.values.binding(0, inst * 4) : f.ranges.binding(0, 8),
-                  n > 0 ? f.proj.binding(0, n * sizeof(shader::SplatProjected)) : f.rgba.binding(0, 48),
-                  f.rgba.binding(0, uint64_t{W} * H * 16), f.depth.binding(0, uint64_t{W} * H * 8)});
+                  n > 0 ? f.records.binding(0, n * sizeof(shader::SplatBlendRecord)) : f.rgba.binding(0, 48),
+                  f.rgba.binding(0, uint64_t{W} * H * 16), f.depth.binding(0, uint64_t{W} * H * 8),
+                  opts.sky.kind == SkyKind::Equirect ? f.sky.binding(0, opts.sky.image->rgba.size())
+                                                     : f.ranges.binding(0, 8)});
     f.t2->end(cmd, tb);
   });
 
@@ -185,12 +247,19 @@ SplatImage SplatRendererGpu::render(const GpuGaussians& g, const render::Camera&
   }
   if (debug) {
     debug->proj = gpu::download_vector<shader::SplatProjected>(ctx_, f.proj, n);
-    debug->keys = inst ? gpu::download_vector<uint64_t>(ctx_, f.keys, inst) : std::vector<uint64_t>{};
+    const auto tile_ids = inst ? gpu::download_vector<uint32_t>(ctx_, f.keys, inst) : std::vector<uint32_t>{};
     debug->values = inst ? gpu::download_vector<uint32_t>(ctx_, f.values, inst) : std::vector<uint32_t>{};
+    debug->keys.resize(inst);
+    for (size_t i = 0; i < inst; ++i) {
+      uint32_t zbits;
+      std::memcpy(&zbits, &debug->proj[debug->values[i]].depth, 4);
+      debug->keys[i] = (uint64_t{tile_ids[i]} << 32) | zbits;
+    }
     debug->ranges = gpu::download_vector<uint32_t>(ctx_, f.ranges, size_t{tiles} * 2);
   }
   if (timings) {
     timings->preprocess_ms = pre_ms;
+    timings->depth_sort_ms = depth_sort_ms;
     timings->sort_ms = f.t2->milliseconds(0);
     timings->blend_ms = f.t2->milliseconds(1);
     timings->instances = inst;

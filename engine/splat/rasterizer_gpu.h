@@ -1,19 +1,29 @@
 // GPU host module of the tile-based Gaussian splatting rasterizer
-// (shaders/splat_preprocess.comp, splat_duplicate.comp, splat_ranges.comp,
-// splat_blend.comp; the foundation PrefixScan and 64-bit RadixSort from
-// kernels/). Same rules and outputs as the CPU reference rasterizer_cpu.h.
+// (shaders/splat_preprocess.comp, splat_sorted_counts.comp,
+// splat_duplicate.comp, splat_tile_ranges.comp, splat_blend.comp; the
+// foundation PrefixScan and 32-bit RadixSort from kernels/). Same rules and outputs as the CPU reference rasterizer_cpu.h.
 //
 // Frame = two submissions (one CPU sync, as in the reference rasterizer):
 //   1. preprocess (one invocation per Gaussian, SH bound in windows of at most
-//      maxStorageBufferRange) -> inclusive PrefixScan of tiles touched -> copy
-//      the total to the host;
-//   2. duplicate keys (tile << 32 | depth bits) at the scan offsets -> RadixSort
-//      of the low 32 + bits(#tiles) bits -> fill ranges 0 -> ranges -> blend.
+//      maxStorageBufferRange; also writes the depth keys) -> 32-bit RadixSort
+//      of the Gaussians by depth (N keys, 4 passes) -> tiles touched in depth
+//      order (splat_sorted_counts) -> inclusive PrefixScan -> total to the host;
+//   2. duplicate tile ids in depth order at the scan offsets -> stable 32-bit
+//      RadixSort of the bits(#tiles) low bits (2 passes up to 65,536 tiles)
+//      -> fill ranges 0 -> splat_tile_ranges -> blend (+ sky, sky.h).
+//   Preprocess also writes a 48-byte blend record per Gaussian
+//   (SplatBlendRecord: the first two vec4 decide whether a Gaussian can touch
+//   a pixel row segment); the blend skips, in a real loop, the Gaussians that
+//   cannot reach α >= 1/255 on its segment (splat_blend.comp). The sky model
+//   (SplatOptions::sky, sky.h) is applied in the blend: C + T·sky(d).
+//   The result is the reference's (tile, depth, Gaussian index) order of the
+//   64-bit keys tile << 32 | depth bits, with 4 + 2 passes over N + instances
+//   instead of 6 passes of 64-bit keys over the instances.
 // Positions are uploaded relative to a scene origin (the bounding-box centre,
 // in double) and the camera position is split against the same origin, so
 // scenes far from the world origin render like scenes at it.
 // Limits: Gaussians, their projections and the instance keys each fit one
-// storage binding (lavapipe: 2.7 M Gaussians, 16.7 M instances); larger
+// storage binding (lavapipe: 2.7 M Gaussians, 33.5 M instances); larger
 // frames fail with a clear message.
 // Tests: tests/test_splat.cpp; benchmark: bench/bench_splat.cpp.
 #pragma once
@@ -40,8 +50,9 @@ struct GpuGaussians {
 
 // Phase times of the last frame (GPU timestamps; NaN when unsupported) and its size.
 struct SplatTimings {
-  double preprocess_ms = 0;  // preprocess + tile-touch scan
-  double sort_ms = 0;        // duplicate keys + radix sort + ranges
+  double preprocess_ms = 0;  // preprocess
+  double depth_sort_ms = 0;  // depth sort of the Gaussians + tiles touched in depth order + scan
+  double sort_ms = 0;        // duplicate tile ids + radix sort by tile + ranges
   double blend_ms = 0;
   double wall_ms = 0;        // host wall clock for the whole frame (both submissions + downloads)
   uint64_t instances = 0;    // (tile, Gaussian) pairs
@@ -51,7 +62,7 @@ struct SplatTimings {
 // Intermediate results for tests.
 struct SplatDebug {
   std::vector<shader::SplatProjected> proj;
-  std::vector<uint64_t> keys;    // sorted
+  std::vector<uint64_t> keys;    // sorted, as tile << 32 | depth bits of proj[value] (rebuilt on the host)
   std::vector<uint32_t> values;  // sorted
   std::vector<uint32_t> ranges;  // 2 per tile
 };
@@ -71,6 +82,7 @@ class SplatRendererGpu {
   struct Frame;
   gpu::Context& ctx_;
   gpu::Program& preprocess_;
+  gpu::Program& counts_;
   gpu::Program& duplicate_;
   gpu::Program& ranges_;
   gpu::Program& blend_;

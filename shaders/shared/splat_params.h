@@ -13,6 +13,11 @@
 
 #define SPLAT_TILE 16
 #define SPLAT_TILE_PIXELS 256
+// splat_blend.comp: pixels of one tile row per invocation (register tile);
+// SPLAT_TILE_PIXELS / SPLAT_BLEND_PIXELS invocations per tile.
+#ifndef SPLAT_BLEND_PIXELS
+#define SPLAT_BLEND_PIXELS 16
+#endif
 
 ICUBE_SHADER_NAMESPACE_BEGIN
 
@@ -33,6 +38,17 @@ struct SplatProjected {
   float radius;                     // pixels (integer valued)
   float r, g, b;                    // SH colour + 0.5, clamped at 0
   float pad;
+};
+
+// What splat_blend reads per Gaussian, written by splat_preprocess, 48 bytes:
+// the first two vec4 are enough to decide whether the Gaussian can reach
+// α >= 1/255 on a pixel row segment, the third holds the colour.
+struct SplatBlendRecord {
+  float mean_x, mean_y, conic_x, conic_y;
+  float conic_z;
+  float log_cut;  // ln(0.9 / (255·opacity)): power below it cannot give α >= 1/255 (10 % margin)
+  float opacity, depth;
+  float r, g, b, pad;
 };
 
 struct SplatPreprocessParams {
@@ -60,10 +76,23 @@ struct SplatRangesParams {
   uint pad0, pad1, pad2;
 };
 
+#define SPLAT_SKY_BACKGROUND 0u  // constant background colour
+#define SPLAT_SKY_GRADIENT 1u    // zenith / horizon / ground by the world z of the ray
+#define SPLAT_SKY_EQUIRECT 2u    // equirectangular RGBA8 image (engine/splat/sky.h)
+
+// 120 bytes. Sky model (engine/splat/sky.h): pixel ray direction in world axes
+// d = normalize(M · (u + o, v + o, 1)), M = R_c2w · K⁻¹ (row-major m00..m22).
 struct SplatBlendParams {
   uint width, height, grid_x, grid_y;
   float pixel_offset;  // pixel (u, v) is sampled at (u + o, v + o)
-  float bg_r, bg_g, bg_b;
+  uint sky_kind;       // SPLAT_SKY_*
+  uint sky_w, sky_h;   // equirect image size (texels)
+  float bg_r, bg_g, bg_b;     // background (SPLAT_SKY_BACKGROUND)
+  float zen_r, zen_g, zen_b;  // gradient: straight up (+z)
+  float hor_r, hor_g, hor_b;  // gradient: horizon
+  float gnd_r, gnd_g, gnd_b;  // gradient: straight down
+  float m00, m01, m02, m10, m11, m12, m20, m21, m22;
+  float pad0;
 };
 
 ICUBE_SHADER_NAMESPACE_END
@@ -76,6 +105,9 @@ ICUBE_CHECK_LAYOUT(SplatProjected, opacity, 12);
 ICUBE_CHECK_LAYOUT(SplatProjected, conic_x, 16);
 ICUBE_CHECK_LAYOUT(SplatProjected, radius, 28);
 ICUBE_CHECK_LAYOUT(SplatProjected, r, 32);
+ICUBE_CHECK_SIZE(SplatBlendRecord, 48);
+ICUBE_CHECK_LAYOUT(SplatBlendRecord, conic_z, 16);
+ICUBE_CHECK_LAYOUT(SplatBlendRecord, r, 32);
 ICUBE_CHECK_SIZE(SplatPreprocessParams, 128);
 ICUBE_CHECK_LAYOUT(SplatPreprocessParams, r00, 16);
 ICUBE_CHECK_LAYOUT(SplatPreprocessParams, cam_x, 52);
@@ -85,7 +117,12 @@ ICUBE_CHECK_LAYOUT(SplatPreprocessParams, near_z, 96);
 ICUBE_CHECK_LAYOUT(SplatPreprocessParams, width, 112);
 ICUBE_CHECK_SIZE(SplatDuplicateParams, 16);
 ICUBE_CHECK_SIZE(SplatRangesParams, 16);
-ICUBE_CHECK_SIZE(SplatBlendParams, 32);
+ICUBE_CHECK_SIZE(SplatBlendParams, 120);
 ICUBE_CHECK_LAYOUT(SplatBlendParams, pixel_offset, 16);
+ICUBE_CHECK_LAYOUT(SplatBlendParams, sky_h, 28);
+ICUBE_CHECK_LAYOUT(SplatBlendParams, bg_r, 32);
+ICUBE_CHECK_LAYOUT(SplatBlendParams, gnd_r, 68);
+ICUBE_CHECK_LAYOUT(SplatBlendParams, m00, 80);
+ICUBE_CHECK_LAYOUT(SplatBlendParams, pad0, 116);
 
 #endif
