@@ -18,16 +18,19 @@
 //    camera on the ego track.
 // Cameras: the Waymo FRONT preset at 832 x 480 (scene/frames.h), InfiniCube's
 // integer pixels; on the ego track at --frame (default: the middle frame).
-// Rows: GPU kernel time (timestamps; includes the per-record occupancy
-// rebuild) and submit wall time for the default kernel (occupancy masks, 2-D
-// pixel tiles per workgroup), the same with row-major workgroups, the previous
-// kernel's path (hash lookups, rows), the flat GPU walk (--flat, no skipping), the CPU reference, OpenVDB. min / median of --runs after --warmup;
+// Rows: GPU kernel time (timestamps) and submit wall time for the default
+// kernel (occupancy masks built at the first record of the world and kept, 2-D
+// pixel tiles per workgroup), the same with the masks rebuilt every record (the
+// world's revision bumped), with row-major workgroups, the previous kernel's path
+// (hash lookups, rows), the flat GPU walk (--flat, no skipping), the CPU
+// reference, OpenVDB. min / median of --runs after --warmup; lane utilisation
+// (mean steps / mean of each subgroup's longest ray);
 // Mrays/s from the median; steps/ray from the results (GPU: voxel steps +
 // skipped cells; CPU: voxels; OpenVDB: leaf intervals + voxel DDA steps).
 // OpenVDB's hit is the first active voxel (no 1 cm chord threshold), so its
 // check compares the first-hit distance with the CPU's semantic hit.
 //
-//   LP_NUM_THREADS=2 icube-bench-raycast --cpu-threads 2 [--runs 7] [--warmup 2] [--case all|synthetic|demo|waymo]
+//   LP_NUM_THREADS=2 icube-bench-raycast --cpu-threads 2 [--runs 7] [--warmup 2] [--case all|synthetic|demo|waymo] [--quick]
 #include "bench_host.h"
 #include "gpu/commands.h"
 #include "render/raycast_cpu.h"
@@ -205,7 +208,7 @@ std::vector<VdbResult> cast_openvdb(const openvdb::Int32Grid& grid, const glm::d
 #endif
 
 bool run_case(gpu::Context& ctx, const Case& c, const render::RaycastOptions& opts, int runs, int warmup,
-              unsigned cpu_threads, bool flat) {
+              unsigned cpu_threads, bool flat, bool quick) {
   const world::VoxelGrid& grid = c.grid;
   const render::Camera& cam = c.cam;
   const uint64_t n = uint64_t{cam.K.width} * cam.K.height;
@@ -217,7 +220,7 @@ bool run_case(gpu::Context& ctx, const Case& c, const render::RaycastOptions& op
               wb.empty() ? 0 : wb.max.z - wb.min.z + 1, cam.K.width, cam.K.height, cam.c2w[3].x, cam.c2w[3].y,
               cam.c2w[3].z, static_cast<unsigned long long>(n));
 
-  const render::RaycastWorld w = render::upload_raycast_world(ctx, grid);
+  render::RaycastWorld w = render::upload_raycast_world(ctx, grid);
   gpu::Buffer hits(ctx, n * sizeof(shader::RaycastHit), gpu::MemoryUsage::DeviceLocal, "bench-raycast-hits");
   std::vector<Row> rows;
 
@@ -225,7 +228,7 @@ bool run_case(gpu::Context& ctx, const Case& c, const render::RaycastOptions& op
   std::vector<render::RayResult> cpu;
   {
     std::vector<double> ms;
-    const int cpu_runs = std::max(5, runs / 2);
+    const int cpu_runs = quick ? 1 : std::max(5, runs / 2);
     for (int i = 0; i < 1 + cpu_runs; ++i) {
       const Clock::time_point t0 = Clock::now();
       cpu = render::cast_camera_cpu(grid, cam, opts, cpu_threads);
@@ -243,7 +246,7 @@ bool run_case(gpu::Context& ctx, const Case& c, const render::RaycastOptions& op
     std::printf("cpu: %zu of %llu rays have a semantic hit\n", hit_count, static_cast<unsigned long long>(n));
   }
 
-  auto gpu_rows = [&](bool skip, bool occupancy, bool tiled, const std::string& label) {
+  auto gpu_rows = [&](bool skip, bool occupancy, bool tiled, bool rebuild, const std::string& label) {
     render::RaycasterGpu rc(ctx, skip);
     rc.set_occupancy(occupancy);
     rc.set_tiled(tiled);
@@ -251,6 +254,7 @@ bool run_case(gpu::Context& ctx, const Case& c, const render::RaycastOptions& op
     std::vector<double> kernel_ms, submit_ms;
     for (int i = 0; i < warmup + runs; ++i) {
       int iv = 0;
+      if (rebuild) ++w.revision;  // as if the world changed: the record rebuilds the occupancy masks
       const Clock::time_point t0 = Clock::now();
       ctx.submit_and_wait([&](gpu::CommandList& cmd) {
         timer.reset(cmd);
@@ -290,6 +294,22 @@ bool run_case(gpu::Context& ctx, const Case& c, const render::RaycastOptions& op
       bad += !ok;
       steps += h[i].steps;
     }
+    {  // SIMD occupancy of the steps: lanes of one workgroup run as long as their longest ray
+      const uint32_t W = cam.K.width, H = cam.K.height, tw = tiled ? rc.tile_width() : ctx.subgroup_size();
+      const uint32_t th = tiled ? ctx.subgroup_size() / tw : 1;
+      double tile_max = 0.0;
+      for (uint32_t ty = 0; ty < H; ty += th)
+        for (uint32_t tx = 0; tx < W; tx += tw) {
+          uint32_t m = 0;
+          for (uint32_t y = ty; y < std::min(H, ty + th); ++y)
+            for (uint32_t x = tx; x < std::min(W, tx + tw); ++x) m = std::max(m, h[size_t{y} * W + x].steps);
+          tile_max += double(m) * tw * th;
+        }
+      double total = 0.0;
+      for (size_t i = 0; i < n; ++i) total += h[i].steps;
+      std::printf("%s: lane utilisation %.2f (mean steps / mean of the workgroup's longest ray)\n", label.c_str(),
+                  total / tile_max);
+    }
     const bool pass = static_cast<double>(bad) <= 1e-5 * static_cast<double>(n);
     std::printf("%s: %zu of %llu rays differ from the CPU (flags, voxel, class, |dt| <= 2e-4 m), %zu other "
                 "entry face, max |dt| %.2g m: %s\n",
@@ -298,10 +318,13 @@ bool run_case(gpu::Context& ctx, const Case& c, const render::RaycastOptions& op
     rows.push_back({label + ": submit", summarize(submit_ms), steps / n, pass ? "ok" : "FAIL"});
     return pass;
   };
-  bool ok = gpu_rows(true, true, true, "gpu occupancy, tiles (default)");
-  ok = gpu_rows(true, true, false, "gpu occupancy, rows") && ok;
-  ok = gpu_rows(true, false, false, "gpu hash skip, rows (old path)") && ok;
-  if (flat) ok = gpu_rows(false, false, false, "gpu flat walk (no skip)") && ok;
+  bool ok = gpu_rows(true, true, true, false, "gpu occupancy, tiles (default)");
+  if (!quick) {
+    ok = gpu_rows(true, true, true, true, "gpu occupancy rebuilt per record, tiles") && ok;
+    ok = gpu_rows(true, true, false, false, "gpu occupancy, rows") && ok;
+    ok = gpu_rows(true, false, false, false, "gpu hash skip, rows (old path)") && ok;
+  }
+  if (flat) ok = gpu_rows(false, false, false, false, "gpu flat walk (no skip)") && ok;
 
 #ifdef ICUBE_BENCH_OPENVDB
   {
@@ -316,7 +339,7 @@ bool run_case(gpu::Context& ctx, const Case& c, const render::RaycastOptions& op
     const std::vector<render::Ray> rays = render::camera_rays(cam, opts.pixels);  // outside the timing
     std::vector<double> ms;
     std::vector<VdbResult> vr;
-    for (int i = 0; i < 1 + std::max(5, runs / 2); ++i) {
+    for (int i = 0; i < 1 + (quick ? 3 : std::max(5, runs / 2)); ++i) {
       const Clock::time_point t0 = Clock::now();
       vr = cast_openvdb(*vg, grid.origin(), grid.voxel_size(), rays, cpu_threads);
       const double t = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
@@ -365,7 +388,7 @@ int main(int argc, char** argv) {
   unsigned cpu_threads = 1;
   uint32_t width = scene::kInfiniCubeWidth, height = scene::kInfiniCubeHeight;
   uint32_t seed = 1;
-  bool flat = false;
+  bool flat = false, quick = false;
   std::string which = "all", data;
   app.add_option("--runs", runs, "timed runs (>= 5)")->check(CLI::Range(5, 1000));
   app.add_option("--warmup", warmup, "untimed runs first")->check(CLI::Range(0, 100));
@@ -379,6 +402,7 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember({"all", "synthetic", "demo", "waymo"}));
   app.add_option("--data", data, "test data directory (default $ICUBE_TEST_DATA or ../shared/data)");
   app.add_flag("--flat", flat, "add the flat GPU walk rows (slow)");
+  app.add_flag("--quick", quick, "one CPU reference run, three OpenVDB runs, only the default GPU row (for tuning)");
   CLI11_PARSE(app, argc, argv);
   if (data.empty()) {
     const char* env = std::getenv("ICUBE_TEST_DATA");
@@ -397,13 +421,13 @@ int main(int argc, char** argv) {
   bool ok = true;
   if (which == "all" || which == "synthetic")
     ok = run_case(ctx, {"synthetic chunk", make_world(seed), make_camera(width, height)}, opts, runs, warmup,
-                  cpu_threads, flat) && ok;
+                  cpu_threads, flat, quick) && ok;
   if (which == "all" || which == "demo") {
     const scene::Scene sc = world::make_demo_scene();
     double s = 0.0;
     Case c{"demo (trajectory)", build_procedural(sc, world::PlanMode::Trajectory, s), ego_camera(sc, frame)};
     std::printf("\n(demo world built in %.1f s, not timed below)\n", s);
-    ok = run_case(ctx, c, opts, runs, warmup, cpu_threads, flat) && ok;
+    ok = run_case(ctx, c, opts, runs, warmup, cpu_threads, flat, quick) && ok;
   }
   if (which == "all" || which == "waymo") {
     const std::string path = data + "/maps/waymo/motion_data_one_scenario.tfrecord";
@@ -414,7 +438,7 @@ int main(int argc, char** argv) {
       double s = 0.0;
       Case c{"waymo (blocks)", build_procedural(sc, world::PlanMode::Blocks, s), ego_camera(sc, frame)};
       std::printf("\n(waymo world built in %.1f s, not timed below)\n", s);
-      ok = run_case(ctx, c, opts, runs, warmup, cpu_threads, flat) && ok;
+      ok = run_case(ctx, c, opts, runs, warmup, cpu_threads, flat, quick) && ok;
     }
   }
   return ok ? 0 : 1;

@@ -18,10 +18,14 @@
 layout(local_size_x_id = 0) in;
 // Spec constant 1: skip empty bricks in one step (default); false walks them voxel by voxel.
 layout(constant_id = 1) const bool RAYCAST_SKIP_EMPTY = true;
-// Spec constant 2: camera mode tile width (0 = rows: ray i = pixel i). With TILE_W > 0 a workgroup
-// (local_size_x invocations) covers a TILE_W x (local_size_x / TILE_W) pixel tile, tiles row-major;
+// Spec constant 2: camera mode sub-tile width (0 = rows: ray i = pixel i). With TILE_W > 0 each run of
+// RAYCAST_SUB_LANES invocations (spec constant 3, the subgroup size) covers a TILE_W x (SUB_LANES /
+// TILE_W) pixel sub-tile, and a workgroup (local_size_x invocations) covers a RAYCAST_WG_W (spec
+// constant 4) x (local_size_x / RAYCAST_WG_W) pixel tile of sub-tiles, row-major; tiles row-major;
 // the host dispatches whole tiles and lanes outside the image return.
 layout(constant_id = 2) const uint RAYCAST_TILE_W = 0u;
+layout(constant_id = 3) const uint RAYCAST_SUB_LANES = 8u;
+layout(constant_id = 4) const uint RAYCAST_WG_W = 8u;
 layout(push_constant) uniform Push { RaycastParams p; };
 layout(std430, binding = 0) readonly buffer Table { uvec4 world_table[]; };
 layout(std430, binding = 1) readonly buffer Bricks { uint world_bricks[]; };
@@ -37,9 +41,11 @@ void main() {
   uint px = 0u, py = 0u;
   if (p.width != 0u && RAYCAST_TILE_W > 0u) {
     const uint g = icube_group_linear(), l = gl_LocalInvocationID.x;
-    const uint th = gl_WorkGroupSize.x / RAYCAST_TILE_W, tpr = (p.width + RAYCAST_TILE_W - 1u) / RAYCAST_TILE_W;
-    px = (g % tpr) * RAYCAST_TILE_W + l % RAYCAST_TILE_W;
-    py = (g / tpr) * th + l / RAYCAST_TILE_W;
+    const uint wg_h = gl_WorkGroupSize.x / RAYCAST_WG_W, tpr = (p.width + RAYCAST_WG_W - 1u) / RAYCAST_WG_W;
+    const uint sub = l / RAYCAST_SUB_LANES, lane = l % RAYCAST_SUB_LANES;
+    const uint sub_h = RAYCAST_SUB_LANES / RAYCAST_TILE_W, subs_per_row = RAYCAST_WG_W / RAYCAST_TILE_W;
+    px = (g % tpr) * RAYCAST_WG_W + (sub % subs_per_row) * RAYCAST_TILE_W + lane % RAYCAST_TILE_W;
+    py = (g / tpr) * wg_h + (sub / subs_per_row) * sub_h + lane / RAYCAST_TILE_W;
     if (px >= p.width || py >= p.n / p.width) return;
     i = py * p.width + px;
   } else {

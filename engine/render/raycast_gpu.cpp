@@ -2,6 +2,8 @@
 #include "render/raycast_gpu.h"
 
 #include <algorithm>
+#include <atomic>
+#include <cstring>
 #include <cfloat>
 #include <cmath>
 #include <stdexcept>
@@ -86,8 +88,13 @@ bool occupancy_layout(const RaycastWorld& w, const glm::ivec3& ref, shader::Rayc
 
 }  // namespace
 
+uint64_t new_raycast_world_id() {
+  static std::atomic<uint64_t> next_id{1};
+  return next_id++;
+}
+
 RaycastWorld upload_raycast_world(gpu::Context& ctx, const world::VoxelGrid& grid) {
-  return {world::upload_gpu_world(ctx, grid), raycast_bounds(grid)};
+  return {world::upload_gpu_world(ctx, grid), raycast_bounds(grid), new_raycast_world_id(), 0};
 }
 
 // Tile width for a workgroup of `lanes`: the smallest power of two whose square holds the lanes.
@@ -98,18 +105,25 @@ static uint32_t tile_width_for(uint32_t lanes) {
   return std::max<uint32_t>(1, w);
 }
 
+// Invocations per workgroup: several subgroups (fewer, larger workgroups cut lavapipe's per-group cost).
+static uint32_t workgroup_lanes(const gpu::Context& ctx) { return std::max<uint32_t>(64, ctx.subgroup_size()); }
+
 RaycasterGpu::RaycasterGpu(gpu::Context& ctx, bool skip_empty_bricks)
     : ctx_(ctx),
       program_(ctx.program("raycast", gpu::SpecConstants{}
-                                          .set(0, ctx.subgroup_size() /* local_size_x */)
+                                          .set(0, workgroup_lanes(ctx) /* local_size_x */)
                                           .set(1, skip_empty_bricks /* RAYCAST_SKIP_EMPTY */)
                                           .set(2, 0u /* RAYCAST_TILE_W: rows */))),
       program_tiled_(ctx.program("raycast", gpu::SpecConstants{}
-                                                .set(0, ctx.subgroup_size() /* local_size_x */)
+                                                .set(0, workgroup_lanes(ctx) /* local_size_x */)
                                                 .set(1, skip_empty_bricks /* RAYCAST_SKIP_EMPTY */)
-                                                .set(2, tile_width_for(ctx.subgroup_size()) /* RAYCAST_TILE_W */))),
+                                                .set(2, tile_width_for(ctx.subgroup_size()) /* RAYCAST_TILE_W */)
+                                                .set(3, ctx.subgroup_size() /* RAYCAST_SUB_LANES */)
+                                                .set(4, tile_width_for(workgroup_lanes(ctx)) /* RAYCAST_WG_W */))),
       occupancy_program_(ctx.program("raycast_occupancy")),
       tile_w_(tile_width_for(ctx.subgroup_size())),
+      wg_w_(tile_width_for(workgroup_lanes(ctx))),
+      wg_lanes_(workgroup_lanes(ctx)),
       skip_empty_(skip_empty_bricks),
       occupancy_(skip_empty_bricks),
       dummy_rays_(ctx, 32, gpu::MemoryUsage::DeviceLocal, "raycast-dummy-rays"),
@@ -178,21 +192,34 @@ void RaycasterGpu::record(gpu::CommandList& cmd, const RaycastWorld& w, const sh
       retired_occ_.push_back(std::move(occ_));
       occ_ = gpu::Buffer(ctx_, std::max<VkDeviceSize>(occ_bytes, retired_occ_.back().size() * 2),
                          gpu::MemoryUsage::DeviceLocal, "raycast-occupancy");
+      occ_cached_ = false;
     }
-    // An earlier record (this command list or an earlier one) may still read or build the masks.
-    cmd.barrier(gpu::deps::kComputeToTransfer);
-    cmd.fill_buffer(occ_.binding(0, occ_bytes), 0u);
-    cmd.barrier(gpu::deps::kTransferToCompute);  // zeroed masks before the build pass ORs bits in
-    cmd.dispatch(occupancy_program_, {op.slots}, op, {w.gpu.brick_table.binding(), occ_.binding(0, occ_bytes), w.gpu.brick_data.binding()});
-    cmd.barrier(gpu::deps::kComputeToCompute);  // masks before the ray caster reads them
+    const bool reuse = occ_cached_ && w.id != 0 && w.id == occ_id_ && w.revision == occ_revision_ &&
+                       std::memcmp(&op, &occ_params_, sizeof op) == 0;
+    if (reuse) {
+      cmd.barrier(gpu::deps::kComputeToCompute);  // masks built by an earlier record before the ray caster reads them
+    } else {
+      // An earlier record (this command list or an earlier one) may still read or build the masks.
+      cmd.barrier(gpu::deps::kComputeToTransfer);
+      cmd.fill_buffer(occ_.binding(0, occ_bytes), 0u);
+      cmd.barrier(gpu::deps::kTransferToCompute);  // zeroed masks before the build pass ORs bits in
+      cmd.dispatch(occupancy_program_, {op.slots}, op,
+                   {w.gpu.brick_table.binding(), occ_.binding(0, occ_bytes), w.gpu.brick_data.binding()});
+      cmd.barrier(gpu::deps::kComputeToCompute);  // masks before the ray caster reads them
+      ++occ_builds_;
+      occ_cached_ = w.id != 0;
+      occ_id_ = w.id;
+      occ_revision_ = w.revision;
+      occ_params_ = op;
+    }
     p.occupancy = 1;
   }
   gpu::Program* prog = &program_;
   uint64_t threads = p.n;
   if (tiled_ && p.width != 0 && tile_w_ > 1) {
-    const uint64_t lanes = ctx_.subgroup_size(), th = lanes / tile_w_;
+    const uint64_t lanes = wg_lanes_, th = lanes / wg_w_;
     const uint64_t height = p.n / p.width;
-    threads = ((p.width + tile_w_ - 1) / tile_w_) * ((height + th - 1) / th) * lanes;
+    threads = ((p.width + wg_w_ - 1) / wg_w_) * ((height + th - 1) / th) * lanes;
     prog = &program_tiled_;
   }
   cmd.dispatch(*prog, {threads}, p,

@@ -23,12 +23,21 @@
 namespace icube::render {
 
 // The GPU world plus the brick bounds the kernel clips rays to.
+// id != 0 (upload_raycast_world gives each world a new one) lets a RaycasterGpu
+// keep the world's occupancy masks between records instead of rebuilding them:
+// whoever changes gpu.brick_table, gpu.brick_data or bounds in place afterwards
+// must ++revision. id 0 (a world assembled by hand, e.g. OverlayWorld's, which
+// patches its buffers every frame): the masks are rebuilt on every record.
 struct RaycastWorld {
   world::GpuWorld gpu;
   world::IjkBounds bounds;  // raycast_bounds(grid)
+  uint64_t id = 0;
+  uint64_t revision = 0;
 };
 
 RaycastWorld upload_raycast_world(gpu::Context& ctx, const world::VoxelGrid& grid);
+// A new RaycastWorld id (never 0), for worlds assembled by hand that keep revision up to date.
+uint64_t new_raycast_world_id();
 
 // Rays uploaded for ray-list mode: 2 vec4 per ray (origin relative to `ref`
 // in voxel units, unit direction).
@@ -43,18 +52,23 @@ class RaycasterGpu {
   // skip_empty_bricks = false selects the flat walk (every voxel of every brick; for benchmarks).
   explicit RaycasterGpu(gpu::Context& ctx, bool skip_empty_bricks = true);
 
-  // Occupancy masks (on by default with skip_empty_bricks): each record first
-  // rebuilds bit masks of the world's bricks and 32³ super bricks from the
-  // brick table (raycast_occupancy.comp, a fill + one pass over the table, so
-  // worlds whose table changes between frames stay correct), and the kernel
-  // skips empty super bricks and bricks without hashing. Off: empty bricks are
+  // Occupancy masks (on by default with skip_empty_bricks): bit masks of the
+  // world's bricks and 32³ super bricks and the bricks' 4³ octant bytes, built
+  // from the brick table (raycast_occupancy.comp, a fill + one pass over the
+  // table); the kernel skips empty super bricks, bricks and octants without
+  // hashing. A record rebuilds them unless the last build was for the same world
+  // (RaycastWorld id != 0, same revision and layout); a recorded command list must
+  // then be submitted before the next record relies on it. Off: empty bricks are
   // found by hash lookups (the same results; for benchmarks). Worlds whose
   // brick mask would pass kMaxOccupancyBricks bricks always run without.
   static constexpr uint64_t kMaxOccupancyBricks = uint64_t{1} << 27;
   void set_occupancy(bool on) { occupancy_ = on; }
+  // Number of occupancy builds recorded so far (for tests and benchmarks).
+  uint64_t occupancy_builds() const { return occ_builds_; }
   bool occupancy() const { return occupancy_; }
-  // Camera mode: one workgroup per 2-D pixel tile (tile_width() x subgroup / tile_width(), e.g. 4x2
-  // on lavapipe, 8x4 at subgroup 32) instead of one per run of pixels in a row. Same results.
+  // Camera mode: each subgroup covers a 2-D pixel sub-tile (tile_width() x subgroup / tile_width(),
+  // e.g. 4x2 on lavapipe, 8x4 at subgroup 32) and a workgroup of 64 invocations an 8x8 tile of them,
+  // instead of runs of pixels in a row. Same results.
   void set_tiled(bool on) { tiled_ = on; }
   bool tiled() const { return tiled_; }
   uint32_t tile_width() const { return tile_w_; }
@@ -86,13 +100,20 @@ class RaycasterGpu {
   gpu::Program& program_;
   gpu::Program& program_tiled_;
   gpu::Program& occupancy_program_;
-  uint32_t tile_w_ = 1;
+  uint32_t tile_w_ = 1;   // subgroup sub-tile width
+  uint32_t wg_w_ = 1;     // workgroup tile width
+  uint32_t wg_lanes_ = 1; // invocations per workgroup
   bool tiled_ = true;
   bool skip_empty_ = true;
   bool occupancy_ = true;
   gpu::Buffer dummy_rays_;  // bound in camera mode, never read
   gpu::Buffer occ_;         // occupancy masks, grown on demand
   std::vector<gpu::Buffer> retired_occ_;  // outgrown masks, kept alive: recorded commands may still use them
+  // What occ_ holds: the world (id, revision) and layout of the last build, when cacheable.
+  bool occ_cached_ = false;
+  uint64_t occ_builds_ = 0;
+  uint64_t occ_id_ = 0, occ_revision_ = 0;
+  shader::RaycastOccupancyParams occ_params_{};
 };
 
 }  // namespace icube::render

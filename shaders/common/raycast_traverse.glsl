@@ -10,7 +10,9 @@
 // plane in one step and occupied bricks are looked up in the hash once per
 // visit (the last brick is cached); without them a brick missing from the hash table is
 // skipped. Level 2 is an exact Amanatides–Woo walk over
-// every voxel of an occupied brick, reading one mask word per voxel. Every
+// every voxel of an occupied brick (the exit-plane times and the voxel kept as
+// vectors and updated with selects, no dynamic component indexing; the last
+// mask word read is reused while the walk stays in it). Every
 // plane time is (integer plane - o) / dd with the same formula on both
 // levels, recomputed from integer indices (no accumulated t += tDelta), so the
 // cell exit found on level 1 equals the voxel exit level 2 would have found.
@@ -175,18 +177,28 @@ RaycastHit raycast_traverse(vec3 o, vec3 d) {
     const ivec3 bhi = blo + ivec3(8);
     const bool present = b != WORLD_EMPTY_SLOT;
     const uint base = present ? b * WORLD_BRICK_UINTS : 0u;
-    vec3 tm;
-    for (int a = 0; a < 3; ++a)
-      tm[a] = st[a] == 0 ? RAYCAST_BIG : raycast_plane_t(raycast_exit_plane(v[a], st[a]), o[a], dd[a]);
+    // Exit-plane times of the current voxel, updated as whole vectors (no dynamic component
+    // indexing, which lavapipe lowers to per-lane memory accesses).
+    const bvec3 moving = notEqual(st, ivec3(0));
+    const ivec3 up = ivec3(greaterThan(st, ivec3(0)));  // exit plane = v + up
+    const vec3 big = vec3(RAYCAST_BIG);
+    vec3 tm = mix(big, (vec3(v + up) - o) / dd, moving);
+    uint last_wi = 0xffffffffu, last_w = 0u;
     bool done = false;
     for (;;) {
       ++steps;
       const int e = raycast_argmin(tm);
-      const float tx = tm[e];
+      const float tx = min(tm.x, min(tm.y, tm.z));
       const float chord = max(min(tx, t1) - t, 0.0);
       const ivec3 l = v - blo;
       const uint n = uint(l.x | (l.y << 3) | (l.z << 6));
-      if (present && ((world_bricks[base + WORLD_MASK_OFFSET + (n >> 5u)] >> (n & 31u)) & 1u) != 0u) {
+      bool occupied = false;
+      if (present) {
+        const uint wi = base + WORLD_MASK_OFFSET + (n >> 5u);
+        if (wi != last_wi) { last_wi = wi; last_w = world_bricks[wi]; }
+        occupied = ((last_w >> (n & 31u)) & 1u) != 0u;
+      }
+      if (occupied) {
         if (!sem && chord >= p.eps_sem) {
           sem = true;
           h.t_sem = t;
@@ -208,12 +220,14 @@ RaycastHit raycast_traverse(vec3 o, vec3 d) {
       }
       if (tx >= t1) { done = true; break; }
       t = max(t, tx);
-      v[e] += st[e];
-      normal = -(e + 1) * st[e];
-      tm[e] = raycast_plane_t(raycast_exit_plane(v[e], st[e]), o[e], dd[e]);
-      if (v[e] < blo[e] || v[e] >= bhi[e]) break;
-      if (octs != 0xffu && ((ref[e] + v[e]) & 3) == (st[e] > 0 ? 0 : 3)) {
-        // Crossed into another octant of the brick: leave the walk when it is empty (skipped above).
+      const bvec3 em = equal(ivec3(e), ivec3(0, 1, 2));
+      const ivec3 se = ivec3(em) * st;
+      v += se;
+      normal = -(e + 1) * (se.x + se.y + se.z);
+      tm = mix(tm, (vec3(v + up) - o) / dd, em);
+      if (any(lessThan(v, blo)) || any(greaterThanEqual(v, bhi))) break;
+      if (octs != 0xffu) {
+        // In another octant of the brick: leave the walk when it is empty (skipped above).
         const ivec3 oc = ((ref + v) >> 2) & 1;
         if (((octs >> uint(oc.x + 2 * oc.y + 4 * oc.z)) & 1u) == 0u) break;
       }

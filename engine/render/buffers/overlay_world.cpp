@@ -85,6 +85,9 @@ void OverlayWorld::allocate(size_t cap) {
   gpu::upload(ctx_, world_.gpu.brick_table, table_.data(), table_.size() * sizeof(shader::WorldHashEntry));
   static_bytes_ = init.size() * sizeof(uint32_t) + table_.size() * sizeof(shader::WorldHashEntry);
   world_.bounds = static_bounds_;
+  // Its own id, so the ray caster keeps the occupancy masks while no car changes (raycast_gpu.h).
+  world_.id = new_raycast_world_id();
+  ++world_.revision;
 }
 
 uint32_t OverlayWorld::find_slot(uint64_t key) const {
@@ -152,6 +155,7 @@ OverlayStats OverlayWorld::set_overlay(const std::vector<CarCell>& cells) {
     gpu::upload(ctx_, world_.gpu.brick_table, table_.data(), table_bytes);
     st.uploaded_bytes = rec_bytes + table_bytes;
   }
+  if (rec_bytes || had_overlay || !by_brick.empty()) ++world_.revision;  // bricks or bounds changed: new masks
   st.upload_s = seconds_since(t1);
   return st;
 }
