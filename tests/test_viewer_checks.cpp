@@ -1,9 +1,9 @@
 // viewer/screenshot_check.h: class histograms of semantic and shaded
 // pictures and the semantic comparison with `icube buffers`' PNGs, on
-// hand-made pixels; viewer/png_read.h round trip.
+// hand-made pixels; engine/scene/png_read.h round trip.
 #include <doctest/doctest.h>
 
-#include "png_read.h"
+#include "scene/png_read.h"
 #include "scene/png_write.h"
 #include "screenshot_check.h"
 #include "world/semantics.h"
@@ -74,11 +74,11 @@ TEST_CASE("viewer checks: semantic comparison counts instance colours on vehicle
   // PNG round trip (RGBA written, RGB read).
   const std::string path = (std::filesystem::temp_directory_path() / "icube_viewer_checks.png").string();
   scene::write_png(path, a.data(), 2, 2, 4);
-  const viewer::Image8 img = viewer::read_png(path, 3);
+  const scene::Image8 img = scene::read_png(path, 3);
   CHECK(img.width == 2);
   CHECK(img.height == 2);
   REQUIRE(img.pixels.size() == 12);
   CHECK(img.pixels[3] == world::kGuidancePalette[3][0]);
   std::filesystem::remove(path);
-  CHECK_THROWS_AS(viewer::read_png(path, 3), std::runtime_error);
+  CHECK_THROWS_AS(scene::read_png(path, 3), std::runtime_error);
 }

@@ -1,7 +1,7 @@
 // icube-view's command line; see options.h.
 #include "options.h"
 
-#include "png_read.h"
+#include "scene/png_read.h"
 #include "scene/frames.h"
 #include "screenshot_check.h"
 #include "world/world_file.h"
@@ -82,7 +82,7 @@ int run_verify(const Options& o) {
 
 int run_compare(const Options& o) {
   try {
-    const Image8 a = read_png(o.compare.at(0), 3), b = read_png(o.compare.at(1), 3);
+    const scene::Image8 a = scene::read_png(o.compare.at(0), 3), b = scene::read_png(o.compare.at(1), 3);
     if (a.width != b.width || a.height != b.height)
       throw std::invalid_argument(o.compare[0] + " is " + std::to_string(a.width) + "x" + std::to_string(a.height) + ", " +
                                   o.compare[1] + " is " + std::to_string(b.width) + "x" + std::to_string(b.height));

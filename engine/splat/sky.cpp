@@ -2,29 +2,13 @@
 // follows shaders/splat_blend.comp (splat_sky) operation by operation.
 #include "splat/sky.h"
 
+#include "scene/png_read.h"
+
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <stdexcept>
 
-#pragma GCC diagnostic push
-#pragma GCC diagnostic ignored "-Wpragmas"
-#pragma GCC diagnostic ignored "-Wunknown-warning-option"
-#pragma GCC diagnostic ignored "-Wunused-function"
-#pragma GCC diagnostic ignored "-Wdouble-promotion"
-#pragma GCC diagnostic ignored "-Wshadow"
-#pragma GCC diagnostic ignored "-Wcast-align"
-#pragma GCC diagnostic ignored "-Wnull-dereference"
-#pragma GCC diagnostic ignored "-Wimplicit-fallthrough"
-#pragma GCC diagnostic ignored "-Wsign-compare"
-#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
-#pragma GCC diagnostic ignored "-Wconversion"
-#pragma GCC diagnostic ignored "-Wuseless-cast"
-#define STB_IMAGE_STATIC
-#define STB_IMAGE_IMPLEMENTATION
-#define STBI_ONLY_PNG
-#include <stb/stb_image.h>
-#pragma GCC diagnostic pop
 
 namespace icube::splat {
 
@@ -44,18 +28,12 @@ SkyModel sky_equirect(std::shared_ptr<const SkyImage> image) {
 }
 
 SkyImage read_sky_png(const std::string& path) {
-  int w = 0, h = 0, c = 0;
-  stbi_uc* data = stbi_load(path.c_str(), &w, &h, &c, 4);
-  if (!data) {
-    const char* why = stbi_failure_reason();
-    throw std::runtime_error(path + ": cannot read PNG (" + (why ? why : "unknown error") + ")");
-  }
+  const scene::Image8 png = scene::read_png(path, 4);
+  if (png.width <= 0 || png.height <= 0) throw std::runtime_error(path + ": empty image");
   SkyImage img;
-  img.width = static_cast<uint32_t>(w);
-  img.height = static_cast<uint32_t>(h);
-  img.rgba.assign(data, data + size_t{img.width} * img.height * 4);
-  stbi_image_free(data);
-  if (img.width == 0 || img.height == 0) throw std::runtime_error(path + ": empty image");
+  img.width = static_cast<uint32_t>(png.width);
+  img.height = static_cast<uint32_t>(png.height);
+  img.rgba = png.pixels;
   return img;
 }
 

@@ -1,11 +1,12 @@
-// PNG decoding for the viewer's checks (stb_image; library icube_viewer_core).
+// PNG decoding (stb_image, PNG only): the viewer's checks and the splat sky
+// panoramas. The counterpart of png_write.h.
 #pragma once
 
 #include <cstdint>
 #include <string>
 #include <vector>
 
-namespace icube::viewer {
+namespace icube::scene {
 
 struct Image8 {
   int width = 0, height = 0, channels = 0;  // channels as requested
@@ -15,4 +16,4 @@ struct Image8 {
 // Decodes `path` to `channels` channels (1-4). Throws std::runtime_error "PATH: reason".
 Image8 read_png(const std::string& path, int channels);
 
-}  // namespace icube::viewer
+}  // namespace icube::scene

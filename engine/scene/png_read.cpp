@@ -1,5 +1,5 @@
 // PNG decoding; see png_read.h. stb_image's own warnings are silenced.
-#include "png_read.h"
+#include "scene/png_read.h"
 
 #include <stdexcept>
 
@@ -24,13 +24,16 @@
 #include <stb/stb_image.h>
 #pragma GCC diagnostic pop
 
-namespace icube::viewer {
+namespace icube::scene {
 
 Image8 read_png(const std::string& path, int channels) {
   if (channels < 1 || channels > 4) throw std::invalid_argument("read_png: channels must be 1..4");
   int w = 0, h = 0, n = 0;
   uint8_t* data = stbi_load(path.c_str(), &w, &h, &n, channels);
-  if (!data) throw std::runtime_error(path + ": cannot read PNG (" + stbi_failure_reason() + ")");
+  if (!data) {
+    const char* why = stbi_failure_reason();
+    throw std::runtime_error(path + ": cannot read PNG (" + (why ? why : "unknown error") + ")");
+  }
   Image8 img;
   img.width = w;
   img.height = h;
@@ -40,4 +43,4 @@ Image8 read_png(const std::string& path, int channels) {
   return img;
 }
 
-}  // namespace icube::viewer
+}  // namespace icube::scene
