@@ -27,6 +27,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -427,6 +428,83 @@ TEST_CASE("lidar gaussians gpu vs cpu: random scenes (odd sizes, rotated sensor)
     CHECK(hc.range_diff <= hc.rays / 200);
     CHECK(hc.truncated == 0);
   }
+}
+
+TEST_CASE("lidar gaussians gpu, stage by stage (splat_lidar_bin + splat_lidar_duplicate + sort, splat_ranges, "
+          "splat_lidar_cast): every contributor is in its ray's tile list, in bound order") {
+  const render::LidarModel m = small_model(21, -22.0, 9.0, 333);  // odd sizes: partial edge tiles
+  Caster C(m);
+  const splat::GaussianCloud c = test::random_cloud(7, 2500, 1, glm::dvec3(1.0, 2.0, 0.0), 20.0, -1.5, 0.5);
+  const auto inten = splat::lidar_gaussian_intensity(c);
+  const glm::dmat4 pose = pose_at(glm::dvec3(0.5, 1.0, 0.25), 33.0, -4.0);
+  splat::LidarGaussianDebug dbg;
+  const auto gpu = C.g.cast(C.g.upload(c, inten), pose, nullptr, true, &dbg);
+  const uint32_t tx = C.g.tiles_x(), tiles = tx * C.g.tiles_y();
+
+  INFO("splat_lidar_bin + splat_lidar_duplicate + radix sort: keys sorted, (tile, bound) per instance");
+  REQUIRE(dbg.keys.size() == dbg.values.size());
+  REQUIRE(!dbg.keys.empty());
+  CHECK(std::is_sorted(dbg.keys.begin(), dbg.keys.end()));
+  INFO("splat_ranges: per-tile [start, end) cover the sorted list tile by tile");
+  REQUIRE(dbg.ranges.size() == 2 * size_t{tiles});
+  size_t covered = 0, bad_range = 0;
+  for (uint32_t t = 0; t < tiles; ++t) {
+    const uint32_t a = dbg.ranges[2 * t], b = dbg.ranges[2 * t + 1];
+    if (a > b || b > dbg.keys.size()) {
+      if (bad_range++ < 5) std::printf("  tile %u: range [%u, %u) of %zu\n", t, a, b, dbg.keys.size());
+      continue;
+    }
+    covered += b - a;
+    for (uint32_t k = a; k < b; ++k)
+      if ((dbg.keys[k] >> 32) != t && bad_range++ < 5) std::printf("  tile %u: key %u has tile %u\n", t, k, uint32_t(dbg.keys[k] >> 32));
+  }
+  CHECK(bad_range == 0);
+  CHECK(covered == dbg.keys.size());
+
+  // Binning is conservative: every Gaussian the double reference composites on a ray is in
+  // that ray's tile list, with a lower bound of t* that does not exceed its t*.
+  std::vector<splat::LidarGaussian> gs;
+  for (size_t i = 0; i < c.size(); ++i)
+    gs.push_back(splat::lidar_gaussian(c.positions[i], c.scales[i], c.rotations[i], c.opacities[i], inten[i]));
+  const glm::dmat3 R(pose);
+  const glm::dvec3 o(pose[3]);
+  size_t contributors = 0, missing = 0, bound_after = 0;
+  std::vector<float> bound_of(c.size());
+  for (uint32_t ring = 0; ring < m.beams(); ++ring)
+    for (uint32_t col = 0; col < m.columns; ++col) {
+      const uint32_t tile = (ring / SPLAT_LIDAR_TILE_ROWS) * tx + col / SPLAT_LIDAR_TILE_COLS;
+      std::fill(bound_of.begin(), bound_of.end(), -1.0f);
+      for (uint32_t k = dbg.ranges[2 * tile]; k < dbg.ranges[2 * tile + 1]; ++k) {
+        const uint32_t bits = static_cast<uint32_t>(dbg.keys[k]);
+        float b = 0.0f;
+        std::memcpy(&b, &bits, 4);
+        bound_of[dbg.values[k]] = b;
+      }
+      const glm::dvec3 d = glm::normalize(R * C.g.directions()[size_t{ring} * m.columns + col]);
+      for (size_t i = 0; i < gs.size(); ++i) {
+        if (gs[i].r_cut <= 0.0) continue;
+        const auto resp = splat::ray_gaussian_response(gs[i], gs[i].mean - o, d);
+        if (!(resp.alpha >= splat::kLidarMinAlpha) || resp.t < m.min_range || resp.t > m.max_range) continue;
+        ++contributors;
+        if (bound_of[i] < 0.0f) {
+          if (missing++ < 5) std::printf("  ray (%u, %u): Gaussian %zu (t* %g, alpha %g) not in tile %u\n", ring, col, i, resp.t, resp.alpha, tile);
+        } else if (double(bound_of[i]) > resp.t * (1.0 + 1e-5) + 1e-5) {
+          if (bound_after++ < 5) std::printf("  ray (%u, %u): Gaussian %zu bound %g > t* %g\n", ring, col, i, double(bound_of[i]), resp.t);
+        }
+      }
+    }
+  MESSAGE("stage check: " << dbg.keys.size() << " tile instances over " << tiles << " tiles, " << contributors
+                          << " (ray, Gaussian) contributions of the reference");
+  CHECK(contributors > 1000);
+  CHECK(missing == 0);
+  CHECK(bound_after == 0);
+
+  INFO("splat_lidar_cast: per-ray compositing over those lists against the CPU reference");
+  const auto cpu = splat::cast_lidar_gaussians_cpu(c, inten, m, pose, 2);
+  const HitCompare hc = compare_hits(gpu, cpu, m, "stage-by-stage sweep");
+  CHECK(hc.flag_diff <= hc.rays / 200);
+  CHECK(hc.range_diff <= hc.rays / 200);
+  CHECK(hc.truncated == 0);
 }
 
 TEST_CASE("lidar gaussians gpu vs cpu: the real .ply, waymo-top from its centroid") {

@@ -89,7 +89,23 @@ Compare compare(splat::SplatRendererGpu& gpu, const splat::GaussianCloud& cloud,
   std::vector<uint32_t> gt(dbg.keys.size()), ct(bins.keys.size());
   for (size_t i = 0; i < gt.size(); ++i) gt[i] = static_cast<uint32_t>(dbg.keys[i] >> 32);
   for (size_t i = 0; i < ct.size(); ++i) ct[i] = static_cast<uint32_t>(bins.keys[i] >> 32);
-  INFO("splat_duplicate.comp + radix sort: the sorted (tile, Gaussian) list");
+  // splat_sorted_counts.comp: each Gaussian's tiles touched, in depth order, scanned into the
+  // duplicate offsets: every visible Gaussian appears exactly its tile-rect area times.
+  {
+    std::vector<uint32_t> seen(proj.size(), 0);
+    for (uint32_t v : dbg.values)
+      if (v < seen.size()) ++seen[v];
+    size_t bad_counts = 0;
+    for (size_t i = 0; i < proj.size(); ++i) {
+      const uint32_t want = proj[i].radius > 0
+                                ? splat::tile_rect(proj[i].mean_x, proj[i].mean_y, proj[i].radius, f.grid_x, f.grid_y).area()
+                                : 0u;
+      if (seen[i] != want && bad_counts++ < 5) std::printf("  Gaussian %zu: %u instances, want %u\n", i, seen[i], want);
+    }
+    INFO("splat_sorted_counts.comp + scan: instances per Gaussian = its tile-rect area");
+    CHECK(bad_counts == 0);
+  }
+  INFO("splat_duplicate.comp + stable tile-id radix sort: the sorted (tile, Gaussian) list");
   CHECK(test::equal_report(gt, ct, "key tile ids"));
   size_t same_keys = 0;
   for (size_t i = 0; i < std::min(dbg.keys.size(), bins.keys.size()); ++i) same_keys += dbg.keys[i] == bins.keys[i];
@@ -164,7 +180,7 @@ TEST_CASE("splat cpu: one isotropic Gaussian matches hand-computed values") {
   CHECK(splat::preprocess_cpu(c, cam, o)[0].radius == 0.0f);
 }
 
-TEST_CASE("splat gpu vs cpu, stage by stage (splat_preprocess, splat_duplicate + sort, splat_ranges, splat_blend): random scenes") {
+TEST_CASE("splat gpu vs cpu, stage by stage (splat_preprocess, splat_sorted_counts, splat_duplicate + sort, splat_ranges, splat_blend): random scenes") {
   Renderer R;
   struct Case {
     uint32_t seed, degree;
@@ -190,7 +206,7 @@ TEST_CASE("splat gpu vs cpu, stage by stage (splat_preprocess, splat_duplicate +
   }
 }
 
-TEST_CASE("splat gpu vs cpu, stage by stage (splat_preprocess, splat_duplicate + sort, splat_ranges, splat_blend): the real .ply") {
+TEST_CASE("splat gpu vs cpu, stage by stage (splat_preprocess, splat_sorted_counts, splat_duplicate + sort, splat_ranges, splat_blend): the real .ply") {
   Renderer R;
   const std::string dir = test::test_data_dir();
   const std::string path = dir + "/splats/pc_short.ply";

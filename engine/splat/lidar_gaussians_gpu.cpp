@@ -122,7 +122,8 @@ GpuLidarGaussians LidarGaussiansGpu::upload(const GaussianCloud& cloud, const st
 }
 
 std::vector<shader::SplatLidarHit> LidarGaussiansGpu::cast(const GpuLidarGaussians& g, const glm::dmat4& s2w,
-                                                           LidarGaussianTimings* timings, bool download) {
+                                                           LidarGaussianTimings* timings, bool download,
+                                                           LidarGaussianDebug* debug) {
   const auto t0 = std::chrono::steady_clock::now();
   Frame& f = *f_;
   const uint64_t n = g.count;
@@ -206,7 +207,7 @@ std::vector<shader::SplatLidarHit> LidarGaussiansGpu::cast(const GpuLidarGaussia
     cmd.barrier(gpu::deps::kTransferToCompute);  // the ranges kernel writes into the zeroed ranges
     cmd.barrier(gpu::deps::kComputeToCompute);   // ... and reads the sorted keys
     if (inst > 0)
-      cmd.dispatch(ranges_, {inst}, shader::SplatRangesParams{static_cast<uint32_t>(inst), 0, 0, 0},
+      cmd.dispatch(ranges_, {inst}, shader::SplatRangesParams{static_cast<uint32_t>(inst), 2, 0, 0},
                    {f.keys.binding(0, inst * 8), f.ranges.binding(0, uint64_t{tiles} * 8)});
     f.t2->end(cmd, ts);
     cmd.barrier(gpu::deps::kComputeToCompute);  // the cast reads the ranges
@@ -221,6 +222,11 @@ std::vector<shader::SplatLidarHit> LidarGaussiansGpu::cast(const GpuLidarGaussia
   });
   std::vector<shader::SplatLidarHit> hits;
   if (download) hits = gpu::download_vector<shader::SplatLidarHit>(ctx_, hits_, rays);
+  if (debug) {
+    debug->keys = inst ? gpu::download_vector<uint64_t>(ctx_, f.keys, inst) : std::vector<uint64_t>{};
+    debug->values = inst ? gpu::download_vector<uint32_t>(ctx_, f.values, inst) : std::vector<uint32_t>{};
+    debug->ranges = gpu::download_vector<uint32_t>(ctx_, f.ranges, uint64_t{tiles} * 2);
+  }
   if (timings) {
     timings->bin_ms = bin_ms;
     timings->sort_ms = f.t2->milliseconds(0);

@@ -1,6 +1,6 @@
 // LiDAR on Gaussians, GPU host module (shaders/splat_lidar_bin.comp,
 // splat_lidar_duplicate.comp, splat_lidar_cast.comp, the tile-range kernel
-// splat_ranges.comp of the rasterizer, and the foundation PrefixScan and
+// splat_ranges.comp shared with the rasterizer, and the foundation PrefixScan and
 // 64-bit RadixSort of kernels/). Same rays, maths and outputs as the CPU
 // reference lidar_gaussians_cpu.h, in float.
 //
@@ -62,6 +62,17 @@ struct LidarGaussianTimings {
   uint64_t instances = 0;
 };
 
+// The binned lists of the last sweep, for tests (stage by stage): splat_lidar_bin +
+// splat_lidar_duplicate + radix sort give `keys` (tile << 32 | float bits of the
+// Gaussian's lower bound of t*) and `values` (Gaussian index), sorted; splat_ranges
+// gives `ranges` (2 per tile: [start, end) into them). Tile id = ty · tiles_x + tx,
+// tile (tx, ty) = columns 16·tx .. 16·tx + 15 of rings 4·ty .. 4·ty + 3.
+struct LidarGaussianDebug {
+  std::vector<uint64_t> keys;
+  std::vector<uint32_t> values;
+  std::vector<uint32_t> ranges;
+};
+
 class LidarGaussiansGpu {
  public:
   LidarGaussiansGpu(gpu::Context& ctx, const render::LidarModel& model);  // validates the model
@@ -71,7 +82,8 @@ class LidarGaussiansGpu {
   GpuLidarGaussians upload(const GaussianCloud& cloud, const std::vector<float>& intensity);
   // One sweep from `sensor_to_world`; hits in ray order. `download` = false leaves them on the GPU (benchmarks).
   std::vector<shader::SplatLidarHit> cast(const GpuLidarGaussians& g, const glm::dmat4& sensor_to_world,
-                                          LidarGaussianTimings* timings = nullptr, bool download = true);
+                                          LidarGaussianTimings* timings = nullptr, bool download = true,
+                                          LidarGaussianDebug* debug = nullptr);
   render::LidarScan scan(const GpuLidarGaussians& g, const glm::dmat4& sensor_to_world,
                          const LidarGaussianOptions& opts, LidarGaussianTimings* timings = nullptr);
 

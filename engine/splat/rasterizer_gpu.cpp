@@ -48,7 +48,7 @@ SplatRendererGpu::SplatRendererGpu(gpu::Context& ctx)
       preprocess_(ctx.program("splat_preprocess", local_size())),
       counts_(ctx.program("splat_sorted_counts", local_size())),
       duplicate_(ctx.program("splat_duplicate", local_size())),
-      ranges_(ctx.program("splat_tile_ranges", local_size())),
+      ranges_(ctx.program("splat_ranges", local_size())),
       blend_(ctx.program("splat_blend", local_size())),
       scan_(ctx),
       sort_(ctx, kernels::KeyWidth::Bits32),
@@ -224,7 +224,7 @@ SplatImage SplatRendererGpu::render(const GpuGaussians& g, const render::Camera&
     cmd.barrier(gpu::deps::kTransferToCompute);  // the ranges kernel writes into the zeroed ranges
     cmd.barrier(gpu::deps::kComputeToCompute);   // ... and reads the sorted keys
     if (inst > 0)
-      cmd.dispatch(ranges_, {inst}, shader::SplatRangesParams{static_cast<uint32_t>(inst), 0, 0, 0},
+      cmd.dispatch(ranges_, {inst}, shader::SplatRangesParams{static_cast<uint32_t>(inst), 1, 0, 0},
                    {f.keys.binding(0, inst * 4), f.ranges.binding(0, uint64_t{tiles} * 8)});
     f.t2->end(cmd, ts);
     cmd.barrier(gpu::deps::kComputeToCompute);  // blend reads the ranges

@@ -1,6 +1,6 @@
 // GPU host module of the tile-based Gaussian splatting rasterizer
 // (shaders/splat_preprocess.comp, splat_sorted_counts.comp,
-// splat_duplicate.comp, splat_tile_ranges.comp, splat_blend.comp; the
+// splat_duplicate.comp, splat_ranges.comp, splat_blend.comp; the
 // foundation PrefixScan and 32-bit RadixSort from kernels/). Same rules and outputs as the CPU reference rasterizer_cpu.h.
 //
 // Frame = two submissions (one CPU sync, as in the reference rasterizer):
@@ -10,7 +10,7 @@
 //      order (splat_sorted_counts) -> inclusive PrefixScan -> total to the host;
 //   2. duplicate tile ids in depth order at the scan offsets -> stable 32-bit
 //      RadixSort of the bits(#tiles) low bits (2 passes up to 65,536 tiles)
-//      -> fill ranges 0 -> splat_tile_ranges -> blend (+ sky, sky.h).
+//      -> fill ranges 0 -> splat_ranges -> blend (+ sky, sky.h).
 //   Preprocess also writes a 48-byte blend record per Gaussian
 //   (SplatBlendRecord: the first two vec4 decide whether a Gaussian can touch
 //   a pixel row segment); the blend skips, in a real loop, the Gaussians that

@@ -72,8 +72,9 @@ struct SplatDuplicateParams {
 };
 
 struct SplatRangesParams {
-  uint n;  // instances (sorted keys)
-  uint pad0, pad1, pad2;
+  uint n;          // instances (sorted keys)
+  uint key_words;  // uint32 words per key, the tile id in the last: 1 (rasterizer tile ids) or 2 (LiDAR 64-bit keys)
+  uint pad1, pad2;
 };
 
 #define SPLAT_SKY_BACKGROUND 0u  // constant background colour
