@@ -43,7 +43,9 @@ Buffer::Buffer(Context& ctx, VkDeviceSize size, MemoryUsage usage, const std::st
                                mib(std::min(info.max_buffer_size, info.max_memory_allocation_size)) + ")");
   VkBufferCreateInfo bci{VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO};
   bci.size = size;
-  bci.usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_SRC_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
+  bci.usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_UNIFORM_TEXEL_BUFFER_BIT |
+              VK_BUFFER_USAGE_STORAGE_TEXEL_BUFFER_BIT |
+              VK_BUFFER_USAGE_TRANSFER_SRC_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
   if (info.buffer_device_address) bci.usage |= VK_BUFFER_USAGE_SHADER_DEVICE_ADDRESS_BIT;
   bci.sharingMode = VK_SHARING_MODE_EXCLUSIVE;
   VK_CHECK(vkCreateBuffer(ctx.device(), &bci, nullptr, &buffer_));
@@ -108,6 +110,12 @@ BufferBinding Buffer::binding(VkDeviceSize offset, VkDeviceSize range) const {
     throw std::out_of_range("buffer '" + name_ + "': binding [" + std::to_string(offset) + ", +" +
                             std::to_string(range) + ") outside its " + std::to_string(size_) + " bytes");
   return {buffer_, offset, range};
+}
+
+BufferBinding Buffer::texel_binding(VkFormat format, VkDeviceSize offset, VkDeviceSize range) const {
+  BufferBinding b = binding(offset, range);
+  b.texel_format = format;
+  return b;
 }
 
 std::vector<ElementWindow> storage_windows(const DeviceInfo& info, uint64_t element_count, uint32_t element_size,

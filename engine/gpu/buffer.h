@@ -28,6 +28,9 @@ struct BufferBinding {
   VkBuffer buffer = VK_NULL_HANDLE;
   VkDeviceSize offset = 0;
   VkDeviceSize range = 0;  // bytes, never VK_WHOLE_SIZE (checked against maxStorageBufferRange)
+  // Texel-buffer bindings (usamplerBuffer / utextureBuffer, imageBuffer): the view's format;
+  // VK_FORMAT_UNDEFINED for storage and uniform buffers.
+  VkFormat texel_format = VK_FORMAT_UNDEFINED;
 };
 
 class Buffer {
@@ -51,6 +54,10 @@ class Buffer {
   BufferBinding binding() const { return {buffer_, 0, size_}; }
   // Bytes [offset, offset + range) of this buffer; throws if out of bounds.
   BufferBinding binding(VkDeviceSize offset, VkDeviceSize range) const;
+  // The whole buffer / a range as a texel buffer of `format` (e.g. VK_FORMAT_R32_UINT): the
+  // command list creates the VkBufferView at dispatch and keeps it until it is destroyed.
+  BufferBinding texel_binding(VkFormat format) const { return {buffer_, 0, size_, format}; }
+  BufferBinding texel_binding(VkFormat format, VkDeviceSize offset, VkDeviceSize range) const;
 
  private:
   void release();

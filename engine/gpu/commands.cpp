@@ -6,6 +6,20 @@
 
 namespace icube::gpu {
 
+namespace {
+
+// Bytes per texel of the formats texel bindings use.
+uint64_t texel_format_bytes(VkFormat f) {
+  switch (f) {
+    case VK_FORMAT_R32_UINT: case VK_FORMAT_R32_SINT: case VK_FORMAT_R32_SFLOAT: return 4;
+    case VK_FORMAT_R32G32_UINT: case VK_FORMAT_R32G32_SINT: case VK_FORMAT_R32G32_SFLOAT: return 8;
+    case VK_FORMAT_R32G32B32A32_UINT: case VK_FORMAT_R32G32B32A32_SINT: case VK_FORMAT_R32G32B32A32_SFLOAT: return 16;
+    default: throw std::invalid_argument("texel binding: unsupported format " + std::to_string(int(f)));
+  }
+}
+
+}  // namespace
+
 GroupCounts group_counts(const DeviceInfo& info, const Program& program, Threads threads) {
   const uint32_t* ls = program.local_size();
   auto ceil_div = [](uint64_t a, uint64_t b) { return (a + b - 1) / b; };
@@ -34,6 +48,7 @@ GroupCounts group_counts(const DeviceInfo& info, const Program& program, Threads
 CommandList::CommandList(Context& ctx, VkCommandBuffer cmd) : ctx_(ctx), cmd_(cmd) {}
 
 CommandList::~CommandList() {
+  for (VkBufferView v : views_) vkDestroyBufferView(ctx_.device(), v, nullptr);
   if (pool_) vkDestroyDescriptorPool(ctx_.device(), pool_, nullptr);
   for (VkDescriptorPool p : full_pools_) vkDestroyDescriptorPool(ctx_.device(), p, nullptr);
 }
@@ -43,10 +58,12 @@ VkDescriptorSet CommandList::allocate_set(Program& program) {
     if (!pool_) {
       VkDescriptorPoolSize sizes[] = {{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1024},
                                       {VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 256},
-                                      {VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 256}};
+                                      {VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 256},
+                                      {VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER, 256},
+                                      {VK_DESCRIPTOR_TYPE_STORAGE_TEXEL_BUFFER, 256}};
       VkDescriptorPoolCreateInfo dpci{VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};
       dpci.maxSets = 256;
-      dpci.poolSizeCount = 3;
+      dpci.poolSizeCount = 5;
       dpci.pPoolSizes = sizes;
       VK_CHECK(vkCreateDescriptorPool(ctx_.device(), &dpci, nullptr, &pool_));
     }
@@ -79,11 +96,42 @@ void CommandList::dispatch_raw(Program& program, Threads threads, const void* pu
   GroupCounts groups = group_counts(info, program, threads);
 
   std::vector<VkDescriptorBufferInfo> infos(binding_count);
+  std::vector<VkBufferView> views(binding_count, VK_NULL_HANDLE);
   std::vector<VkWriteDescriptorSet> writes(binding_count);
   for (size_t i = 0; i < binding_count; ++i) {
     const BufferBinding& b = bindings[i];
     const ReflectedBinding& rb = refl.bindings[i];
     if (!b.buffer) throw std::logic_error("dispatch of " + program.name() + ": binding '" + rb.name + "' is empty");
+    const bool texel = rb.type == VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER || rb.type == VK_DESCRIPTOR_TYPE_STORAGE_TEXEL_BUFFER;
+    if (texel != (b.texel_format != VK_FORMAT_UNDEFINED))
+      throw std::logic_error("dispatch of " + program.name() + ": binding '" + rb.name + "' " +
+                             (texel ? "is a texel buffer and needs Buffer::texel_binding(format)"
+                                    : "is not a texel buffer but was given a texel format"));
+    if (texel) {
+      const uint64_t texel_bytes = texel_format_bytes(b.texel_format);
+      if (b.range % texel_bytes || b.range / texel_bytes > info.max_texel_buffer_elements)
+        throw std::invalid_argument("dispatch of " + program.name() + ": texel binding '" + rb.name + "' spans " +
+                                    std::to_string(b.range) + " bytes, not a multiple of its " +
+                                    std::to_string(texel_bytes) + "-byte texels or above maxTexelBufferElements " +
+                                    std::to_string(info.max_texel_buffer_elements));
+      if (b.offset % info.min_texel_buffer_offset_alignment)
+        throw std::invalid_argument("dispatch of " + program.name() + ": texel binding '" + rb.name + "' offset " +
+                                    std::to_string(b.offset) + " is not aligned to " +
+                                    std::to_string(info.min_texel_buffer_offset_alignment));
+      VkBufferViewCreateInfo vci{VK_STRUCTURE_TYPE_BUFFER_VIEW_CREATE_INFO};
+      vci.buffer = b.buffer;
+      vci.format = b.texel_format;
+      vci.offset = b.offset;
+      vci.range = b.range;
+      VK_CHECK(vkCreateBufferView(ctx_.device(), &vci, nullptr, &views[i]));
+      views_.push_back(views[i]);  // recorded commands use it until the list is destroyed
+      writes[i] = {VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET};
+      writes[i].dstBinding = rb.binding;
+      writes[i].descriptorCount = 1;
+      writes[i].descriptorType = rb.type;
+      writes[i].pTexelBufferView = &views[i];
+      continue;
+    }
     if (b.range > info.max_storage_buffer_range)
       throw std::invalid_argument("dispatch of " + program.name() + ": binding '" + rb.name + "' spans " +
                                   std::to_string(b.range) + " bytes, above maxStorageBufferRange " +

@@ -107,6 +107,7 @@ class CommandList {
   VkCommandBuffer cmd_;
   VkDescriptorPool pool_ = VK_NULL_HANDLE;  // only without push descriptors
   std::vector<VkDescriptorPool> full_pools_;
+  std::vector<VkBufferView> views_;  // texel-buffer views of recorded dispatches, destroyed with the list
 };
 
 // Named GPU intervals measured with timestamps. Usage:

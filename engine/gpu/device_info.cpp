@@ -73,6 +73,8 @@ static DeviceInfo query_one(VkPhysicalDevice pd, uint32_t index) {
   d.max_memory_allocation_size = maint3.maxMemoryAllocationSize;
   d.max_buffer_size = basic.apiVersion >= VK_API_VERSION_1_3 ? maint4.maxBufferSize : maint3.maxMemoryAllocationSize;
   d.min_storage_buffer_offset_alignment = lim.minStorageBufferOffsetAlignment;
+  d.max_texel_buffer_elements = lim.maxTexelBufferElements;
+  d.min_texel_buffer_offset_alignment = lim.minTexelBufferOffsetAlignment;
   for (int i = 0; i < 3; ++i) {
     d.max_workgroup_count[i] = lim.maxComputeWorkGroupCount[i];
     d.max_workgroup_size[i] = lim.maxComputeWorkGroupSize[i];

@@ -38,6 +38,8 @@ struct DeviceInfo {
   uint64_t max_memory_allocation_size = 0;
   uint64_t max_buffer_size = 0;
   uint64_t min_storage_buffer_offset_alignment = 0;
+  uint64_t max_texel_buffer_elements = 0;
+  uint64_t min_texel_buffer_offset_alignment = 0;
   uint32_t max_workgroup_count[3] = {0, 0, 0};
   uint32_t max_workgroup_size[3] = {0, 0, 0};
   uint32_t max_workgroup_invocations = 0;

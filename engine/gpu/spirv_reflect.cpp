@@ -185,8 +185,14 @@ ShaderReflection reflect_spirv(const uint32_t* words, size_t word_count, const s
       type = m.buffer_block.count(pointee) ? VK_DESCRIPTOR_TYPE_STORAGE_BUFFER : VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER;
     } else if (v.storage == kStorageUniformConstant) {
       const TypeInfo& t = m.types.at(pointee);
-      if (t.op == OpTypeImage)
+      // OpTypeImage operands: sampled type, Dim, Depth, Arrayed, MS, Sampled (1 sampled, 2 storage), format.
+      constexpr uint32_t kDimBuffer = 5;
+      if (t.op == OpTypeImage && t.operands.at(1) == kDimBuffer)
+        type = t.operands.at(5) == 2 ? VK_DESCRIPTOR_TYPE_STORAGE_TEXEL_BUFFER : VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER;
+      else if (t.op == OpTypeImage)
         type = t.operands.at(5) == 2 ? VK_DESCRIPTOR_TYPE_STORAGE_IMAGE : VK_DESCRIPTOR_TYPE_SAMPLED_IMAGE;
+      else if (t.op == OpTypeSampledImage && m.types.at(t.operands.at(0)).operands.at(1) == kDimBuffer)
+        type = VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER;  // samplerBuffer: a texel buffer, no sampler
       else if (t.op == OpTypeSampledImage)
         type = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
       else if (t.op == OpTypeSampler)
