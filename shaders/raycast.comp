@@ -2,9 +2,10 @@
 #extension GL_GOOGLE_include_directive : require
 // raycast: one invocation per ray, the semantic hit and the depth of the ray
 // in the GPU world (conventions §10.2) by the two-level traversal in
-// common/raycast_traverse.glsl (32³ super-brick and 8³ brick skipping via the
-// occupancy masks of binding 4, built by raycast_occupancy.comp, or via the hash
-// table when p.occupancy == 0; then an exact voxel DDA; rules of the CPU reference engine/render/raycast_cpu.h).
+// common/raycast_traverse.glsl (column-top, 32³ super-brick, 8³ brick and 4³
+// octant skipping via the occupancy index of binding 4, built by
+// raycast_occupancy.comp, or hash-table brick skipping when p.occupancy == 0;
+// then an exact voxel DDA; rules of the CPU reference engine/render/raycast_cpu.h).
 // Camera mode (p.width > 0): ray i is pixel (i % width, i / width), origin
 // (off_x, off_y, off_z) relative to the camera voxel p.ref, direction
 // normalize(M · (u + pixel_offset, v + pixel_offset, 1)). Ray-list mode
@@ -31,7 +32,8 @@ layout(std430, binding = 0) readonly buffer Table { uvec4 world_table[]; };
 layout(std430, binding = 1) readonly buffer Bricks { uint world_bricks[]; };
 layout(std430, binding = 2) readonly buffer Rays { vec4 rays[]; };
 layout(std430, binding = 3) writeonly buffer Hits { RaycastHit hits[]; };
-layout(std430, binding = 4) readonly buffer Occupancy { uint occ[]; };
+layout(binding = 4) uniform usamplerBuffer occ_index;    // occupancy index (R32_UINT texels)
+layout(binding = 5) uniform usamplerBuffer brick_words;  // binding 1 as R32_UINT texels
 
 #include "common/world_lookup.glsl"
 #include "common/raycast_traverse.glsl"

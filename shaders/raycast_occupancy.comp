@@ -1,10 +1,19 @@
 #version 460
 #extension GL_GOOGLE_include_directive : require
-// raycast_occupancy: the brick and super-brick (32³ voxel) occupancy bit masks
-// of the ray caster (layout: shared/raycast_params.h, RaycastOccupancyParams),
-// built from the brick hash table: one invocation per table slot ORs the bit
-// of its brick and of its super brick, and its brick record's octant byte. The host zero-fills the mask first.
-// Slots outside the bounds are ignored (rays never leave the bounds).
+// raycast_occupancy: the ray caster's occupancy index over the ray bounds
+// (layout: shared/raycast_params.h, RaycastOccupancyParams), built from the
+// brick hash table in three dispatches of this shader (p.pass), each after a
+// barrier; the host zero-fills words [0, block_word) (super words, the block
+// counter and the column heights) first.
+//   RAYCAST_OCC_MARK     one invocation per table slot: its brick's super word = 1
+//   RAYCAST_OCC_ALLOCATE one invocation per super brick: a marked one takes the next block
+//                        (atomic counter; block order is arbitrary, lookups do not depend on it),
+//                        stores 1 + block and zeroes the block's 64 entries
+//   RAYCAST_OCC_FILL     one invocation per table slot: its brick's entry in the block,
+//                        ((record + 1) << 8) | octant bits of the record's 4³ octants, and
+//                        raises its brick column's and super-brick column's height words to
+//                        1 + its highest occupied z
+// Bricks outside the bounds' super-brick box are ignored (rays never leave the bounds).
 // Host module: engine/render/raycast_gpu.{h,cpp}; test: tests/test_raycast.cpp.
 #include "shared/world_layout.h"
 #include "shared/raycast_params.h"
@@ -16,30 +25,64 @@ layout(std430, binding = 0) readonly buffer Table { uvec4 world_table[]; };
 layout(std430, binding = 1) buffer Occupancy { uint occ[]; };
 layout(std430, binding = 2) readonly buffer Bricks { uint world_bricks[]; };
 
-void main() {
-  const uint i = ICUBE_THREAD_LINEAR();
-  if (i >= p.slots) return;
+// Super word index of table slot i's brick and the brick's place in its block; false when
+// the slot is empty or the brick lies outside the box.
+bool slot_brick(uint i, out uint sn, out uint local_brick, out uint record, out ivec3 brick) {
   const uvec4 e = world_table[i];
-  if (e.z == WORLD_EMPTY_SLOT) return;
+  record = e.z;
+  sn = 0u;
+  local_brick = 0u;
+  if (e.z == WORLD_EMPTY_SLOT) return false;
   const uvec3 u = uvec3(e.x & 0x1fffffu, (e.x >> 21u) | ((e.y & 0x3ffu) << 11u), e.y >> 10u);
   const ivec3 b = ivec3(u) - ivec3(WORLD_BRICK_BIAS);
-  const ivec3 lb = b - ivec3(p.bmin_x, p.bmin_y, p.bmin_z);
-  const uvec3 bdim = uvec3(p.bdim_x, p.bdim_y, p.bdim_z);
-  if (any(lessThan(lb, ivec3(0))) || any(greaterThanEqual(uvec3(lb), bdim))) return;
-  const uint bn = uint(lb.x) + bdim.x * (uint(lb.y) + bdim.y * uint(lb.z));
-  atomicOr(occ[bn >> 5u], 1u << (bn & 31u));
-  const uvec3 ls = uvec3((b >> (RAYCAST_SUPER_SHIFT - 3)) - ivec3(p.smin_x, p.smin_y, p.smin_z));
-  const uint sn = ls.x + p.sdim_x * (ls.y + p.sdim_y * ls.z);
-  atomicOr(occ[p.super_word + (sn >> 5u)], 1u << (sn & 31u));
-  // Octant byte of brick record e.z: bit ox + 2 oy + 4 oz set when its 4³ octant holds a voxel.
-  // Mask word w covers lz = w / 2 and ly in [4 (w % 2), 4 (w % 2) + 4), lx in byte bits 0-3 (ox 0), 4-7 (ox 1).
-  const uint base = e.z * WORLD_BRICK_UINTS + WORLD_MASK_OFFSET;
+  brick = b;
+  const ivec3 ls = (b >> (RAYCAST_SUPER_SHIFT - 3)) - ivec3(p.smin_x, p.smin_y, p.smin_z);
+  const uvec3 sdim = uvec3(p.sdim_x, p.sdim_y, p.sdim_z);
+  if (any(lessThan(ls, ivec3(0))) || any(greaterThanEqual(uvec3(ls), sdim))) return false;
+  sn = uint(ls.x) + sdim.x * (uint(ls.y) + sdim.y * uint(ls.z));
+  const ivec3 lb = b & 3;
+  local_brick = uint(lb.x + 4 * lb.y + 16 * lb.z);
+  return true;
+}
+
+void main() {
+  const uint i = ICUBE_THREAD_LINEAR();
+  if (p.pass == RAYCAST_OCC_ALLOCATE) {
+    if (i >= p.supers || occ[i] == 0u) return;
+    const uint k = atomicAdd(occ[p.supers], 1u);
+    if (k >= p.max_blocks) return;  // cannot happen: max_blocks >= occupied super bricks (host)
+    occ[i] = k + 1u;
+    const uint first = p.block_word + k * RAYCAST_BLOCK_WORDS;
+    for (uint w = 0u; w < RAYCAST_BLOCK_WORDS; ++w) occ[first + w] = 0u;
+    return;
+  }
+  if (i >= p.slots) return;
+  uint sn, local_brick, record;
+  ivec3 brick;
+  if (!slot_brick(i, sn, local_brick, record, brick)) return;
+  if (p.pass == RAYCAST_OCC_MARK) {
+    occ[sn] = 1u;
+    return;
+  }
+  // RAYCAST_OCC_FILL. Octant bits of the record: mask word w covers lz = w / 2 and ly in
+  // [4 (w % 2), 4 (w % 2) + 4), lx in byte bits 0-3 (ox 0), 4-7 (ox 1).
+  const uint base = record * WORLD_BRICK_UINTS + WORLD_MASK_OFFSET;
   uint oct = 0u;
+  int top = -1;  // highest occupied local z
   for (uint w = 0u; w < 16u; ++w) {
     const uint m = world_bricks[base + w];
     const uint sh = 2u * (w & 1u) + 4u * (w >> 3u);
     if ((m & 0x0f0f0f0fu) != 0u) oct |= 1u << sh;
     if ((m & 0xf0f0f0f0u) != 0u) oct |= 2u << sh;
+    if (m != 0u) top = int(w >> 1u);
   }
-  atomicOr(occ[p.oct_word + (e.z >> 2u)], oct << ((e.z & 3u) * 8u));
+  const uint block = occ[sn] - 1u;
+  occ[p.block_word + block * RAYCAST_BLOCK_WORDS + local_brick] = ((record + 1u) << 8u) | oct;
+  if (top >= 0) {
+    const ivec2 c = brick.xy - 4 * ivec2(p.smin_x, p.smin_y);
+    const uint cn = p.col_word + uint(c.x) + 4u * p.sdim_x * uint(c.y);
+    const uint h = uint(brick.z * 8 + top - 32 * p.smin_z + 1);
+    atomicMax(occ[cn], h);
+    atomicMax(occ[p.scol_word + uint(c.x >> 2) + p.sdim_x * uint(c.y >> 2)], h);
+  }
 }

@@ -8,6 +8,8 @@
 #include <doctest/doctest.h>
 
 #include "gpu_test_context.h"
+#include "gpu/spirv_reflect.h"
+#include "gpu/shader_registry.h"
 #include "render/raycast_cpu.h"
 #include "render/raycast_gpu.h"
 #include "world/gpu_world.h"
@@ -640,4 +642,125 @@ TEST_CASE("raycast: occupancy masks are kept between records of one world and re
   (void)rc.cast_camera(other, cam, {});
   (void)rc.cast_camera(w, cam, {});
   CHECK(rc.occupancy_builds() == 4);
+}
+
+namespace {
+
+// Terrain of brick and super-brick columns with different heights (column tops at brick
+// boundaries, inside bricks and at z < 0), pillars and overhangs, for the column-height skips.
+// Origin and voxel size are exact in binary, so rays can start exactly on voxel faces.
+VoxelGrid column_world() {
+  VoxelGrid g(glm::dvec3(-3.0, 1.5, -0.75), 0.25);
+  for (int i = -70; i < 70; ++i)
+    for (int j = -70; j < 70; ++j) {
+      const int h = ((i >> 3) * 7 + (j >> 3) * 3) % 11 - 3;  // per brick column: -3 .. 7
+      for (int k = -4; k <= h; ++k) g.set({i, j, k}, static_cast<uint8_t>(k == h ? 17 : 20), 0);
+    }
+  for (int p = 0; p < 12; ++p)  // pillars up to z 40 (other super bricks) and overhang slabs at z 30
+    for (int k = 0; k < 10 + 3 * p; ++k) g.set({-60 + 11 * p, 5 * p - 30, k}, 8, static_cast<uint16_t>(p + 1));
+  for (int i = 20; i < 40; ++i)
+    for (int j = -10; j < 10; ++j) g.set({i, j, 30}, 9, 99);
+  return g;
+}
+
+}  // namespace
+
+TEST_CASE("raycast: column-height skips (rays above brick and super-brick column tops) equal the flat walk and the CPU") {
+  const VoxelGrid g = column_world();
+  const render::RaycastWorld w = render::upload_raycast_world(test::gpu_context(), g);
+  render::RaycasterGpu occ(test::gpu_context(), true), hash(test::gpu_context(), true), flat(test::gpu_context(), false);
+  hash.set_occupancy(false);
+  std::vector<Ray> rays;
+  std::mt19937 rng(77);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  const double vs = 0.25;
+  const glm::dvec3 o = g.origin();
+  for (int n = 0; n < 3000; ++n) {  // grazing rays just above the terrain, from inside and outside the bounds
+    const glm::dvec3 p(o.x + 12.0 * u(rng), o.y + 12.0 * u(rng), o.z + vs * (9.0 + 3.0 * u(rng)));
+    rays.push_back({p, glm::normalize(glm::dvec3(u(rng), u(rng), -0.02 + 0.03 * u(rng)))});
+  }
+  for (int i = -60; i < 60; i += 7)
+    for (int j = -60; j < 60; j += 5) {
+      const int h = ((i >> 3) * 7 + (j >> 3) * 3) % 11 - 3;
+      const glm::dvec3 top = o + vs * glm::dvec3(i + 0.5, j + 0.5, h + 1);  // exactly on the column top plane
+      rays.push_back({top, {0, 0, -1}});                                 // axis-parallel down onto the top
+      rays.push_back({top + glm::dvec3(0, 0, 3.0), {0, 0, -1}});
+      rays.push_back({top, glm::normalize(glm::dvec3(1, 0.3, 0))});       // along the top plane
+      rays.push_back({top, glm::normalize(glm::dvec3(-1, 0, 0))});
+      rays.push_back({top + glm::dvec3(0, 0, 9.0), glm::normalize(glm::dvec3(0.7, -0.4, -0.2))});
+      rays.push_back({o + vs * glm::dvec3(i & ~7, j & ~7, h + 1), glm::normalize(glm::dvec3(1, 1, -1))});  // column corner
+    }
+  const auto a = occ.cast_rays(w, rays, {}), b = hash.cast_rays(w, rays, {}), c = flat.cast_rays(w, rays, {});
+  size_t bad_hash = 0, bad_flat = 0, steps_occ = 0, steps_hash = 0, hits = 0;
+  for (size_t i = 0; i < a.size(); ++i) {
+    if (!same_hit(a[i], c[i]) && bad_flat++ < 5)
+      std::printf("column ray %zu: occupancy flags %u voxel (%d, %d, %d) t %.6f vs flat flags %u voxel (%d, %d, %d) t %.6f\n", i,
+                  a[i].flags, a[i].ijk_x, a[i].ijk_y, a[i].ijk_z, double(a[i].t_sem), c[i].flags, c[i].ijk_x, c[i].ijk_y,
+                  c[i].ijk_z, double(c[i].t_sem));
+    bad_hash += !same_hit(a[i], b[i]);
+    steps_occ += a[i].steps;
+    steps_hash += b[i].steps;
+    hits += (a[i].flags & RAYCAST_FLAG_SEM) != 0;
+  }
+  std::printf("raycast columns: %zu rays, %zu hits, steps/ray occupancy %.1f, hash %.1f\n", a.size(), hits,
+              double(steps_occ) / double(a.size()), double(steps_hash) / double(a.size()));
+  CHECK(bad_flat == 0);
+  CHECK(bad_hash == 0);
+  CHECK(hits > a.size() / 4);
+  CHECK(2 * steps_occ < steps_hash);  // the column skips pay on a terrain
+  const Agreement agree = compare(from_gpu(a), render::cast_rays_cpu(g, rays, {}, 2), 1e-3 * 0.2, "columns");
+  CHECK(static_cast<double>(agree.disagree) <= 1e-5 * static_cast<double>(agree.rays));
+}
+
+TEST_CASE("raycast: the occupancy index and brick words are texel-buffer bindings, checked at dispatch and working with pooled descriptor sets") {
+  const gpu::EmbeddedShader& sh = gpu::find_shader("raycast");
+  const gpu::ShaderReflection r = gpu::reflect_spirv(sh.words, sh.word_count, sh.name);
+  REQUIRE(r.bindings.size() == 6);
+  CHECK(r.bindings[3].type == VK_DESCRIPTOR_TYPE_STORAGE_BUFFER);
+  CHECK(r.bindings[4].type == VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER);
+  CHECK(r.bindings[5].type == VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER);
+
+  gpu::Context& ctx = test::gpu_context();
+  gpu::Buffer buf(ctx, 256, gpu::MemoryUsage::DeviceLocal, "texel-check");
+  gpu::Program& c = ctx.program("raycast", gpu::SpecConstants{}.set(0, 64u));
+  shader::RaycastParams p{};
+  p.n = 1;
+  ctx.submit_and_wait([&](gpu::CommandList& cmd) {
+    CHECK_THROWS_WITH_AS(cmd.dispatch(c, {1}, p, {buf.binding(), buf.binding(), buf.binding(), buf.binding(), buf.binding(),
+                                                  buf.texel_binding(VK_FORMAT_R32_UINT)}),
+                         doctest::Contains("needs Buffer::texel_binding"), std::logic_error);
+    CHECK_THROWS_WITH_AS(cmd.dispatch(c, {1}, p, {buf.texel_binding(VK_FORMAT_R32_UINT), buf.binding(), buf.binding(),
+                                                  buf.binding(), buf.texel_binding(VK_FORMAT_R32_UINT),
+                                                  buf.texel_binding(VK_FORMAT_R32_UINT)}),
+                         doctest::Contains("not a texel buffer"), std::logic_error);
+    CHECK_THROWS_WITH_AS(cmd.dispatch(c, {1}, p, {buf.binding(), buf.binding(), buf.binding(), buf.binding(),
+                                                  buf.texel_binding(VK_FORMAT_R32_UINT, 4, 64),
+                                                  buf.texel_binding(VK_FORMAT_R32_UINT)}),
+                         doctest::Contains("is not aligned"), std::invalid_argument);
+    CHECK_THROWS_WITH_AS(cmd.dispatch(c, {1}, p, {buf.binding(), buf.binding(), buf.binding(), buf.binding(),
+                                                  buf.texel_binding(VK_FORMAT_R32G32B32A32_UINT, 0, 24),
+                                                  buf.texel_binding(VK_FORMAT_R32_UINT)}),
+                         doctest::Contains("not a multiple of its 16-byte texels"), std::invalid_argument);
+  });
+
+  // The same casts through pooled descriptor sets (texel-buffer descriptors written with
+  // vkUpdateDescriptorSets) as through push descriptors.
+  gpu::ContextOptions opts = gpu::ContextOptions::from_env();
+  opts.disable_push_descriptors = true;
+  auto pooled = test::make_validated_context(opts);
+  REQUIRE_FALSE(pooled->program("raycast_occupancy").uses_push_descriptors());
+  const VoxelGrid g = column_world();
+  const render::RaycastWorld wp = render::upload_raycast_world(*pooled, g);
+  const render::RaycastWorld wq = render::upload_raycast_world(ctx, g);
+  render::RaycasterGpu rp(*pooled), rq(ctx);
+  const render::Camera cam = make_camera(61, 37, 50.0, glm::dvec3(-2.0, 3.0, 1.5), look_at({-2.0, 3.0, 1.5}, {8.0, 6.0, -0.5}));
+  const auto a = rp.cast_camera(wp, cam, {}), b = rq.cast_camera(wq, cam, {});
+  REQUIRE(a.size() == b.size());
+  size_t bad = 0, hits = 0;
+  for (size_t i = 0; i < a.size(); ++i) {
+    bad += !same_hit(a[i], b[i]);
+    hits += (a[i].flags & RAYCAST_FLAG_SEM) != 0;
+  }
+  CHECK(bad == 0);
+  CHECK(hits > a.size() / 2);
 }

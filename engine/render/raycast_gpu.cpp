@@ -60,29 +60,34 @@ shader::RaycastParams base_params(const RaycastWorld& w, const glm::ivec3& ref, 
   return p;
 }
 
-// The occupancy layout of raycast_params.h for absolute brick bounds; false when
-// the world is empty, the relative bounds were clamped or the mask is too large.
+// The occupancy index layout of raycast_params.h for the world's bounds; false when
+// the world is empty, the relative bounds were clamped, the brick records pass the
+// entries' 24-bit field or the index would pass kMaxOccupancyWords.
 bool occupancy_layout(const RaycastWorld& w, const glm::ivec3& ref, shader::RaycastOccupancyParams& op, uint64_t& words) {
   if (w.bounds.empty()) return false;
   for (int a = 0; a < 3; ++a) {
     const int64_t l = int64_t{w.bounds.min[a]} - ref[a], h = int64_t{w.bounds.max[a]} + 1 - ref[a];
     if (l < -RAYCAST_MAX_REL || h > RAYCAST_MAX_REL) return false;
   }
-  const glm::ivec3 bmin = w.bounds.min >> 3, bmax = w.bounds.max >> 3;
   const glm::ivec3 smin = w.bounds.min >> RAYCAST_SUPER_SHIFT, smax = w.bounds.max >> RAYCAST_SUPER_SHIFT;
-  const glm::u64vec3 bdim(bmax - bmin + 1), sdim(smax - smin + 1);
-  const uint64_t bricks = bdim.x * bdim.y * bdim.z, supers = sdim.x * sdim.y * sdim.z;
-  if (bricks > RaycasterGpu::kMaxOccupancyBricks) return false;
+  const glm::u64vec3 sdim(smax - smin + 1);
+  const uint64_t supers = sdim.x * sdim.y * sdim.z;
+  const uint64_t records = w.gpu.brick_data.size() / (uint64_t{WORLD_BRICK_UINTS} * 4);
+  if (records > RAYCAST_MAX_OCC_RECORDS) return false;
+  // Every occupied super brick holds at least one brick record.
+  const uint64_t max_blocks = std::min(supers, records);
+  const uint64_t columns = 16 * sdim.x * sdim.y + sdim.x * sdim.y;  // brick and super-brick columns
+  words = supers + 1 + columns + max_blocks * RAYCAST_BLOCK_WORDS;
+  if (words > RaycasterGpu::kMaxOccupancyWords) return false;
   op = {};
   op.slots = w.gpu.table_mask + 1;
-  op.super_word = static_cast<uint32_t>((bricks + 31) / 32);
-  op.bmin_x = bmin.x; op.bmin_y = bmin.y; op.bmin_z = bmin.z;
+  op.supers = static_cast<uint32_t>(supers);
   op.smin_x = smin.x; op.smin_y = smin.y; op.smin_z = smin.z;
-  op.bdim_x = static_cast<uint32_t>(bdim.x); op.bdim_y = static_cast<uint32_t>(bdim.y); op.bdim_z = static_cast<uint32_t>(bdim.z);
   op.sdim_x = static_cast<uint32_t>(sdim.x); op.sdim_y = static_cast<uint32_t>(sdim.y); op.sdim_z = static_cast<uint32_t>(sdim.z);
-  const uint64_t records = w.gpu.brick_data.size() / (uint64_t{WORLD_BRICK_UINTS} * 4);
-  op.oct_word = static_cast<uint32_t>(op.super_word + (supers + 31) / 32);
-  words = op.oct_word + (records + 3) / 4;
+  op.col_word = static_cast<uint32_t>(supers + 1);
+  op.scol_word = static_cast<uint32_t>(supers + 1 + 16 * sdim.x * sdim.y);
+  op.block_word = static_cast<uint32_t>(supers + 1 + columns);
+  op.max_blocks = static_cast<uint32_t>(max_blocks);
   return true;
 }
 
@@ -199,13 +204,21 @@ void RaycasterGpu::record(gpu::CommandList& cmd, const RaycastWorld& w, const sh
     if (reuse) {
       cmd.barrier(gpu::deps::kComputeToCompute);  // masks built by an earlier record before the ray caster reads them
     } else {
-      // An earlier record (this command list or an earlier one) may still read or build the masks.
+      // An earlier record (this command list or an earlier one) may still read or build the index.
       cmd.barrier(gpu::deps::kComputeToTransfer);
-      cmd.fill_buffer(occ_.binding(0, occ_bytes), 0u);
-      cmd.barrier(gpu::deps::kTransferToCompute);  // zeroed masks before the build pass ORs bits in
-      cmd.dispatch(occupancy_program_, {op.slots}, op,
-                   {w.gpu.brick_table.binding(), occ_.binding(0, occ_bytes), w.gpu.brick_data.binding()});
-      cmd.barrier(gpu::deps::kComputeToCompute);  // masks before the ray caster reads them
+      cmd.fill_buffer(occ_.binding(0, VkDeviceSize{op.block_word} * 4), 0u);
+      cmd.barrier(gpu::deps::kTransferToCompute);  // zeroed super words, block counter and columns before marking
+      const auto bindings = {w.gpu.brick_table.binding(), occ_.binding(0, occ_bytes), w.gpu.brick_data.binding()};
+      shader::RaycastOccupancyParams pass = op;  // op (pass 0) is what the cache compares
+      pass.pass = RAYCAST_OCC_MARK;
+      cmd.dispatch(occupancy_program_, {op.slots}, pass, bindings);
+      cmd.barrier(gpu::deps::kComputeToCompute);  // marks before the blocks are allocated
+      pass.pass = RAYCAST_OCC_ALLOCATE;
+      cmd.dispatch(occupancy_program_, {op.supers}, pass, bindings);
+      cmd.barrier(gpu::deps::kComputeToCompute);  // block numbers and zeroed blocks before the entries
+      pass.pass = RAYCAST_OCC_FILL;
+      cmd.dispatch(occupancy_program_, {op.slots}, pass, bindings);
+      cmd.barrier(gpu::deps::kComputeToCompute);  // index before the ray caster reads it
       ++occ_builds_;
       occ_cached_ = w.id != 0;
       occ_id_ = w.id;
@@ -224,7 +237,8 @@ void RaycasterGpu::record(gpu::CommandList& cmd, const RaycastWorld& w, const sh
   }
   cmd.dispatch(*prog, {threads}, p,
                {w.gpu.brick_table.binding(), w.gpu.brick_data.binding(), rays.binding(), hits.binding(0, bytes),
-                occ_.binding()});
+                occ_.texel_binding(VK_FORMAT_R32_UINT, 0, occ_.size() & ~VkDeviceSize{3}),
+                w.gpu.brick_data.texel_binding(VK_FORMAT_R32_UINT, 0, w.gpu.brick_data.size() & ~VkDeviceSize{3})});
 }
 
 void RaycasterGpu::record_camera(gpu::CommandList& cmd, const RaycastWorld& w, const Camera& cam,

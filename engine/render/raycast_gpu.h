@@ -52,16 +52,19 @@ class RaycasterGpu {
   // skip_empty_bricks = false selects the flat walk (every voxel of every brick; for benchmarks).
   explicit RaycasterGpu(gpu::Context& ctx, bool skip_empty_bricks = true);
 
-  // Occupancy masks (on by default with skip_empty_bricks): bit masks of the
-  // world's bricks and 32³ super bricks and the bricks' 4³ octant bytes, built
-  // from the brick table (raycast_occupancy.comp, a fill + one pass over the
-  // table); the kernel skips empty super bricks, bricks and octants without
-  // hashing. A record rebuilds them unless the last build was for the same world
-  // (RaycastWorld id != 0, same revision and layout); a recorded command list must
-  // then be submitted before the next record relies on it. Off: empty bricks are
-  // found by hash lookups (the same results; for benchmarks). Worlds whose
-  // brick mask would pass kMaxOccupancyBricks bricks always run without.
-  static constexpr uint64_t kMaxOccupancyBricks = uint64_t{1} << 27;
+  // Occupancy index (on by default with skip_empty_bricks): a word per 32³ super
+  // brick of the bounds, the highest occupied voxel of every 32 x 32 and 8 x 8
+  // voxel column and, per occupied super brick, a block of 64 brick entries (brick
+  // record and 4³ octant bits), built from the brick table (raycast_occupancy.comp:
+  // a fill and three passes); the kernel skips column tops, empty super bricks,
+  // bricks and octants and finds bricks in two loads without hashing. A record
+  // rebuilds it unless the last build was for the same world (RaycastWorld id != 0,
+  // same revision and layout); a recorded command list must then be submitted
+  // before the next record relies on it. Off: empty bricks are found by hash
+  // lookups (the same results; for benchmarks). Worlds whose index would pass
+  // kMaxOccupancyWords words (one 128 MiB binding) always run without. The index
+  // and the brick words are read as R32_UINT texel buffers (gathers on lavapipe).
+  static constexpr uint64_t kMaxOccupancyWords = uint64_t{1} << 25;
   void set_occupancy(bool on) { occupancy_ = on; }
   // Number of occupancy builds recorded so far (for tests and benchmarks).
   uint64_t occupancy_builds() const { return occ_builds_; }
@@ -107,7 +110,7 @@ class RaycasterGpu {
   bool skip_empty_ = true;
   bool occupancy_ = true;
   gpu::Buffer dummy_rays_;  // bound in camera mode, never read
-  gpu::Buffer occ_;         // occupancy masks, grown on demand
+  gpu::Buffer occ_;         // occupancy index, grown on demand
   std::vector<gpu::Buffer> retired_occ_;  // outgrown masks, kept alive: recorded commands may still use them
   // What occ_ holds: the world (id, revision) and layout of the last build, when cacheable.
   bool occ_cached_ = false;

@@ -4,12 +4,16 @@
 //
 // Coordinates are relative to the reference voxel p.ref (ints) with the ray
 // origin `o` in voxel units and a unit world direction `d`; t is in metres.
-// Level 1 walks empty cells: with the occupancy masks (p.occupancy, binding
-// `occ`, layout in raycast_params.h) an empty 32³ super brick, an empty 8³
-// brick or an empty 4³ octant of an occupied brick is skipped to its exit
-// plane in one step and occupied bricks are looked up in the hash once per
-// visit (the last brick is cached); without them a brick missing from the hash table is
-// skipped. Level 2 is an exact Amanatides–Woo walk over
+// Level 1 walks empty cells with the occupancy index (p.occupancy, texel
+// buffer `occ_index`, layout in raycast_params.h: a word per 32³ super brick, the
+// highest occupied z of every 32 x 32 and 8 x 8 voxel column, and a block of 64
+// brick entries per occupied super brick holding the brick record and its 4³
+// octant bits). Each is skipped to its exit plane in one step: the box of a
+// super-brick or brick column above its highest voxel (to the bounds' top; a
+// driving scene's air above the ground), an empty super brick, an empty 8³
+// brick, or an empty octant of an occupied brick. A brick costs two loads and a
+// column one (none when re-entered: the last ones are kept), no hashing;
+// without the index a brick missing from the hash table is skipped. Level 2 is an exact Amanatides–Woo walk over
 // every voxel of an occupied brick (the exit-plane times and the voxel kept as
 // vectors and updated with selects, no dynamic component indexing; the last
 // mask word read is reused while the walk stays in it). Every
@@ -23,7 +27,9 @@
 // RAYCAST_BIG, no division by 0). Ties step x before y before z.
 //
 // The including shader declares world_table / world_bricks (see
-// world_lookup.glsl), `uint occ[]` (the occupancy masks), the push constant block `p` (RaycastParams) and the
+// world_lookup.glsl), the texel buffers `usamplerBuffer occ_index` (the occupancy index) and
+// `usamplerBuffer brick_words` (world_bricks as R32_UINT texels: texel fetches are gathers on
+// lavapipe, where storage-buffer loads at divergent addresses run lane by lane), the push constant block `p` (RaycastParams) and the
 // bool RAYCAST_SKIP_EMPTY (false: empty bricks are walked voxel by voxel too,
 // the flat walk of the CPU reference, for benchmarks) first.
 #ifndef ICUBE_RAYCAST_TRAVERSE_GLSL
@@ -91,20 +97,27 @@ RaycastHit raycast_traverse(vec3 o, vec3 d) {
   bool sem = false, dep = false, in_run = false;
   float run_t = 0.0, run_len = 0.0, gap = 0.0;
   uint steps = 0u;
-  // Occupancy masks (see raycast_params.h): boxes of the bounds' bricks and super bricks.
+  // Occupancy index (see raycast_params.h): super-brick words over the bounds' box, then blocks.
   const bool occ_on = p.occupancy != 0u && RAYCAST_SKIP_EMPTY;
-  const ivec3 bmin = (ref + lo) >> 3;
-  const ivec3 bdim = (hi - lo) >> 3;
   const ivec3 smin = (ref + lo) >> RAYCAST_SUPER_SHIFT;
   const ivec3 sdim = ((ref + hi - 1) >> RAYCAST_SUPER_SHIFT) - smin + 1;
-  const uint super_word = (uint(bdim.x) * uint(bdim.y) * uint(bdim.z) + 31u) >> 5u;
-  const uint oct_word = super_word + ((uint(sdim.x) * uint(sdim.y) * uint(sdim.z) + 31u) >> 5u);
+  const uint col_word = uint(sdim.x) * uint(sdim.y) * uint(sdim.z) + 1u;
+  const uint scol_word = col_word + 16u * uint(sdim.x) * uint(sdim.y);
+  const uint block_word = scol_word + uint(sdim.x) * uint(sdim.y);
+  const int col_base = 32 * smin.z - 1;  // column height word h: highest occupied z = col_base + h
   // Each outer iteration moves to a new cell (super brick, brick or 4³ octant) or walks one
   // brick's voxels up to an empty octant; bound it by twice the octants a line can cross.
   const ivec3 ext = hi - lo;
   const uint max_outer = uint(ext.x + ext.y + ext.z) / 2u + 16u;
+  // The last brick looked up: its coordinate, and its super word (0: empty super brick) and
+  // block entry (0: no brick), so re-entering it after an octant skip costs no loads.
   ivec3 last_bc = ivec3(0x7fffffff);
-  uint last_b = WORLD_EMPTY_SLOT;
+  uint last_super = 0u, last_entry = 0u;
+  // The last brick column looked up and its highest occupied z (col_base: none).
+  ivec2 last_col = ivec2(0x7fffffff);
+  int col_top = 0;
+  ivec2 last_scol = ivec2(0x7fffffff);  // the same for the super-brick column
+  int scol_top = 0;
   for (uint outer = 0u; outer < max_outer; ++outer) {
     const ivec3 av = ref + v;
     ivec3 bcoord = av >> 3;  // arithmetic shift: floor(ijk / 8)
@@ -112,27 +125,49 @@ RaycastHit raycast_traverse(vec3 o, vec3 d) {
     uint octs = 0xffu;  // the brick's occupied 4³ octants
     int shift = 3;  // size of the empty cell to skip: 4 (octant), 8 (brick) or 32 (super brick)
     bool empty;
+    bool above = false;  // above every occupied voxel of the brick column: skip the column's rest
     if (occ_on) {
-      const ivec3 sc = (av >> RAYCAST_SUPER_SHIFT) - smin;
-      const uint sn = uint(sc.x + sdim.x * (sc.y + sdim.y * sc.z));
-      empty = ((occ[super_word + (sn >> 5u)] >> (sn & 31u)) & 1u) == 0u;
-      if (empty) {
+      if (bcoord != last_bc) {
+        const ivec3 sc = (av >> RAYCAST_SUPER_SHIFT) - smin;
+        last_super = texelFetch(occ_index, sc.x + sdim.x * (sc.y + sdim.y * sc.z)).x;
+        last_entry = 0u;
+        if (last_super != 0u) {
+          const ivec3 lb = bcoord & 3;
+          last_entry = texelFetch(occ_index, int(block_word + (last_super - 1u) * RAYCAST_BLOCK_WORDS) + lb.x + 4 * lb.y + 16 * lb.z).x;
+        }
+        last_bc = bcoord;
+      }
+      empty = last_entry == 0u;
+      const ivec2 scoord = av.xy >> RAYCAST_SUPER_SHIFT;
+      if (scoord != last_scol) {
+        const ivec2 c = scoord - smin.xy;
+        scol_top = col_base + int(texelFetch(occ_index, int(scol_word) + c.x + sdim.x * c.y).x);
+        last_scol = scoord;
+      }
+      if (av.z > scol_top) {  // above the whole 32 x 32 column: the longest skip
+        above = true;
+        empty = true;
         shift = RAYCAST_SUPER_SHIFT;
+      } else if (last_super == 0u) {
+        shift = RAYCAST_SUPER_SHIFT;  // empty super brick
       } else {
-        const ivec3 bc = bcoord - bmin;
-        const uint bn = uint(bc.x + bdim.x * (bc.y + bdim.y * bc.z));
-        empty = ((occ[bn >> 5u] >> (bn & 31u)) & 1u) == 0u;
-        if (!empty) {
-          if (bcoord != last_bc) {
-            last_b = world_find_brick(bcoord, p.table_mask);
-            last_bc = bcoord;
+        {
+          if (bcoord.xy != last_col) {
+            const ivec2 c = bcoord.xy - 4 * smin.xy;
+            col_top = col_base + int(texelFetch(occ_index, int(col_word) + c.x + 4 * sdim.x * c.y).x);
+            last_col = bcoord.xy;
           }
-          b = last_b;
-          octs = (occ[oct_word + (b >> 2u)] >> ((b & 3u) * 8u)) & 0xffu;
-          const ivec3 oc = (av >> 2) & 1;
-          if (((octs >> uint(oc.x + 2 * oc.y + 4 * oc.z)) & 1u) == 0u) {
+          if (av.z > col_top) {  // above the 8 x 8 column
+            above = true;
             empty = true;
-            shift = 2;
+          } else if (!empty) {
+            b = (last_entry >> 8u) - 1u;
+            octs = last_entry & 0xffu;
+            const ivec3 oc = (av >> 2) & 1;
+            if (((octs >> uint(oc.x + 2 * oc.y + 4 * oc.z)) & 1u) == 0u) {
+              empty = true;
+              shift = 2;
+            }
           }
         }
       }
@@ -143,8 +178,22 @@ RaycastHit raycast_traverse(vec3 o, vec3 d) {
     if (empty) {
       // Skip the empty cell: exit plane on each moving axis, the first one wins.
       ++steps;
-      const ivec3 clo = ((av >> shift) << shift) - ref;
-      const ivec3 chi = clo + ivec3(1 << shift);
+      ivec3 clo, chi;
+      if (above) {
+        // The box of the (super-brick or brick) column above its top: x, y of the column, z from
+        // top + 1 (when the current super brick / brick is empty too: from its floor if lower) up
+        // to the bounds.
+        const bool super_col = shift == RAYCAST_SUPER_SHIFT;
+        const int top = super_col ? scol_top : col_top;
+        const int floor_z = super_col ? (av.z >> RAYCAST_SUPER_SHIFT) << RAYCAST_SUPER_SHIFT : bcoord.z << 3;
+        const bool cell_empty = super_col ? last_super == 0u : last_entry == 0u;
+        const int zlo = cell_empty ? min(top + 1, floor_z) : top + 1;
+        clo = ivec3(((av.xy >> shift) << shift) - ref.xy, zlo - ref.z);
+        chi = ivec3(clo.xy + (1 << shift), hi.z);
+      } else {
+        clo = ((av >> shift) << shift) - ref;
+        chi = clo + ivec3(1 << shift);
+      }
       float tb = RAYCAST_BIG;
       int e = 0;
       for (int a = 0; a < 3; ++a) {
@@ -195,15 +244,15 @@ RaycastHit raycast_traverse(vec3 o, vec3 d) {
       bool occupied = false;
       if (present) {
         const uint wi = base + WORLD_MASK_OFFSET + (n >> 5u);
-        if (wi != last_wi) { last_wi = wi; last_w = world_bricks[wi]; }
+        if (wi != last_wi) { last_wi = wi; last_w = texelFetch(brick_words, int(wi)).x; }
         occupied = ((last_w >> (n & 31u)) & 1u) != 0u;
       }
       if (occupied) {
         if (!sem && chord >= p.eps_sem) {
           sem = true;
           h.t_sem = t;
-          h.sem_class = (world_bricks[base + WORLD_CLASS_OFFSET + (n >> 2u)] >> ((n & 3u) * 8u)) & 0xffu;
-          h.sem_instance = (world_bricks[base + WORLD_INSTANCE_OFFSET + (n >> 1u)] >> ((n & 1u) * 16u)) & 0xffffu;
+          h.sem_class = (texelFetch(brick_words, int(base + WORLD_CLASS_OFFSET + (n >> 2u))).x >> ((n & 3u) * 8u)) & 0xffu;
+          h.sem_instance = (texelFetch(brick_words, int(base + WORLD_INSTANCE_OFFSET + (n >> 1u))).x >> ((n & 1u) * 16u)) & 0xffffu;
           h.ijk_x = ref.x + v.x; h.ijk_y = ref.y + v.y; h.ijk_z = ref.z + v.z;
           h.normal = normal;
         }

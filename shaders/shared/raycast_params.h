@@ -38,32 +38,47 @@ struct RaycastParams {
   // Camera mode: d = normalize(M · (u + pixel_offset, v + pixel_offset, 1)), M = R_c2w · K^-1, row-major.
   float m00, m01, m02, m10, m11, m12, m20, m21, m22;
   float gap_eps;  // metres: empty length along the ray that ends a depth run (smaller gaps are bridged)
-  // 1: the occupancy buffer (binding 4) holds the brick and super-brick bit masks over the bounds
+  // 1: the occupancy buffer (binding 4) holds the super-brick / brick index of the bounds
   // (layout below); 0: every brick is looked up in the hash table.
   uint occupancy;
   uint pad0;
 };
 
-// Occupancy of the ray bounds (built on the GPU from the brick table by
-// shaders/raycast_occupancy.comp). Brick level: bit per 8^3 brick over the bounds'
-// bricks, absolute brick b (= ijk >> 3) at index of b - bmin in a dense x-fastest
-// box of bdim bricks, bmin = (ref + lo) >> 3, bdim = (hi - lo) >> 3. Super level:
-// bit per 4^3 bricks (32^3 voxels, s = ijk >> 5), s - smin in a box of sdim,
-// smin = (ref + lo) >> 5, sdim = ((ref + hi - 1) >> 5) - smin + 1, starting at
-// word ceil(bricks / 32). Bit n is bit n % 32 of word n / 32. Octant level: one
-// byte per brick record r (4 per word, record r in byte r % 4 of word oct_word +
-// r / 4, oct_word = super_word + ceil(supers / 32)), bit ox + 2 oy + 4 oz set
-// when the record's 4³ octant (ox, oy, oz) holds an occupied voxel.
+// Occupancy index of the ray bounds (built on the GPU from the brick table by
+// shaders/raycast_occupancy.comp in three passes). Super level: one word per
+// super brick (4^3 bricks = 32^3 voxels, s = ijk >> 5) of the dense x-fastest
+// box smin = (ref + lo) >> 5, sdim = ((ref + hi - 1) >> 5) - smin + 1 (`supers`
+// words from word 0): 0 = empty, else 1 + its block. Word `supers` counts the
+// blocks. Column level: from word col_word = supers + 1, one word per 8 x 8 voxel
+// brick column (x, y) of the box (4 sdim.x x 4 sdim.y columns from brick column
+// 4 smin.xy, x fastest): 0 = no occupied voxel, else 1 + the column's highest
+// occupied voxel z relative to 32 smin.z; a ray above it skips the rest of the
+// column in one step. Super-column level: from word scol_word = col_word +
+// 16 sdim.x sdim.y, the same per 32 x 32 voxel column (sdim.x x sdim.y of them).
+// Block level: block k is 64 words from word block_word + 64 k
+// (block_word = scol_word + sdim.x sdim.y), one per brick of the super brick, brick
+// (bx, by, bz) & 3 at bx + 4 by + 16 bz: 0 = no brick, else
+// ((record + 1) << 8) | octants, octant bit ox + 2 oy + 4 oz set when the
+// record's 4^3 octant (ox, oy, oz) holds an occupied voxel. So the kernel finds
+// a brick's record and octants in two loads, without the hash table.
 #define RAYCAST_SUPER_SHIFT 5
+#define RAYCAST_BLOCK_WORDS 64u
+// Brick records must stay below this for the block entries' 24-bit record field.
+#define RAYCAST_MAX_OCC_RECORDS 16777215u
+#define RAYCAST_OCC_MARK 0u      // pass 0, per table slot: mark the brick's super brick
+#define RAYCAST_OCC_ALLOCATE 1u  // pass 1, per super brick: give a marked one a zeroed block
+#define RAYCAST_OCC_FILL 2u      // pass 2, per table slot: write the brick's entry into its block
 struct RaycastOccupancyParams {
-  uint slots;            // brick table capacity
-  uint super_word;       // first word of the super level
-  int bmin_x, bmin_y, bmin_z;
+  uint slots;       // brick table capacity (passes 0 and 2)
+  uint supers;      // super bricks in the box (pass 1)
   int smin_x, smin_y, smin_z;
-  uint bdim_x, bdim_y, bdim_z;
   uint sdim_x, sdim_y, sdim_z;
-  uint oct_word;         // first word of the octant bytes
-  uint pad0;
+  uint block_word;  // first word of block 0 (= scol_word + sdim_x sdim_y)
+  uint max_blocks;  // blocks allocated (>= the box's occupied super bricks)
+  uint pass;        // RAYCAST_OCC_MARK, _ALLOCATE or _FILL
+  uint col_word;    // first word of the column level (= supers + 1)
+  uint scol_word;   // first word of the super-column level (= col_word + 16 sdim_x sdim_y)
+  uint pad0, pad1, pad2;
 };
 
 // One ray's result (std430 stride 48).
@@ -85,7 +100,8 @@ ICUBE_SHADER_NAMESPACE_END
 ICUBE_CHECK_SIZE(RaycastParams, 128);
 ICUBE_CHECK_LAYOUT(RaycastParams, occupancy, 120);
 ICUBE_CHECK_SIZE(RaycastOccupancyParams, 64);
-ICUBE_CHECK_LAYOUT(RaycastOccupancyParams, bdim_x, 32);
+ICUBE_CHECK_LAYOUT(RaycastOccupancyParams, sdim_x, 20);
+ICUBE_CHECK_LAYOUT(RaycastOccupancyParams, pass, 40);
 ICUBE_CHECK_LAYOUT(RaycastParams, ref_x, 16);
 ICUBE_CHECK_LAYOUT(RaycastParams, off_x, 32);
 ICUBE_CHECK_LAYOUT(RaycastParams, lo_x, 48);
