@@ -183,6 +183,13 @@ void CommandList::copy_buffer(const BufferBinding& src, const BufferBinding& dst
   vkCmdCopyBuffer(cmd_, src.buffer, dst.buffer, 1, &region);
 }
 
+void CommandList::update_buffer(const BufferBinding& dst, const void* data, size_t bytes) {
+  if (bytes == 0 || bytes % 4 || bytes > 65536 || bytes > dst.range || dst.offset % 4)
+    throw std::invalid_argument("update_buffer: " + std::to_string(bytes) + " bytes at offset " + std::to_string(dst.offset) +
+                                " (multiple of 4, at most 65536 and the binding's " + std::to_string(dst.range) + ")");
+  vkCmdUpdateBuffer(cmd_, dst.buffer, dst.offset, bytes, data);
+}
+
 void CommandList::fill_buffer(const BufferBinding& dst, uint32_t value) {
   if (dst.offset % 4 || dst.range % 4) throw std::logic_error("fill_buffer: offset and range must be multiples of 4");
   vkCmdFillBuffer(cmd_, dst.buffer, dst.offset, dst.range, value);

@@ -46,14 +46,15 @@ struct MemoryDependency {
 };
 
 namespace deps {
-// Kernel writes, later kernel reads or writes (RAW and WAW).
+// Kernel writes, later kernel reads (storage or texel-buffer fetches) or writes (RAW and WAW).
 inline constexpr MemoryDependency kComputeToCompute{
     VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
-    VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT};
-// A copy or fill writes, kernels read or write.
+    VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
+    VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_SAMPLED_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT};
+// A copy, fill or update writes, kernels read (storage or texel-buffer fetches) or write.
 inline constexpr MemoryDependency kTransferToCompute{
     VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
-    VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT};
+    VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_SAMPLED_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT};
 // Kernel writes, a copy reads or overwrites.
 inline constexpr MemoryDependency kComputeToTransfer{
     VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT, VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT,
@@ -99,6 +100,9 @@ class CommandList {
   void copy_buffer(const BufferBinding& src, const BufferBinding& dst);
   // Fills `dst` (offset and range multiples of 4) with a 32-bit pattern.
   void fill_buffer(const BufferBinding& dst, uint32_t value);
+  // Writes `bytes` (a multiple of 4, at most 65,536) from host memory into `dst` in command order
+  // (vkCmdUpdateBuffer; a transfer write, ordered with barriers like fill_buffer).
+  void update_buffer(const BufferBinding& dst, const void* data, size_t bytes);
   void write_timestamp(GpuTimer& timer, uint32_t query, VkPipelineStageFlags2 stage);
 
  private:

@@ -162,6 +162,7 @@ void Context::create_device() {
   f11.storageBuffer16BitAccess = d.storage_16bit;
   VkPhysicalDeviceFeatures2 f2{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2};
   f2.features.shaderInt64 = d.shader_int64;
+  f2.features.shaderFloat64 = d.shader_float64;
   f2.pNext = &f11;
   f11.pNext = &f12;
   f12.pNext = &f13;

@@ -130,6 +130,7 @@ static DeviceInfo query_one(VkPhysicalDevice pd, uint32_t index) {
     if (has_atomic_float) f13.pNext = &atomic_float;
     vkGetPhysicalDeviceFeatures2(pd, &f2);
     d.shader_int64 = f2.features.shaderInt64;
+    d.shader_float64 = f2.features.shaderFloat64;
     d.shader_float16 = f12.shaderFloat16;
     d.shader_int8 = f12.shaderInt8;
     d.storage_8bit = f12.storageBuffer8BitAccess;
@@ -256,7 +257,7 @@ std::string describe_device(const DeviceInfo& d) {
     << "    features used        push_descriptor=" << yn(d.push_descriptor) << " synchronization2=" << yn(d.synchronization2)
     << " subgroup_size_control=" << yn(d.subgroup_size_control) << " buffer_device_address="
     << yn(d.buffer_device_address) << " scalar_block_layout=" << yn(d.scalar_block_layout)
-    << " int64=" << yn(d.shader_int64) << " float16=" << yn(d.shader_float16) << " int8=" << yn(d.shader_int8)
+    << " int64=" << yn(d.shader_int64) << " float64=" << yn(d.shader_float64) << " float16=" << yn(d.shader_float16) << " int8=" << yn(d.shader_int8)
     << " storage8/16=" << yn(d.storage_8bit) << "/" << yn(d.storage_16bit) << " atomic_float_add="
     << yn(d.atomic_float_add) << "\n";
   return o.str();

@@ -54,6 +54,7 @@ struct DeviceInfo {
   bool push_descriptor = false;
   bool buffer_device_address = false;
   bool shader_int64 = false;
+  bool shader_float64 = false;
   bool shader_float16 = false;
   bool shader_int8 = false;
   bool storage_8bit = false;
