@@ -246,10 +246,11 @@ bool run_case(gpu::Context& ctx, const Case& c, const render::RaycastOptions& op
     std::printf("cpu: %zu of %llu rays have a semantic hit\n", hit_count, static_cast<unsigned long long>(n));
   }
 
-  auto gpu_rows = [&](bool skip, bool occupancy, bool tiled, bool rebuild, const std::string& label) {
+  auto gpu_rows = [&](bool skip, bool occupancy, bool tiled, bool rebuild, const std::string& label, bool exact = true) {
     render::RaycasterGpu rc(ctx, skip);
     rc.set_occupancy(occupancy);
     rc.set_tiled(tiled);
+    rc.set_exact(exact);
     gpu::GpuTimer timer(ctx, 1);
     std::vector<double> kernel_ms, submit_ms;
     for (int i = 0; i < warmup + runs; ++i) {
@@ -322,6 +323,8 @@ bool run_case(gpu::Context& ctx, const Case& c, const render::RaycastOptions& op
   if (!quick) {
     ok = gpu_rows(true, true, true, true, "gpu occupancy rebuilt per record, tiles") && ok;
     ok = gpu_rows(true, true, false, false, "gpu occupancy, rows") && ok;
+    if (render::RaycasterGpu(ctx).exact())  // the float kernel (devices without shaderFloat64)
+      ok = gpu_rows(true, true, true, false, "gpu float only (no double chords), tiles", false) && ok;
     ok = gpu_rows(true, false, false, false, "gpu hash skip, rows (old path)") && ok;
   }
   if (flat) ok = gpu_rows(false, false, false, false, "gpu flat walk (no skip)") && ok;

@@ -1,6 +1,8 @@
 // GPU host module for shaders/raycast.comp; see raycast_gpu.h.
 #include "render/raycast_gpu.h"
 
+#include "shared/raycast_f64_params.h"
+
 #include <algorithm>
 #include <atomic>
 #include <cstring>
@@ -125,6 +127,12 @@ RaycasterGpu::RaycasterGpu(gpu::Context& ctx, bool skip_empty_bricks)
                                                 .set(2, tile_width_for(ctx.subgroup_size()) /* RAYCAST_TILE_W */)
                                                 .set(3, ctx.subgroup_size() /* RAYCAST_SUB_LANES */)
                                                 .set(4, tile_width_for(workgroup_lanes(ctx)) /* RAYCAST_WG_W */))),
+      program_exact_(ctx.info().shader_float64
+                         ? &ctx.program("raycast_exact", gpu::SpecConstants{}
+                                                             .set(0, workgroup_lanes(ctx) /* local_size_x */)
+                                                             .set(1, skip_empty_bricks /* RAYCAST_SKIP_EMPTY */)
+                                                             .set(2, 0u /* RAYCAST_TILE_W: unused */))
+                         : nullptr),
       occupancy_program_(ctx.program("raycast_occupancy")),
       tile_w_(tile_width_for(ctx.subgroup_size())),
       wg_w_(tile_width_for(workgroup_lanes(ctx))),
@@ -132,7 +140,12 @@ RaycasterGpu::RaycasterGpu(gpu::Context& ctx, bool skip_empty_bricks)
       skip_empty_(skip_empty_bricks),
       occupancy_(skip_empty_bricks),
       dummy_rays_(ctx, 32, gpu::MemoryUsage::DeviceLocal, "raycast-dummy-rays"),
-      occ_(ctx, 16, gpu::MemoryUsage::DeviceLocal, "raycast-occupancy") {}
+      occ_(ctx, 16, gpu::MemoryUsage::DeviceLocal, "raycast-occupancy"),
+      near_(ctx, 16, gpu::MemoryUsage::DeviceLocal, "raycast-near-list"),
+      cam64_(ctx, sizeof(shader::RaycastCameraF64), gpu::MemoryUsage::DeviceLocal, "raycast-camera-f64"),
+      exact_(program_exact_ != nullptr) {}
+
+void RaycasterGpu::set_exact(bool on) { exact_ = on && program_exact_ != nullptr; }
 
 shader::RaycastParams RaycasterGpu::camera_params(const RaycastWorld& w, const Camera& cam,
                                                   const RaycastOptions& opts) const {
@@ -182,7 +195,7 @@ GpuRayBatch RaycasterGpu::upload_rays(const RaycastWorld& w, const std::vector<R
 }
 
 void RaycasterGpu::record(gpu::CommandList& cmd, const RaycastWorld& w, const shader::RaycastParams& params,
-                          const gpu::Buffer& rays, const gpu::Buffer& hits) {
+                          const gpu::Buffer& rays, const gpu::Buffer& hits, const shader::RaycastCameraF64* cam64) {
   if (params.n == 0) return;
   const VkDeviceSize bytes = VkDeviceSize{params.n} * sizeof(shader::RaycastHit);
   if (hits.size() < bytes) throw std::invalid_argument("raycast: hits buffer too small");
@@ -227,23 +240,64 @@ void RaycasterGpu::record(gpu::CommandList& cmd, const RaycastWorld& w, const sh
     }
     p.occupancy = 1;
   }
-  gpu::Program* prog = &program_;
+  const bool exact = cam64 != nullptr && exact_ && p.width != 0;
+  const bool tiled = tiled_ && p.width != 0 && tile_w_ > 1;
+  gpu::Program* prog = tiled ? &program_tiled_ : &program_;
   uint64_t threads = p.n;
-  if (tiled_ && p.width != 0 && tile_w_ > 1) {
+  if (tiled) {
     const uint64_t lanes = wg_lanes_, th = lanes / wg_w_;
     const uint64_t height = p.n / p.width;
     threads = ((p.width + wg_w_ - 1) / wg_w_) * ((height + th - 1) / th) * lanes;
-    prog = &program_tiled_;
+  }
+  const gpu::BufferBinding occ_texels = occ_.texel_binding(VK_FORMAT_R32_UINT, 0, occ_.size() & ~VkDeviceSize{3});
+  const gpu::BufferBinding brick_texels =
+      w.gpu.brick_data.texel_binding(VK_FORMAT_R32_UINT, 0, w.gpu.brick_data.size() & ~VkDeviceSize{3});
+  p.mark_near = exact ? 1u : 0u;
+  if (exact) {
+    const VkDeviceSize list_bytes = (VkDeviceSize{p.n} + 1) * 4;
+    if (near_.size() < list_bytes) {
+      retired_occ_.push_back(std::move(near_));  // recorded commands may still use it
+      near_ = gpu::Buffer(ctx_, list_bytes, gpu::MemoryUsage::DeviceLocal, "raycast-near-list");
+    }
+    cmd.barrier(gpu::deps::kComputeToTransfer);  // an earlier record's passes may still use the list and camera
+    cmd.fill_buffer(near_.binding(0, 4), 0u);
+    cmd.update_buffer(cam64_.binding(), cam64, sizeof *cam64);
+    cmd.barrier(gpu::deps::kTransferToCompute);  // empty list and double camera before the passes
   }
   cmd.dispatch(*prog, {threads}, p,
                {w.gpu.brick_table.binding(), w.gpu.brick_data.binding(), rays.binding(), hits.binding(0, bytes),
-                occ_.texel_binding(VK_FORMAT_R32_UINT, 0, occ_.size() & ~VkDeviceSize{3}),
-                w.gpu.brick_data.texel_binding(VK_FORMAT_R32_UINT, 0, w.gpu.brick_data.size() & ~VkDeviceSize{3})});
+                occ_texels, brick_texels, near_.binding()});
+  if (exact) {
+    // Second pass: the rays flagged RAYCAST_FLAG_NEAR (listed by the first) are cast again with the
+    // chords near eps_sem decided in double; a fixed grid strides over the list.
+    cmd.barrier(gpu::deps::kComputeToCompute);  // the float pass's hits and list before the exact pass
+    cmd.dispatch(*program_exact_, {std::min<uint64_t>(p.n, kExactPassThreads)}, p,
+                 {w.gpu.brick_table.binding(), w.gpu.brick_data.binding(), rays.binding(), hits.binding(0, bytes),
+                  occ_texels, brick_texels, near_.binding(), cam64_.binding()});
+  }
 }
 
 void RaycasterGpu::record_camera(gpu::CommandList& cmd, const RaycastWorld& w, const Camera& cam,
                                  const RaycastOptions& opts, const gpu::Buffer& hits) {
-  record(cmd, w, camera_params(w, cam, opts), dummy_rays_, hits);
+  const shader::RaycastParams p = camera_params(w, cam, opts);
+  const Split s = split_point(w, camera_position(cam));
+  shader::RaycastCameraF64 c{};
+  const glm::dmat3 R(cam.c2w);  // column-major: R[c][r]
+  double* r[9] = {&c.r00, &c.r01, &c.r02, &c.r10, &c.r11, &c.r12, &c.r20, &c.r21, &c.r22};
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) *r[3 * i + j] = R[j][i];
+  c.fx = cam.K.fx;
+  c.fy = cam.K.fy;
+  c.cx = cam.K.cx;
+  c.cy = cam.K.cy;
+  c.pixel_offset = pixel_offset(opts.pixels);
+  c.off_x = s.off.x;
+  c.off_y = s.off.y;
+  c.off_z = s.off.z;
+  c.voxel_size = w.gpu.voxel_size;
+  c.eps_sem = opts.eps_sem;
+  c.t_max = opts.t_max;
+  record(cmd, w, p, dummy_rays_, hits, &c);
 }
 
 void RaycasterGpu::record_rays(gpu::CommandList& cmd, const RaycastWorld& w, const GpuRayBatch& rays,
@@ -256,7 +310,7 @@ std::vector<shader::RaycastHit> RaycasterGpu::cast_camera(const RaycastWorld& w,
   const shader::RaycastParams p = camera_params(w, cam, opts);
   gpu::Buffer hits(ctx_, std::max<VkDeviceSize>(1, p.n) * sizeof(shader::RaycastHit), gpu::MemoryUsage::DeviceLocal,
                    "raycast-hits");
-  ctx_.submit_and_wait([&](gpu::CommandList& cmd) { record(cmd, w, p, dummy_rays_, hits); });
+  ctx_.submit_and_wait([&](gpu::CommandList& cmd) { record_camera(cmd, w, cam, opts, hits); });
   return gpu::download_vector<shader::RaycastHit>(ctx_, hits, p.n);
 }
 

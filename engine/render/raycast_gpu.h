@@ -14,6 +14,7 @@
 #include "gpu/commands.h"
 #include "render/camera.h"
 #include "render/raycast_cpu.h"
+#include "shared/raycast_f64_params.h"
 #include "shared/raycast_params.h"
 #include "world/gpu_world.h"
 
@@ -74,6 +75,12 @@ class RaycasterGpu {
   // instead of runs of pixels in a row. Same results.
   void set_tiled(bool on) { tiled_ = on; }
   bool tiled() const { return tiled_; }
+  // Camera casts with near-threshold semantic chords decided in double: the float pass lists the
+  // rays whose decision met a chord within float rounding of eps_sem and a second pass
+  // (shaders/raycast_exact.comp) casts only those again; on by default where the device has
+  // shaderFloat64; off: the float kernel alone.
+  void set_exact(bool on);
+  bool exact() const { return exact_; }
   uint32_t tile_width() const { return tile_w_; }
 
   // Push constants for a camera (camera mode) / for a ray batch (ray-list mode).
@@ -98,10 +105,12 @@ class RaycasterGpu {
 
  private:
   void record(gpu::CommandList& cmd, const RaycastWorld& w, const shader::RaycastParams& params,
-              const gpu::Buffer& rays, const gpu::Buffer& hits);
+              const gpu::Buffer& rays, const gpu::Buffer& hits, const shader::RaycastCameraF64* cam64 = nullptr);
   gpu::Context& ctx_;
   gpu::Program& program_;
   gpu::Program& program_tiled_;
+  gpu::Program* program_exact_;  // raycast_exact, null without shaderFloat64
+  static constexpr uint64_t kExactPassThreads = 4096;  // the exact pass's grid
   gpu::Program& occupancy_program_;
   uint32_t tile_w_ = 1;   // subgroup sub-tile width
   uint32_t wg_w_ = 1;     // workgroup tile width
@@ -117,6 +126,9 @@ class RaycasterGpu {
   uint64_t occ_builds_ = 0;
   uint64_t occ_id_ = 0, occ_revision_ = 0;
   shader::RaycastOccupancyParams occ_params_{};
+  gpu::Buffer near_;   // the float pass's list of near-threshold rays (count, indices)
+  gpu::Buffer cam64_;  // the double camera of the last exact camera record
+  bool exact_ = false;
 };
 
 }  // namespace icube::render

@@ -26,6 +26,10 @@
 // time resolved in the flat walk's x, y, z tie order. Axes with dd == 0 are disabled (time
 // RAYCAST_BIG, no division by 0). Ties step x before y before z.
 //
+// With RAYCAST_EXACT_F64 (shaders/raycast_exact.comp) a camera ray's semantic chord within
+// float rounding of eps_sem is recomputed in double (raycast_chord_f64), so the first-hit
+// decision is the reference's; the including shader then declares `cam64` (RaycastCameraF64).
+//
 // The including shader declares world_table / world_bricks (see
 // world_lookup.glsl), the texel buffers `usamplerBuffer occ_index` (the occupancy index) and
 // `usamplerBuffer brick_words` (world_bricks as R32_UINT texels: texel fetches are gathers on
@@ -58,7 +62,41 @@ int raycast_locate(float o, float dd, int st, float t, bool ties_crossed) {
 
 int raycast_argmin(vec3 tm) { return tm.x <= tm.y ? (tm.x <= tm.z ? 0 : 2) : (tm.y <= tm.z ? 1 : 2); }
 
-RaycastHit raycast_traverse(vec3 o, vec3 d) {
+#if RAYCAST_EXACT_F64
+// The CPU reference's semantic chord (min(exit, t1) - entry, in double) of relative voxel v
+// on the camera ray of pixel pix (cam64: shared/raycast_f64_params.h), for chords within float
+// rounding of eps_sem. The entry is the latest entry plane of v or the bounds entry t0, as the
+// reference walk's t; `precise` keeps the double operations unfused, as on the CPU.
+double raycast_chord_f64(ivec3 v, uvec2 pix, ivec3 lo, ivec3 hi) {
+  precise dvec3 dc = dvec3((double(pix.x) + cam64.pixel_offset - cam64.cx) / cam64.fx,
+                           (double(pix.y) + cam64.pixel_offset - cam64.cy) / cam64.fy, 1.0LF);
+  precise double n2 = dc.x * dc.x + dc.y * dc.y + dc.z * dc.z;
+  dc = dc * (1.0LF / sqrt(n2));
+  precise dvec3 dw = dvec3(cam64.r00 * dc.x + cam64.r01 * dc.y + cam64.r02 * dc.z,
+                           cam64.r10 * dc.x + cam64.r11 * dc.y + cam64.r12 * dc.z,
+                           cam64.r20 * dc.x + cam64.r21 * dc.y + cam64.r22 * dc.z);
+  n2 = dw.x * dw.x + dw.y * dw.y + dw.z * dw.z;
+  dw = dw * (1.0LF / sqrt(n2));
+  precise const dvec3 dd = dw / cam64.voxel_size;
+  const dvec3 o = dvec3(cam64.off_x, cam64.off_y, cam64.off_z);
+  double t0 = 0.0LF, t1 = cam64.t_max, te = 0.0LF, tx = 1.0e300LF;
+  for (int a = 0; a < 3; ++a) {
+    if (dd[a] == 0.0LF) continue;
+    precise const double ta = (double(lo[a]) - o[a]) / dd[a], tb = (double(hi[a]) - o[a]) / dd[a];
+    t0 = max(t0, min(ta, tb));
+    t1 = min(t1, max(ta, tb));
+    const int st = dd[a] > 0.0LF ? 1 : -1;
+    precise const double tin = (double(st > 0 ? v[a] : v[a] + 1) - o[a]) / dd[a];
+    precise const double tout = (double(st > 0 ? v[a] + 1 : v[a]) - o[a]) / dd[a];
+    te = max(te, tin);
+    tx = min(tx, tout);
+  }
+  precise const double chord = min(tx, t1) - max(te, t0);
+  return max(chord, 0.0LF);
+}
+#endif
+
+RaycastHit raycast_traverse(vec3 o, vec3 d, uvec2 pix) {
   RaycastHit h;
   h.t_sem = 0.0; h.t_depth = 0.0; h.sem_class = 0u; h.sem_instance = 0u;
   h.ijk_x = 0; h.ijk_y = 0; h.ijk_z = 0; h.normal = RAYCAST_NORMAL_NONE;
@@ -94,7 +132,7 @@ RaycastHit raycast_traverse(vec3 o, vec3 d) {
 
   float t = t0;
   int normal = eaxis >= 0 ? -(eaxis + 1) * st[eaxis] : RAYCAST_NORMAL_NONE;
-  bool sem = false, dep = false, in_run = false;
+  bool sem = false, dep = false, in_run = false, near = false;
   float run_t = 0.0, run_len = 0.0, gap = 0.0;
   uint steps = 0u;
   // Occupancy index (see raycast_params.h): super-brick words over the bounds' box, then blocks.
@@ -248,7 +286,17 @@ RaycastHit raycast_traverse(vec3 o, vec3 d) {
         occupied = ((last_w >> (n & 31u)) & 1u) != 0u;
       }
       if (occupied) {
-        if (!sem && chord >= p.eps_sem) {
+        bool sem_pass = chord >= p.eps_sem;
+        // Within float rounding of the threshold (|error| << 1e-6 + 1e-6 t m): the exact variant
+        // decides in double; the float one flags the ray for it when asked (p.mark_near).
+        if (!sem && p.width != 0u && abs(chord - p.eps_sem) <= 1.0e-6 + 1.0e-6 * t) {
+#if RAYCAST_EXACT_F64
+          sem_pass = raycast_chord_f64(v, pix, lo, hi) >= cam64.eps_sem;
+#else
+          near = near || p.mark_near != 0u;
+#endif
+        }
+        if (!sem && sem_pass) {
           sem = true;
           h.t_sem = t;
           h.sem_class = (texelFetch(brick_words, int(base + WORLD_CLASS_OFFSET + (n >> 2u))).x >> ((n & 3u) * 8u)) & 0xffu;
@@ -284,7 +332,7 @@ RaycastHit raycast_traverse(vec3 o, vec3 d) {
     if (done || v[0] < lo[0] || v[0] >= hi[0] || v[1] < lo[1] || v[1] >= hi[1] || v[2] < lo[2] || v[2] >= hi[2]) break;
   }
   h.steps = steps;
-  h.flags = (sem ? RAYCAST_FLAG_SEM : 0u) | (dep ? RAYCAST_FLAG_DEPTH : 0u);
+  h.flags = (sem ? RAYCAST_FLAG_SEM : 0u) | (dep ? RAYCAST_FLAG_DEPTH : 0u) | (near ? RAYCAST_FLAG_NEAR : 0u);
   return h;
 }
 

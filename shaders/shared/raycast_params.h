@@ -17,6 +17,7 @@
 #define RAYCAST_NORMAL_NONE 0
 #define RAYCAST_FLAG_SEM 1u
 #define RAYCAST_FLAG_DEPTH 2u
+#define RAYCAST_FLAG_NEAR 4u  // see RaycastParams.mark_near; cleared by the exact pass
 // Relative bounds are clamped to +-RAYCAST_MAX_REL voxels so that they stay exact in float.
 #define RAYCAST_MAX_REL 4194304
 
@@ -41,7 +42,9 @@ struct RaycastParams {
   // 1: the occupancy buffer (binding 4) holds the super-brick / brick index of the bounds
   // (layout below); 0: every brick is looked up in the hash table.
   uint occupancy;
-  uint pad0;
+  // Camera mode, 1: flag rays (RAYCAST_FLAG_NEAR) whose semantic decision met a chord within float
+  // rounding of eps_sem, for the exact pass (shaders/raycast_exact.comp), which re-casts only those.
+  uint mark_near;
 };
 
 // Occupancy index of the ray bounds (built on the GPU from the brick table by
@@ -90,7 +93,7 @@ struct RaycastHit {
   int ijk_x, ijk_y, ijk_z;  // absolute ijk of the semantic voxel (0 when none)
   int normal;               // entry face of the semantic voxel (RAYCAST_NORMAL_NONE or ±(axis + 1))
   uint steps;               // traversal steps (voxel steps + brick steps), for benchmarks
-  uint flags;               // RAYCAST_FLAG_SEM | RAYCAST_FLAG_DEPTH (a depth run may start at t = 0)
+  uint flags;               // RAYCAST_FLAG_SEM | RAYCAST_FLAG_DEPTH (a depth run may start at t = 0) | RAYCAST_FLAG_NEAR
   uint pad1;
   uint pad2;
 };
