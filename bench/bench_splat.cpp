@@ -11,8 +11,15 @@
 // the camera 14 m back and 4 m up looking at the box centre, focal 0.8·W.
 // min / median of --runs after --warmup; fps from the median wall time of a
 // whole frame (both submissions, one CPU sync, no image readback).
+// Pipeline variants side by side (--variants, SplatGpuVariant): "rect-rows"
+// (whole getRect rects + the previous row blend, splat_blend_rows.comp),
+// "cull-rows", "rect-tile" and "cull-tile" (exact tile culling + one tile per
+// workgroup, the default); their runs alternate, so they share the load.
+// Check in the same run: each variant's image against the first variant's
+// (max |difference| over RGBA and depth).
 //
 //   LP_NUM_THREADS=2 icube-bench-splat [--gaussians 100000,1000000] [--sizes 1280x720,1920x1080] [--runs 5]
+//       [--variants rect-rows,cull-tile]
 #include "bench_host.h"
 #include "gpu/context.h"
 #include "splat/rasterizer_cpu.h"
@@ -24,6 +31,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <memory>
 #include <random>
 #include <stdexcept>
 #include <sstream>
@@ -74,6 +82,26 @@ std::vector<T> parse_list(const std::string& s) {
   return out;
 }
 
+struct Variant {
+  std::string name;
+  splat::SplatGpuVariant v;
+};
+
+Variant parse_variant(const std::string& s) {
+  if (s == "rect-rows") return {s, {false, false}};
+  if (s == "cull-rows") return {s, {true, false}};
+  if (s == "rect-tile") return {s, {false, true}};
+  if (s == "cull-tile") return {s, {true, true}};
+  throw std::invalid_argument("--variants: unknown variant '" + s + "' (rect-rows, cull-rows, rect-tile, cull-tile)");
+}
+
+double max_diff(const splat::SplatImage& a, const splat::SplatImage& b) {
+  double d = 0.0;
+  for (size_t i = 0; i < a.rgba.size(); ++i) d = std::max(d, std::fabs(double(a.rgba[i]) - double(b.rgba[i])));
+  for (size_t i = 0; i < a.depth.size(); ++i) d = std::max(d, std::fabs(double(a.depth[i]) - double(b.depth[i])));
+  return d;
+}
+
 double median(std::vector<double> v) {
   std::sort(v.begin(), v.end());
   return v.empty() ? 0.0 : v[v.size() / 2];
@@ -83,7 +111,7 @@ double median(std::vector<double> v) {
 
 int main(int argc, char** argv) {
   CLI::App app("icube-bench-splat: GPU Gaussian splatting frames per second by phase");
-  std::string gaussians = "100000,1000000", sizes = "1280x720,1920x1080";
+  std::string gaussians = "100000,1000000", sizes = "1280x720,1920x1080", variants = "rect-rows,cull-tile";
   int runs = 5, warmup = 1;
   uint32_t sh = 3;
   bool cpu = true;
@@ -92,19 +120,33 @@ int main(int argc, char** argv) {
   app.add_option("--runs", runs)->capture_default_str();
   app.add_option("--warmup", warmup)->capture_default_str();
   app.add_option("--sh", sh, "SH degree 0-3")->capture_default_str();
+  app.add_option("--variants", variants, "Comma-separated pipeline variants: rect-rows, cull-rows, rect-tile, cull-tile")
+      ->capture_default_str();
   app.add_flag("!--no-cpu", cpu, "Skip the CPU reference row");
   CLI11_PARSE(app, argc, argv);
+  std::vector<Variant> vars;
+  try {
+    std::stringstream in(variants);
+    std::string t;
+    while (std::getline(in, t, ',')) vars.push_back(parse_variant(t));
+    if (vars.empty()) throw std::invalid_argument("--variants: empty list");
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "icube-bench-splat: %s\n", e.what());
+    return 2;
+  }
 
   gpu::Context ctx(gpu::ContextOptions::from_env());
   std::printf("icube-bench-splat: device %s, subgroup %u, CPU %s (%u CPUs), LP_NUM_THREADS=%s\n",
               ctx.info().name.c_str(), ctx.subgroup_size(), bench::cpu_model().c_str(), bench::online_cpus(),
               bench::env_or_unset("LP_NUM_THREADS").c_str());
-  std::printf("%10s %10s %9s %9s %9s %9s %9s %9s %9s %11s %9s %9s\n", "gaussians", "size", "fps", "min ms", "med ms", "pre ms",
-              "dsort ms", "tsort ms", "blend ms", "instances", "B/Gauss", "other CPU");
-  splat::SplatRendererGpu renderer(ctx);
+  std::printf("%10s %10s %10s %7s %8s %8s %8s %8s %8s %8s %8s %11s %8s %9s %9s\n", "gaussians", "size", "variant",
+              "fps", "min ms", "med ms", "CPU ms", "pre ms", "dsort ms", "tsort ms", "blend ms", "instances", "B/Gauss",
+              "other CPU", "max diff");
+  std::vector<std::unique_ptr<splat::SplatRendererGpu>> renderers;
+  for (const Variant& v : vars) renderers.push_back(std::make_unique<splat::SplatRendererGpu>(ctx, v.v));
   for (const size_t n : parse_list<size_t>(gaussians)) {
     const splat::GaussianCloud cloud = make_scene(n, sh, 42);
-    const splat::GpuGaussians g = renderer.upload(cloud);
+    const splat::GpuGaussians g = renderers[0]->upload(cloud);
     for (const std::string& sz : [&] {
            std::vector<std::string> v;
            std::stringstream in(sizes);
@@ -117,29 +159,45 @@ int main(int argc, char** argv) {
       const uint32_t h = static_cast<uint32_t>(std::stoul(sz.substr(xpos + 1)));
       const render::Camera cam = make_camera(w, h);
       splat::SplatOptions opts;
-      splat::SplatTimings t;
+      const size_t V = vars.size();
+      std::vector<splat::SplatTimings> t(V);
+      std::vector<double> diff(V, 0.0);
       try {
-        renderer.render(g, cam, opts, &t, nullptr, false);
+        // First frame of each variant: JIT, buffers, and the image for the check.
+        splat::SplatImage first;
+        for (size_t k = 0; k < V; ++k) {
+          const splat::SplatImage img = renderers[k]->render(g, cam, opts, &t[k]);
+          if (k == 0) first = img;
+          else diff[k] = max_diff(img, first);
+        }
       } catch (const std::exception& e) {
         std::printf("%10zu %10s   not rendered: %s\n", n, sz.c_str(), e.what());
         continue;
       }
-      for (int i = 0; i < warmup; ++i) renderer.render(g, cam, opts, &t, nullptr, false);
-      std::vector<double> wall, pre, dsort, sort, blend;
+      for (int i = 0; i < warmup; ++i)
+        for (size_t k = 0; k < V; ++k) renderers[k]->render(g, cam, opts, &t[k], nullptr, false);
+      std::vector<std::vector<double>> wall(V), pre(V), dsort(V), sort(V), blend(V), own(V);
       const bench::CpuTimes c0 = bench::cpu_times_now();
-      for (int i = 0; i < runs; ++i) {
-        renderer.render(g, cam, opts, &t, nullptr, false);
-        wall.push_back(t.wall_ms);
-        pre.push_back(t.preprocess_ms);
-        dsort.push_back(t.depth_sort_ms);
-        sort.push_back(t.sort_ms);
-        blend.push_back(t.blend_ms);
-      }
+      for (int i = 0; i < runs; ++i)
+        for (size_t k = 0; k < V; ++k) {  // alternate the variants: they share the load
+          const double own0 = bench::cpu_times_now().own_s;
+          renderers[k]->render(g, cam, opts, &t[k], nullptr, false);
+          own[k].push_back(1e3 * (bench::cpu_times_now().own_s - own0));
+          wall[k].push_back(t[k].wall_ms);
+          pre[k].push_back(t[k].preprocess_ms);
+          dsort[k].push_back(t[k].depth_sort_ms);
+          sort[k].push_back(t[k].sort_ms);
+          blend[k].push_back(t[k].blend_ms);
+        }
       const double other = bench::other_cpu_seconds(c0, bench::cpu_times_now());
-      const double bytes_per = static_cast<double>(g.bytes() + t.frame_bytes) / static_cast<double>(n);
-      std::printf("%10zu %10s %9.2f %9.1f %9.1f %9.1f %9.1f %9.1f %9.1f %11llu %9.0f %8.1fs\n", n, sz.c_str(),
-                  1000.0 / median(wall), *std::min_element(wall.begin(), wall.end()), median(wall), median(pre), median(dsort), median(sort), median(blend),
-                  static_cast<unsigned long long>(t.instances), bytes_per, other);
+      for (size_t k = 0; k < V; ++k) {
+        const double bytes_per = static_cast<double>(g.bytes() + t[k].frame_bytes) / static_cast<double>(n);
+        std::printf("%10zu %10s %10s %7.2f %8.1f %8.1f %8.1f %8.1f %8.1f %8.1f %8.1f %11llu %8.0f %8.1fs %9.2g\n", n,
+                    sz.c_str(), vars[k].name.c_str(), 1000.0 / median(wall[k]),
+                    *std::min_element(wall[k].begin(), wall[k].end()), median(wall[k]), median(own[k]), median(pre[k]),
+                    median(dsort[k]), median(sort[k]), median(blend[k]),
+                    static_cast<unsigned long long>(t[k].instances), bytes_per, other, diff[k]);
+      }
       std::fflush(stdout);
     }
   }
@@ -154,9 +212,11 @@ int main(int argc, char** argv) {
                 ms, 1000.0 / ms);
     (void)img;
   }
-  std::printf("pre: preprocess; dsort: depth sort of the Gaussians (32-bit keys) + tile counts in depth order + "
-              "scan; tsort: tile ids in depth order + stable radix sort by tile + ranges.\n");
+  std::printf("pre: preprocess; dsort: depth sort of the Gaussians (32-bit keys) + tile counts in depth order (exact "
+              "tile culling) + scan; tsort: tile ids in depth order + stable radix sort by tile + ranges.\n");
   std::printf("B/Gauss: static (Gaussian records + SH) plus the frame buffers (projections, rects, counts, keys, "
-              "sort scratch, image) divided by the Gaussian count.\n");
+              "sort scratch, image) divided by the Gaussian count; other CPU: CPU time other processes used during "
+              "the timed runs of the row; CPU ms: median CPU time this process (lavapipe's threads) used per frame, which load "
+              "from other processes inflates far less than wall time; max diff: max |image - first variant's image| (RGBA, depth).\n");
   return 0;
 }

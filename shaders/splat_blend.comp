@@ -1,26 +1,33 @@
 #version 460
 #extension GL_GOOGLE_include_directive : require
+#extension GL_KHR_shader_subgroup_basic : require
+#extension GL_KHR_shader_subgroup_vote : require
+#extension GL_KHR_shader_subgroup_ballot : require
+#extension GL_KHR_shader_subgroup_shuffle : require
+#extension GL_KHR_shader_subgroup_arithmetic : require
 // splat_blend: front-to-back alpha blending per pixel over the pixel's tile
 // range of the sorted instance list (rules and thresholds in
 // engine/splat/rasterizer_cpu.h: skip power > 0 and α < 1/255, α ≤ 0.99, stop
 // before T·(1−α) < 1e-4, per pixel).
-// One invocation blends P = SPLAT_BLEND_PIXELS (splat_params.h) consecutive
-// pixels of one tile row in registers, so each Gaussian's record is loaded
-// once for P pixels; S = 16/P segments per row, 16·S invocations per tile,
-// numbered tile-major: invocation l covers row (l & 7) + 8·((l >> 3) / S),
-// columns P·((l >> 3) % S) + [0, P), so 8 consecutive invocations (lavapipe's
-// subgroup) cover a P × 8 block. P = 16 (whole tile rows) measured fastest
-// on lavapipe (bench/README.md); 4 and 8 are valid too.
-// Per invocation, a cheap inner loop skips the Gaussians that cannot reach
-// α >= 1/255 on its P-pixel segment, reading only the first two vec4 of the
-// blend record (SplatBlendRecord): along the row, power(px) is a parabola with
-// maximum fmax = −½dy²(c' − b'²/a') at px* = mean_x + b'dy/a' and it exceeds
-// log_cut = ln(0.9/(255·o)) only on px* ± √(2(fmax − log_cut)/a'); segments
-// more than one pixel outside that interval are skipped. The 10 % margin in
-// log_cut and the pixel cover rounding, so the per-pixel loop sees every
-// Gaussian that can pass its tests and results equal the reference loop; the
-// skip is a real loop (not a masked branch), which is what saves time on
-// lavapipe. No shared memory or barriers (slow on lavapipe).
+// One workgroup per tile (tile = linear workgroup id: the tile's range is
+// uniform). One invocation blends P = SPLAT_BLEND_PIXELS (splat_params.h)
+// consecutive pixels of one tile row in registers; S = 16/P segments per row,
+// 16·S invocations per workgroup: invocation l covers row (l & 7) +
+// 8·((l >> 3) / S), columns P·((l >> 3) % S) + [0, P), so 8 consecutive
+// invocations (lavapipe's subgroup) cover a P × 8 block.
+// The subgroup walks the tile's Gaussians in batches of one per live lane:
+// each lane loads one instance's blend record (independent loads, so their
+// cache misses overlap; a chain of one uniform load per Gaussian waits for
+// each miss in turn) and tests whether its α-cut ellipse (q <= −2·log_cut,
+// log_cut = ln(0.9/(255·o)), the 10 % margin) reaches the subgroup's pixel
+// block grown by 1 px (the slab test of common/splat_tiles.glsl: the chord's
+// extreme x over the block's rows); a ballot gives the batch's needed
+// Gaussians, which all lanes then evaluate in depth order with the record
+// shuffled from its lane (uniform). Skipped Gaussians cannot pass the
+// per-pixel tests, so results equal the reference loop. Loops exit on
+// subgroup votes (uniform), so on lavapipe they are real loops, not masked
+// branches; the blend stops when no pixel of the subgroup is live. No shared
+// memory or barriers (slow on lavapipe).
 #include "shared/splat_params.h"
 #include "common/dispatch.glsl"
 
@@ -30,13 +37,17 @@
 layout(local_size_x_id = 0) in;
 layout(push_constant) uniform Push { SplatBlendParams p; };
 layout(std430, binding = 0) readonly buffer Ranges { uvec2 ranges[]; };
-layout(std430, binding = 1) readonly buffer Values { uint values[]; };
-layout(std430, binding = 2) readonly buffer Records { vec4 records[]; };
+// Divergent (per-lane) loads go through texel buffers: on lavapipe a texel fetch is a
+// gather, a storage-buffer load at a divergent address a per-lane loop. Records are
+// fetched as R32G32B32A32_UINT and bit-cast (exact on every driver).
+layout(binding = 1) uniform usamplerBuffer values;   // R32_UINT: sorted instance Gaussian ids
+layout(binding = 2) uniform usamplerBuffer records;  // R32G32B32A32_UINT: 3 texels per SplatBlendRecord
 layout(std430, binding = 3) writeonly buffer Rgba { vec4 rgba[]; };
 layout(std430, binding = 4) writeonly buffer Depth { vec2 depth[]; };
-layout(std430, binding = 5) readonly buffer Sky { uint sky_texels[]; };
+layout(binding = 5) uniform usamplerBuffer sky_texels;  // R32_UINT: RGBA8 sky texels
 
-vec3 sky_texel(int x, int y) { return unpackUnorm4x8(sky_texels[uint(y) * p.sky_w + uint(x)]).xyz; }
+vec3 sky_texel(int x, int y) { return unpackUnorm4x8(texelFetch(sky_texels, int(uint(y) * p.sky_w + uint(x))).x).xyz; }
+vec4 record(uint t) { return uintBitsToFloat(texelFetch(records, int(t))); }
 
 // Mirrors engine/splat/sky.cpp sky_ray_dir + sky_color operation by operation.
 vec3 splat_sky(float px, float py) {
@@ -68,15 +79,18 @@ vec3 splat_sky(float px, float py) {
 }
 
 void main() {
-  const uint t = ICUBE_THREAD_LINEAR();
-  const uint tile = t / SPLAT_BLEND_PER_TILE;
+  const uint tile = icube_group_linear();  // uniform: one tile per workgroup
   if (tile >= p.grid_x * p.grid_y) return;
-  const uint local = t % SPLAT_BLEND_PER_TILE;
+  const uint local = gl_LocalInvocationID.x;
   const uint u0 = (tile % p.grid_x) * SPLAT_TILE + ((local >> 3) % SPLAT_BLEND_SEGS) * SPLAT_BLEND_PIXELS;
   const uint v = (tile / p.grid_x) * SPLAT_TILE + (local & 7u) + 8u * ((local >> 3) / SPLAT_BLEND_SEGS);
-  if (u0 >= p.width || v >= p.height) return;
   const float py = float(v) + p.pixel_offset;
   const float px0 = float(u0) + p.pixel_offset;  // sample x of the segment's first pixel
+  // The subgroup's pixel block (sample coordinates), grown by 1 px: uniform.
+  const float bx0 = subgroupMin(px0) - 1.0, bx1 = subgroupMax(px0) + float(SPLAT_BLEND_PIXELS - 1) + 1.0;
+  const float by0 = subgroupMin(py) - 1.0, by1 = subgroupMax(py) + 1.0;
+  const uint lanes = subgroupBallotBitCount(subgroupBallot(true));  // active lanes: 0 .. lanes-1
+  const uint lane = gl_SubgroupInvocationID;
   float T[SPLAT_BLEND_PIXELS], wz[SPLAT_BLEND_PIXELS], median[SPLAT_BLEND_PIXELS];
   vec3 C[SPLAT_BLEND_PIXELS];
   uint alive = 0u;  // bit j: pixel u0 + j is inside the image and not finished
@@ -85,52 +99,55 @@ void main() {
     wz[j] = 0.0;
     median[j] = 0.0;
     C[j] = vec3(0.0);
-    if (u0 + uint(j) < p.width) alive |= 1u << j;
+    if (u0 + uint(j) < p.width && v < p.height) alive |= 1u << j;
   }
   const uvec2 range = ranges[tile];
-  uint k = range.x;
-  while (alive != 0u) {
-    // Next Gaussian that can reach α >= 1/255 on this segment.
-    uint gi = 0u;
-    vec4 g0 = vec4(0.0), g1 = vec4(0.0);
-    bool found = false;
-    while (k < range.y) {
-      gi = values[k];
-      g0 = records[3u * gi];
-      g1 = records[3u * gi + 1u];
-      ++k;
-      const float dy = g0.y - py;
-      const float fmax = -0.5 * dy * dy * (g1.x - g0.w * g0.w / g0.z);
-      const float xc = g0.x + g0.w * dy / g0.z;
-      const float h = sqrt(2.0 * (fmax - g1.y) / g0.z) + 1.0;
-      const bool miss = fmax < g1.y || xc - h > px0 + float(SPLAT_BLEND_PIXELS - 1) || xc + h < px0;
-      if (!miss) {  // NaN anywhere: not a miss (conservative)
-        found = true;
-        break;
-      }
+  for (uint base = range.x; base < range.y && subgroupAny(alive != 0u); base += lanes) {
+    // This lane's instance of the batch: record and block test.
+    const uint k = base + lane;
+    vec4 b0 = vec4(0.0), b1 = vec4(0.0), b2 = vec4(0.0);
+    bool need = false;
+    if (k < range.y) {
+      const uint gi = texelFetch(values, int(k)).x;
+      b0 = record(3u * gi);
+      b1 = record(3u * gi + 1u);
+      b2 = record(3u * gi + 2u);
+      const float mx = b0.x, my = b0.y, a = b0.z, b = b0.w, c = b1.x;
+      const float R = -2.0 * b1.y;
+      const float D = a * c - b * b;
+      const float ex = sqrt(R * c / D), ey = sqrt(R * a / D);
+      const float lo = max(by0 - my, -ey), hi = min(by1 - my, ey);
+      const float dyr = -(b / c) * ex;
+      const float yr = min(max(dyr, lo), hi), yl = min(max(-dyr, lo), hi);
+      const float xr = mx + (sqrt(max(0.0, a * R - D * (yr * yr))) - b * yr) / a;
+      const float xl = mx + (-sqrt(max(0.0, a * R - D * (yl * yl))) - b * yl) / a;
+      need = !(lo > hi || xr < bx0 || xl > bx1);  // NaN anywhere: needed (conservative)
     }
-    if (!found) break;
-    const vec3 rgb = records[3u * gi + 2u].xyz;
-    const float dy = g0.y - py;
-    for (int j = 0; j < SPLAT_BLEND_PIXELS; ++j) {
-      if ((alive & (1u << j)) == 0u) continue;
-      const float dx = g0.x - (float(u0 + uint(j)) + p.pixel_offset);
-      const float power = -0.5 * (g0.z * dx * dx + g1.x * dy * dy) - g0.w * dx * dy;
-      if (power > 0.0) continue;
-      const float alpha = min(0.99, g1.z * exp(power));
-      if (alpha < 1.0 / 255.0) continue;
-      const float test_t = T[j] * (1.0 - alpha);
-      if (test_t < 1e-4) {
-        alive &= ~(1u << j);
-        continue;
+    uint mask = subgroupBallot(need).x;  // batch entries in depth order (lanes <= 32 here)
+    while (mask != 0u && subgroupAny(alive != 0u)) {
+      const uint e = findLSB(mask);
+      mask &= mask - 1u;
+      const vec4 g0 = subgroupShuffle(b0, e), g1 = subgroupShuffle(b1, e);
+      const vec3 rgb = subgroupShuffle(b2, e).xyz;
+      const float dy = g0.y - py;
+      for (int j = 0; j < SPLAT_BLEND_PIXELS; ++j) {
+        const float dx = g0.x - (float(u0 + uint(j)) + p.pixel_offset);
+        const float power = -0.5 * (g0.z * dx * dx + g1.x * dy * dy) - g0.w * dx * dy;
+        const float alpha = min(0.99, g1.z * exp(power));
+        const bool ok = (alive & (1u << j)) != 0u && power <= 0.0 && alpha >= 1.0 / 255.0;
+        const float test_t = T[j] * (1.0 - alpha);
+        const bool stop = ok && test_t < 1e-4;
+        alive &= stop ? ~(1u << j) : ~0u;
+        const bool use = ok && !stop;
+        const float w = use ? alpha * T[j] : 0.0;
+        C[j] += rgb * w;
+        wz[j] += g1.w * w;
+        median[j] = use && T[j] > 0.5 && test_t <= 0.5 ? g1.w : median[j];
+        T[j] = use ? test_t : T[j];
       }
-      const float w = alpha * T[j];
-      C[j] += rgb * w;
-      wz[j] += g1.w * w;
-      if (T[j] > 0.5 && test_t <= 0.5) median[j] = g1.w;
-      T[j] = test_t;
     }
   }
+  if (v >= p.height) return;
   for (int j = 0; j < SPLAT_BLEND_PIXELS; ++j) {
     const uint u = u0 + uint(j);
     if (u >= p.width) break;

@@ -2,7 +2,9 @@
 #extension GL_GOOGLE_include_directive : require
 // splat_duplicate: one invocation per depth-sorted position j (order[] =
 // Gaussian indices stably sorted by view depth); writes one (key, value) per
-// tile of Gaussian order[j]'s rect, row-major over the rect, at offsets from
+// tile of Gaussian order[j]'s rect (with p.cull only those its α-cut ellipse
+// reaches: exact tile culling, common/splat_tiles.glsl, from the blend
+// record's mean, conic and log_cut), row-major over the rect, at offsets from
 // the inclusive scan of the depth-ordered tile counts (splat_sorted_counts).
 // key = tile id (uint32), value = Gaussian index. The instances are thus in
 // (depth, Gaussian index) order, and the host's stable radix sort by the
@@ -14,12 +16,18 @@
 
 layout(local_size_x_id = 0) in;
 layout(push_constant) uniform Push { SplatDuplicateParams p; };
+// Per-Gaussian loads at i = order[j] are divergent: they go through texel buffers
+// (a gather on lavapipe; a per-lane loop as storage-buffer loads); records are
+// fetched as R32G32B32A32_UINT and bit-cast (exact).
 layout(std430, binding = 0) readonly buffer Order { uint order[]; };
-layout(std430, binding = 1) readonly buffer Rects { uvec4 rects[]; };
+layout(binding = 1) uniform usamplerBuffer rects;  // R32G32B32A32_UINT
 layout(std430, binding = 2) readonly buffer Counts { uint counts[]; };
 layout(std430, binding = 3) readonly buffer Offsets { uint offsets_incl[]; };
 layout(std430, binding = 4) writeonly buffer Keys { uint keys[]; };
 layout(std430, binding = 5) writeonly buffer Values { uint values[]; };
+layout(binding = 6) uniform usamplerBuffer records;  // R32G32B32A32_UINT: 3 texels per SplatBlendRecord
+
+#include "common/splat_tiles.glsl"
 
 void main() {
   const uint j = ICUBE_THREAD_LINEAR();
@@ -28,11 +36,15 @@ void main() {
   if (count == 0u) return;
   const uint i = order[j];
   uint o = offsets_incl[j] - count;
-  const uvec4 r = rects[i];
-  for (uint y = r.y; y < r.w; ++y)
-    for (uint x = r.x; x < r.z; ++x) {
+  const uvec4 r = texelFetch(rects, int(i));
+  const vec4 g0 = uintBitsToFloat(texelFetch(records, int(3u * i)));
+  const vec4 g1 = uintBitsToFloat(texelFetch(records, int(3u * i + 1u)));
+  for (uint y = r.y; y < r.w; ++y) {
+    const uvec2 span = p.cull != 0u ? splat_tile_row(g0.x, g0.y, g0.z, g0.w, g1.x, g1.y, r, y) : r.xz;
+    for (uint x = span.x; x < span.y; ++x) {
       keys[o] = y * p.grid_x + x;
       values[o] = i;
       ++o;
     }
+  }
 }

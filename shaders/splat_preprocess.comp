@@ -7,7 +7,8 @@
 // (Σ12 Σ22, 0, 0), i.e. SplatGaussian (48 B, read as three vec4); the SH
 // window holds sh_stride floats per Gaussian starting at Gaussian `first`.
 // Outputs (global index): proj[3i..3i+2] (SplatProjected), rects[i] (tile rect,
-// zero when culled), touched[i] = tiles in the rect (0 when culled), and the
+// zero when culled), touched[i] = tiles in the rect (0 when culled; the exact
+// tile culling happens in splat_sorted_counts.comp), and the
 // depth-sort input depth_keys[i] = float bits of view z (0 when culled; z > 0,
 // so the bits order like the depths), depth_values[i] = i, and the blend
 // record records[3i..3i+2] (SplatBlendRecord; unused when culled).
@@ -17,8 +18,12 @@
 
 layout(local_size_x_id = 0) in;
 layout(push_constant) uniform Push { SplatPreprocessParams p; };
-layout(std430, binding = 0) readonly buffer Gaussians { vec4 gaussians[]; };
-layout(std430, binding = 1) readonly buffer Sh { float sh_coeffs[]; };
+// The per-Gaussian reads are strided (48 B, sh_stride floats): texel fetches (a gather on
+// lavapipe, a per-lane loop as storage-buffer loads), bit-cast from uint (exact).
+layout(binding = 0) uniform usamplerBuffer gaussians;  // R32G32B32A32_UINT: 3 texels per SplatGaussian
+layout(binding = 1) uniform usamplerBuffer sh_coeffs;  // R32_UINT: the SH window
+
+float splat_sh_coeff(uint o) { return uintBitsToFloat(texelFetch(sh_coeffs, int(o)).x); }
 layout(std430, binding = 2) writeonly buffer Proj { vec4 proj[]; };
 layout(std430, binding = 3) writeonly buffer Rects { uvec4 rects[]; };
 layout(std430, binding = 4) writeonly buffer Touched { uint touched[]; };
@@ -32,9 +37,9 @@ void main() {
   const uint li = ICUBE_THREAD_LINEAR();
   if (li >= p.n) return;
   const uint i = p.first + li;
-  const vec4 g0 = gaussians[3u * i];
-  const vec4 g1 = gaussians[3u * i + 1u];
-  const vec4 g2 = gaussians[3u * i + 2u];
+  const vec4 g0 = uintBitsToFloat(texelFetch(gaussians, int(3u * i)));
+  const vec4 g1 = uintBitsToFloat(texelFetch(gaussians, int(3u * i + 1u)));
+  const vec4 g2 = uintBitsToFloat(texelFetch(gaussians, int(3u * i + 2u)));
   float cov[6];
   cov[0] = g1.x;
   cov[1] = g1.y;
@@ -50,10 +55,11 @@ void main() {
   proj[3u * i + 1u] = o1;
   proj[3u * i + 2u] = o2;
   rects[i] = rect;
+  const float log_cut = vis ? log(0.9 / (255.0 * o0.w)) : 0.0;
   touched[i] = vis ? (rect.z - rect.x) * (rect.w - rect.y) : 0u;
   depth_keys[i] = floatBitsToUint(o0.z);
   depth_values[i] = i;
   records[3u * i] = vec4(o0.xy, o1.xy);
-  records[3u * i + 1u] = vec4(o1.z, vis ? log(0.9 / (255.0 * o0.w)) : 0.0, o0.w, o0.z);
+  records[3u * i + 1u] = vec4(o1.z, log_cut, o0.w, o0.z);
   records[3u * i + 2u] = o2;
 }

@@ -2,12 +2,15 @@
 // shaders/splat_*.comp) against the CPU reference (rasterizer_cpu.h) on
 // fixed-seed random scenes (SH 0–3, odd image sizes, off-centre principal
 // points, antialiased mode) and on the real .ply in ../shared/data/splats:
-// identical tile-intersection lists and ranges, projected means/conics/depths
+// identical tile-intersection lists (exact tile culling, and whole rects for
+// the whole-rect variant) and ranges, projected means/conics/depths
 // within 1e-4, pixels within 1e-3 except a reported boundary band (lavapipe's
 // exp/div differ from libm in the last bits, which flips the 1/255 and 1e-4
 // thresholds); a scene translated by 100 km renders the same; degenerate
 // Gaussians (huge/tiny scales, opacity 0 and 1, straddling the near plane,
-// screen edges); CPU reference against hand-computed values; sky models
+// screen edges); CPU reference against hand-computed values; exact tile
+// culling drops only tiles no pixel needs (bit-identical images, fewer
+// instances); all four SplatGpuVariant pipelines; sky models
 // (z-up gradient, equirect image incl. its seam, PNG loading) GPU vs CPU and
 // against hand-computed directions.
 #include <doctest/doctest.h>
@@ -48,14 +51,15 @@ struct Compare {
 
 // GPU vs CPU for one scene and camera; returns counts for reporting.
 Compare compare(splat::SplatRendererGpu& gpu, const splat::GaussianCloud& cloud, const render::Camera& cam,
-                const SplatOptions& opts, double band_fraction_max = 0.01) {
+                const SplatOptions& opts, double band_fraction_max = 0.01,
+                splat::TileRule rule = splat::TileRule::Ellipse) {
   Compare r;
   const splat::GpuGaussians g = gpu.upload(cloud);
   splat::SplatDebug dbg;
   const splat::SplatImage gi = gpu.render(g, cam, opts, nullptr, &dbg);
   const auto proj = splat::preprocess_cpu(cloud, cam, opts);
   const auto f = splat::make_frame(cam, opts, glm::dvec3(0.0));
-  const auto bins = splat::bin_cpu(proj, f.grid_x, f.grid_y);
+  const auto bins = splat::bin_cpu(proj, f.grid_x, f.grid_y, rule);
   const splat::SplatImage ci = splat::blend_cpu(proj, bins, cam, opts);
 
   REQUIRE(dbg.proj.size() == proj.size());
@@ -90,19 +94,18 @@ Compare compare(splat::SplatRendererGpu& gpu, const splat::GaussianCloud& cloud,
   for (size_t i = 0; i < gt.size(); ++i) gt[i] = static_cast<uint32_t>(dbg.keys[i] >> 32);
   for (size_t i = 0; i < ct.size(); ++i) ct[i] = static_cast<uint32_t>(bins.keys[i] >> 32);
   // splat_sorted_counts.comp: each Gaussian's tiles touched, in depth order, scanned into the
-  // duplicate offsets: every visible Gaussian appears exactly its tile-rect area times.
+  // duplicate offsets: every visible Gaussian appears exactly tile_count() times (exact tile culling).
   {
     std::vector<uint32_t> seen(proj.size(), 0);
     for (uint32_t v : dbg.values)
       if (v < seen.size()) ++seen[v];
     size_t bad_counts = 0;
     for (size_t i = 0; i < proj.size(); ++i) {
-      const uint32_t want = proj[i].radius > 0
-                                ? splat::tile_rect(proj[i].mean_x, proj[i].mean_y, proj[i].radius, f.grid_x, f.grid_y).area()
-                                : 0u;
+      const uint32_t want = splat::tile_count(proj[i], f.grid_x, f.grid_y, rule);
       if (seen[i] != want && bad_counts++ < 5) std::printf("  Gaussian %zu: %u instances, want %u\n", i, seen[i], want);
     }
-    INFO("splat_sorted_counts.comp + scan: instances per Gaussian = its tile-rect area");
+    INFO("splat_preprocess.comp tile counts + splat_sorted_counts.comp + scan: instances per Gaussian = the tiles "
+         "its α-cut ellipse reaches (tile_count)");
     CHECK(bad_counts == 0);
   }
   INFO("splat_duplicate.comp + stable tile-id radix sort: the sorted (tile, Gaussian) list");
@@ -180,6 +183,53 @@ TEST_CASE("splat cpu: one isotropic Gaussian matches hand-computed values") {
   CHECK(splat::preprocess_cpu(c, cam, o)[0].radius == 0.0f);
 }
 
+TEST_CASE("splat cpu: exact tile culling drops only tiles that no pixel needs (image equals whole-rect binning)") {
+  // Random scenes incl. strongly anisotropic Gaussians (scales e^-6..e^0 per axis), both pixel
+  // conventions, antialiased opacity and off-centre principal points: binning by the α-cut
+  // ellipse (TileRule::Ellipse) must give bit-identical pixels to binning whole getRect rects
+  // (TileRule::Rect), a subset of its instances, and clearly fewer of them.
+  struct Case {
+    uint32_t seed;
+    size_t n;
+    uint32_t w, h;
+    double lo, hi, cx_off;
+    bool aa;
+  };
+  const Case cases[] = {{11, 3000, 161, 97, -4.0, -1.0, 0.0, false},
+                        {12, 3000, 130, 130, -6.0, 0.0, 9.5, true},
+                        {13, 500, 64, 300, -5.0, -0.5, -20.0, false}};
+  for (const Case& k : cases) {
+    CAPTURE(k.seed);
+    const auto cloud = test::random_cloud(k.seed, k.n, 1, {0.0, 0.0, 0.0}, 2.0, k.lo, k.hi);
+    const auto cam = test::look_at_camera({1.0, -6.0, 2.0}, {0.0, 0.0, 0.0}, k.w, k.h, 0.9 * k.w, k.cx_off, 0.3 * k.cx_off);
+    SplatOptions o;
+    o.antialiased = k.aa;
+    o.background = {0.2f, 0.3f, 0.4f};
+    o.pixels = k.seed % 2 ? render::PixelConvention::Centre : render::PixelConvention::Integer;
+    const auto proj = splat::preprocess_cpu(cloud, cam, o);
+    const auto f = splat::make_frame(cam, o, glm::dvec3(0.0));
+    const auto ell = splat::bin_cpu(proj, f.grid_x, f.grid_y, splat::TileRule::Ellipse);
+    const auto rect = splat::bin_cpu(proj, f.grid_x, f.grid_y, splat::TileRule::Rect);
+    // subset: every (tile, Gaussian) pair of the ellipse rule is in the rect rule's list
+    size_t missing = 0, j = 0;
+    for (size_t i = 0; i < ell.keys.size(); ++i) {
+      while (j < rect.keys.size() && (rect.keys[j] != ell.keys[i] || rect.values[j] != ell.values[i])) ++j;
+      if (j == rect.keys.size()) ++missing;
+    }
+    CHECK(missing == 0);
+    size_t counted = 0;
+    for (const auto& g : proj) counted += splat::tile_count(g, f.grid_x, f.grid_y);
+    CHECK(counted == ell.keys.size());
+    MESSAGE("seed " << k.seed << ": " << ell.keys.size() << " instances with exact culling, " << rect.keys.size()
+                    << " with whole rects");
+    CHECK(double(ell.keys.size()) < 0.9 * double(rect.keys.size()));
+    const auto a = splat::blend_cpu(proj, ell, cam, o);
+    const auto b = splat::blend_cpu(proj, rect, cam, o);
+    CHECK(test::equal_report(a.rgba, b.rgba, "rgba"));
+    CHECK(test::equal_report(a.depth, b.depth, "depth"));
+  }
+}
+
 TEST_CASE("splat gpu vs cpu, stage by stage (splat_preprocess, splat_sorted_counts, splat_duplicate + sort, splat_ranges, splat_blend): random scenes") {
   Renderer R;
   struct Case {
@@ -204,6 +254,19 @@ TEST_CASE("splat gpu vs cpu, stage by stage (splat_preprocess, splat_sorted_coun
     std::snprintf(what, sizeof what, "random seed %u (%zu Gaussians, SH%u, %ux%u)", k.seed, k.n, k.degree, k.w, k.h);
     report(what, compare(R.r, cloud, cam, o));
   }
+  // The other pipeline variants (whole-rect binning, the previous row blend) on one scene.
+  const auto cloud = test::random_cloud(6, 5000, 3, {0.0, 0.0, 0.0}, 2.0);
+  const auto cam = test::look_at_camera({1.0, -6.0, 2.0}, {0.0, 0.0, 0.0}, 150, 101, 140.0, 4.5, -2.0);
+  SplatOptions o;
+  o.background = {0.2f, 0.3f, 0.4f};
+  for (const bool cull : {false, true})
+    for (const bool tile_blend : {false, true}) {
+      CAPTURE(cull);
+      CAPTURE(tile_blend);
+      splat::SplatRendererGpu v(test::gpu_context(), splat::SplatGpuVariant{cull, tile_blend});
+      report(std::string("variant cull ") + (cull ? "on" : "off") + ", " + (tile_blend ? "tile" : "row") + " blend",
+             compare(v, cloud, cam, o, 0.01, cull ? splat::TileRule::Ellipse : splat::TileRule::Rect));
+    }
 }
 
 TEST_CASE("splat gpu vs cpu, stage by stage (splat_preprocess, splat_sorted_counts, splat_duplicate + sort, splat_ranges, splat_blend): the real .ply") {

@@ -75,6 +75,57 @@ TileRect tile_rect(float mx, float my, float radius, uint32_t gx, uint32_t gy) {
   return r;
 }
 
+float splat_log_cut(float opacity) { return std::log(0.9f / (255.0f * opacity)); }
+
+void tile_row_span(const shader::SplatProjected& g, float log_cut, const TileRect& r, uint32_t ty, uint32_t& x0,
+                   uint32_t& x1) {
+  const float a = g.conic_x, b = g.conic_y, c = g.conic_z, mx = g.mean_x, my = g.mean_y;
+  const float M = static_cast<float>(SPLAT_CULL_MARGIN);
+  const float R = -2.0f * log_cut;
+  const float D = a * c - b * b;
+  const float ex = std::sqrt(R * c / D);
+  const float ey = std::sqrt(R * a / D);
+  const float lo = std::max(static_cast<float>(ty * 16u) - M - my, -ey);
+  const float hi = std::min(static_cast<float>(ty * 16u + 16u) + M - my, ey);
+  const float dyr = -(b / c) * ex;
+  const float yr = std::min(std::max(dyr, lo), hi);
+  const float yl = std::min(std::max(-dyr, lo), hi);
+  const float sr = std::sqrt(std::max(0.0f, a * R - D * (yr * yr)));
+  const float sl = std::sqrt(std::max(0.0f, a * R - D * (yl * yl)));
+  const float xr = mx + (sr - b * yr) / a;
+  const float xl = mx + (-sl - b * yl) / a;
+  const float fx0 = std::floor((xl - M) / 16.0f);
+  const float fx1 = std::floor((xr + M) / 16.0f) + 1.0f;
+  const float all = R + D + ex + ey + xr + xl;
+  if (!std::isfinite(all) || !(D > 0.0f) || !(a > 0.0f) || !(c > 0.0f)) {
+    x0 = r.x0;
+    x1 = r.x1;
+    return;
+  }
+  if (lo > hi) {
+    x0 = x1 = r.x0;
+    return;
+  }
+  const float f0 = std::min(std::max(fx0, static_cast<float>(r.x0)), static_cast<float>(r.x1));
+  const float f1 = std::min(std::max(fx1, f0), static_cast<float>(r.x1));
+  x0 = static_cast<uint32_t>(f0);
+  x1 = static_cast<uint32_t>(f1);
+}
+
+uint32_t tile_count(const shader::SplatProjected& g, uint32_t gx, uint32_t gy, TileRule rule) {
+  if (g.radius <= 0.0f) return 0;
+  const TileRect r = tile_rect(g.mean_x, g.mean_y, g.radius, gx, gy);
+  if (rule == TileRule::Rect) return r.area();
+  const float cut = splat_log_cut(g.opacity);
+  uint32_t n = 0;
+  for (uint32_t y = r.y0; y < r.y1; ++y) {
+    uint32_t x0, x1;
+    tile_row_span(g, cut, r, y, x0, x1);
+    n += x1 - x0;
+  }
+  return n;
+}
+
 glm::vec3 sh_color(const float* sh, uint32_t degree, const glm::vec3& dir) {
   auto s = [&](int k) { return glm::vec3(sh[3 * k], sh[3 * k + 1], sh[3 * k + 2]); };
   glm::vec3 c = kC0 * s(0);
@@ -165,19 +216,23 @@ std::vector<shader::SplatProjected> preprocess_cpu(const GaussianCloud& cloud, c
   return out;
 }
 
-TileBins bin_cpu(const std::vector<shader::SplatProjected>& proj, uint32_t gx, uint32_t gy) {
+TileBins bin_cpu(const std::vector<shader::SplatProjected>& proj, uint32_t gx, uint32_t gy, TileRule rule) {
   TileBins b;
   for (size_t i = 0; i < proj.size(); ++i) {
     const auto& g = proj[i];
     if (g.radius <= 0.0f) continue;
     const TileRect r = tile_rect(g.mean_x, g.mean_y, g.radius, gx, gy);
+    const float cut = splat_log_cut(g.opacity);
     uint32_t zbits;
     std::memcpy(&zbits, &g.depth, 4);
-    for (uint32_t y = r.y0; y < r.y1; ++y)
-      for (uint32_t x = r.x0; x < r.x1; ++x) {
+    for (uint32_t y = r.y0; y < r.y1; ++y) {
+      uint32_t x0 = r.x0, x1 = r.x1;
+      if (rule == TileRule::Ellipse) tile_row_span(g, cut, r, y, x0, x1);
+      for (uint32_t x = x0; x < x1; ++x) {
         b.keys.push_back((uint64_t{y * gx + x} << 32) | zbits);
         b.values.push_back(static_cast<uint32_t>(i));
       }
+    }
   }
   std::vector<uint32_t> order(b.keys.size());
   std::iota(order.begin(), order.end(), 0u);

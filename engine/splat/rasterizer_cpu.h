@@ -17,7 +17,11 @@
 //   λ = mid ± √max(0.1, mid² − det); Inria's getRect (truncating, clamped to the
 //   grid); cull empty rects; cull opacity < 1/255 (it can never pass the blend's
 //   1/255 test). Colour = SH (degree 0–3) at normalize(μ − camera) + 0.5, max 0.
-// - Binning: key = tile_id << 32 | float bits of z, emitted in Gaussian order
+// - Binning: the tiles of the rect that the α-cut ellipse reaches (exact tile
+//   culling, tile_row_span below: q(d) <= −2·ln(0.9/(255·o)) against the tile
+//   grown by SPLAT_CULL_MARGIN px; tiles it skips cannot give any of their
+//   pixels α >= 1/255, so the image equals binning the whole rect);
+//   key = tile_id << 32 | float bits of z, emitted in Gaussian order
 //   and stably sorted; ranges[tile] = [start, end) into the sorted list.
 // - Blend, front to back per pixel: power = −½(a'dx² + c'dy²) − b'dxdy, skip
 //   power > 0; α = min(0.99, o·e^power), skip α < 1/255; stop (without this
@@ -67,6 +71,19 @@ struct TileRect {
 };
 TileRect tile_rect(float mean_x, float mean_y, float radius, uint32_t grid_x, uint32_t grid_y);
 
+// ln(0.9 / (255·opacity)): power below it cannot give α >= 1/255 (10 % margin); the blend
+// record's log_cut and the culling threshold.
+float splat_log_cut(float opacity);
+// Exact tile culling: [x0, x1) of the tiles in row `ty` of rect `r` that the α-cut ellipse of
+// `g` (conic, mean, log_cut = splat_log_cut(opacity)) reaches; x0 == x1 when none. Same float
+// operations as shaders/common/splat_tiles.glsl, so GPU and CPU tile lists agree.
+void tile_row_span(const shader::SplatProjected& g, float log_cut, const TileRect& r, uint32_t ty, uint32_t& x0,
+                   uint32_t& x1);
+// Tile instances of a projected Gaussian under `rule` (0 when culled).
+enum class TileRule { Ellipse, Rect };  // Rect: the whole getRect rect (the pre-culling rule)
+uint32_t tile_count(const shader::SplatProjected& g, uint32_t grid_x, uint32_t grid_y,
+                    TileRule rule = TileRule::Ellipse);
+
 // Preprocesses one Gaussian at camera-relative position `d` (metres, world axes).
 shader::SplatProjected project_gaussian(const glm::vec3& d, float opacity, const float cov[6], const float* sh,
                                         uint32_t sh_degree, const shader::SplatPreprocessParams& f);
@@ -87,7 +104,8 @@ struct SplatImage {
 
 std::vector<shader::SplatProjected> preprocess_cpu(const GaussianCloud& cloud, const render::Camera& cam,
                                                    const SplatOptions& opts);
-TileBins bin_cpu(const std::vector<shader::SplatProjected>& proj, uint32_t grid_x, uint32_t grid_y);
+TileBins bin_cpu(const std::vector<shader::SplatProjected>& proj, uint32_t grid_x, uint32_t grid_y,
+                 TileRule rule = TileRule::Ellipse);
 SplatImage blend_cpu(const std::vector<shader::SplatProjected>& proj, const TileBins& bins, const render::Camera& cam,
                      const SplatOptions& opts);
 SplatImage render_cpu(const GaussianCloud& cloud, const render::Camera& cam, const SplatOptions& opts);

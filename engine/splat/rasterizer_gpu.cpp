@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstring>
+#include <numeric>
 #include <stdexcept>
 
 namespace icube::splat {
@@ -43,13 +44,17 @@ struct SplatRendererGpu::Frame {
   }
 };
 
-SplatRendererGpu::SplatRendererGpu(gpu::Context& ctx)
+SplatRendererGpu::SplatRendererGpu(gpu::Context& ctx, SplatGpuVariant variant)
     : ctx_(ctx),
       preprocess_(ctx.program("splat_preprocess", local_size())),
       counts_(ctx.program("splat_sorted_counts", local_size())),
       duplicate_(ctx.program("splat_duplicate", local_size())),
       ranges_(ctx.program("splat_ranges", local_size())),
-      blend_(ctx.program("splat_blend", local_size())),
+      blend_(variant.tile_blend
+                 ? ctx.program("splat_blend", gpu::SpecConstants{}.set(0, static_cast<uint32_t>(kBlendInvocationsPerTile)
+                                                                           /* local_size_x: one tile per workgroup */))
+                 : ctx.program("splat_blend_rows", local_size())),
+      variant_(variant),
       scan_(ctx),
       sort_(ctx, kernels::KeyWidth::Bits32),
       f_(std::make_unique<Frame>()) {
@@ -100,8 +105,11 @@ SplatImage SplatRendererGpu::render(const GpuGaussians& g, const render::Camera&
   const uint64_t n = g.count;
   Frame& f = *f_;
   const uint64_t limit = ctx_.info().max_storage_buffer_range;
+  const uint64_t texel_limit = ctx_.info().max_texel_buffer_elements;  // texels of one texel-buffer view
   if (n * sizeof(shader::SplatProjected) > limit)
     throw std::invalid_argument("splat: " + std::to_string(n) + " Gaussians exceed one storage binding");
+  if (n * 3 > texel_limit)
+    throw std::invalid_argument("splat: " + std::to_string(n) + " Gaussians exceed one texel-buffer view of blend records");
   if (uint64_t{W} * H * 16 > limit)
     throw std::invalid_argument("splat: a " + std::to_string(W) + "x" + std::to_string(H) +
                                 " image exceeds one storage binding");
@@ -119,7 +127,7 @@ SplatImage SplatRendererGpu::render(const GpuGaussians& g, const render::Camera&
   ensure(ctx_, f.depth, uint64_t{W} * H * 8, "splat-depth");
   if (opts.sky.kind == SkyKind::Equirect && f.sky_image != opts.sky.image) {
     const SkyImage& im = *opts.sky.image;
-    if (im.rgba.size() > limit)
+    if (im.rgba.size() > limit || im.rgba.size() / 4 > texel_limit)
       throw std::invalid_argument("splat sky: a " + std::to_string(im.width) + "x" + std::to_string(im.height) +
                                   " image exceeds one storage binding");
     f.sky = gpu::upload_vector(ctx_, im.rgba, "splat-sky");
@@ -133,13 +141,19 @@ SplatImage SplatRendererGpu::render(const GpuGaussians& g, const render::Camera&
     throw std::invalid_argument("splat: " + std::to_string(n) + " Gaussians exceed the radix sort limit of " +
                                 std::to_string(sort_.max_elements()));
 
+  const uint32_t cull = variant_.exact_cull ? 1u : 0u;
   // Submission 1: preprocess, depth sort of the Gaussians, scan of the tile counts in depth
   // order, total to the host.
   uint32_t total = 0;
   double pre_ms = 0.0, depth_sort_ms = 0.0;
   if (n > 0) {
     ensure_sort_scratch(n);
-    const auto windows = gpu::storage_windows(ctx_.info(), n, g.sh_stride * 4);
+    // SH windows: each a storage-sized range that one R32_UINT texel view can hold, starting at
+    // a texel-offset-aligned byte offset.
+    const uint64_t sh_bytes = uint64_t{g.sh_stride} * 4;
+    const uint64_t texel_align = std::max<uint64_t>(1, ctx_.info().min_texel_buffer_offset_alignment);
+    const auto windows = gpu::storage_windows(ctx_.info(), n, g.sh_stride * 4, texel_align / std::gcd(texel_align, sh_bytes),
+                                              std::min(limit, texel_limit * 4));
     ctx_.submit_and_wait([&](gpu::CommandList& cmd) {
       f.t1->reset(cmd);
       const int ti = f.t1->begin(cmd, "preprocess");
@@ -150,8 +164,8 @@ SplatImage SplatRendererGpu::render(const GpuGaussians& g, const render::Camera&
         p.sh_stride = g.sh_stride;
         p.sh_degree = g.sh_degree;
         cmd.dispatch(preprocess_, {w.count}, p,
-                     {g.gaussians.binding(0, n * sizeof(shader::SplatGaussian)),
-                      g.sh.binding(w.first * g.sh_stride * 4, w.count * g.sh_stride * 4),
+                     {g.gaussians.texel_binding(VK_FORMAT_R32G32B32A32_UINT, 0, n * sizeof(shader::SplatGaussian)),
+                      g.sh.texel_binding(VK_FORMAT_R32_UINT, w.first * sh_bytes, w.count * sh_bytes),
                       f.proj.binding(0, n * sizeof(shader::SplatProjected)), f.rects.binding(0, n * 16),
                       f.touched.binding(0, n * 4), f.depth_keys.binding(0, n * 4), f.order.binding(0, n * 4),
                       f.records.binding(0, n * sizeof(shader::SplatBlendRecord))});
@@ -161,8 +175,10 @@ SplatImage SplatRendererGpu::render(const GpuGaussians& g, const render::Camera&
       const int td = f.t1->begin(cmd, "depth sort");
       sort_.record(cmd, f.depth_keys, f.order, n, *f.sort_scratch, 32);
       cmd.barrier(gpu::deps::kComputeToCompute);  // counts read the order
-      cmd.dispatch(counts_, {n}, shader::SplatDuplicateParams{static_cast<uint32_t>(n), frame.grid_x, 0, 0},
-                   {f.order.binding(0, n * 4), f.touched.binding(0, n * 4), f.counts.binding(0, n * 4)});
+      cmd.dispatch(counts_, {n}, shader::SplatDuplicateParams{static_cast<uint32_t>(n), frame.grid_x, cull, 0},
+                   {f.order.binding(0, n * 4), f.touched.texel_binding(VK_FORMAT_R32_UINT, 0, n * 4),
+                    f.counts.binding(0, n * 4), f.rects.texel_binding(VK_FORMAT_R32G32B32A32_UINT, 0, n * 16),
+                    f.records.texel_binding(VK_FORMAT_R32G32B32A32_UINT, 0, n * sizeof(shader::SplatBlendRecord))});
       cmd.barrier(gpu::deps::kComputeToCompute);  // the scan reads counts[]
       scan_.record(cmd, f.counts, f.offsets, n, kernels::ScanKind::Inclusive, &f.scan_scratch);
       cmd.barrier(gpu::deps::kComputeToTransfer);  // the copy reads the last offset
@@ -176,7 +192,7 @@ SplatImage SplatRendererGpu::render(const GpuGaussians& g, const render::Camera&
 
   // Submission 2: instances in depth order, stable sort by tile id, ranges, blend.
   const uint64_t inst = total;
-  if (inst > sort_.max_elements() || inst * 4 > limit)
+  if (inst > sort_.max_elements() || inst * 4 > limit || inst > texel_limit)
     throw std::runtime_error("splat: " + std::to_string(inst) + " tile instances exceed the radix sort limit of " +
                              std::to_string(sort_.max_elements()));
   if (inst > 0) {
@@ -214,9 +230,11 @@ SplatImage SplatRendererGpu::render(const GpuGaussians& g, const render::Camera&
     f.t2->reset(cmd);
     const int ts = f.t2->begin(cmd, "sort");
     if (inst > 0) {
-      cmd.dispatch(duplicate_, {n}, shader::SplatDuplicateParams{static_cast<uint32_t>(n), frame.grid_x, 0, 0},
-                   {f.order.binding(0, n * 4), f.rects.binding(0, n * 16), f.counts.binding(0, n * 4),
-                    f.offsets.binding(0, n * 4), f.keys.binding(0, inst * 4), f.values.binding(0, inst * 4)});
+      cmd.dispatch(duplicate_, {n}, shader::SplatDuplicateParams{static_cast<uint32_t>(n), frame.grid_x, cull, 0},
+                   {f.order.binding(0, n * 4), f.rects.texel_binding(VK_FORMAT_R32G32B32A32_UINT, 0, n * 16),
+                    f.counts.binding(0, n * 4), f.offsets.binding(0, n * 4), f.keys.binding(0, inst * 4),
+                    f.values.binding(0, inst * 4),
+                    f.records.texel_binding(VK_FORMAT_R32G32B32A32_UINT, 0, n * sizeof(shader::SplatBlendRecord))});
       cmd.barrier(gpu::deps::kComputeToCompute);  // the sort reads the keys and values
       sort_.record(cmd, f.keys, f.values, inst, *f.sort_scratch, tile_bits);
     }
@@ -230,11 +248,15 @@ SplatImage SplatRendererGpu::render(const GpuGaussians& g, const render::Camera&
     cmd.barrier(gpu::deps::kComputeToCompute);  // blend reads the ranges
     const int tb = f.t2->begin(cmd, "blend");
     cmd.dispatch(blend_, {uint64_t{tiles} * kBlendInvocationsPerTile}, bp,
-                 {f.ranges.binding(0, uint64_t{tiles} * 8), inst > 0 ? f.values.binding(0, inst * 4) : f.ranges.binding(0, 8),
-                  n > 0 ? f.records.binding(0, n * sizeof(shader::SplatBlendRecord)) : f.rgba.binding(0, 48),
+                 {f.ranges.binding(0, uint64_t{tiles} * 8),
+                  inst > 0 ? f.values.texel_binding(VK_FORMAT_R32_UINT, 0, inst * 4)
+                           : f.ranges.texel_binding(VK_FORMAT_R32_UINT, 0, 8),
+                  n > 0 ? f.records.texel_binding(VK_FORMAT_R32G32B32A32_UINT, 0, n * sizeof(shader::SplatBlendRecord))
+                        : f.rgba.texel_binding(VK_FORMAT_R32G32B32A32_UINT, 0, 16),
                   f.rgba.binding(0, uint64_t{W} * H * 16), f.depth.binding(0, uint64_t{W} * H * 8),
-                  opts.sky.kind == SkyKind::Equirect ? f.sky.binding(0, opts.sky.image->rgba.size())
-                                                     : f.ranges.binding(0, 8)});
+                  opts.sky.kind == SkyKind::Equirect
+                      ? f.sky.texel_binding(VK_FORMAT_R32_UINT, 0, opts.sky.image->rgba.size() & ~size_t{3})
+                      : f.ranges.texel_binding(VK_FORMAT_R32_UINT, 0, 8)});
     f.t2->end(cmd, tb);
   });
 

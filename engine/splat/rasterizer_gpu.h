@@ -8,13 +8,25 @@
 //      maxStorageBufferRange; also writes the depth keys) -> 32-bit RadixSort
 //      of the Gaussians by depth (N keys, 4 passes) -> tiles touched in depth
 //      order (splat_sorted_counts) -> inclusive PrefixScan -> total to the host;
+//   Exact tile culling: splat_sorted_counts counts (and splat_duplicate emits)
+//   only the rect tiles that the α-cut ellipse reaches (common/splat_tiles.glsl,
+//   rasterizer_cpu.h tile_row_span), which roughly halves the instances.
 //   2. duplicate tile ids in depth order at the scan offsets -> stable 32-bit
 //      RadixSort of the bits(#tiles) low bits (2 passes up to 65,536 tiles)
 //      -> fill ranges 0 -> splat_ranges -> blend (+ sky, sky.h).
 //   Preprocess also writes a 48-byte blend record per Gaussian
 //   (SplatBlendRecord: the first two vec4 decide whether a Gaussian can touch
-//   a pixel row segment); the blend skips, in a real loop, the Gaussians that
-//   cannot reach α >= 1/255 on its segment (splat_blend.comp). The sky model
+//   a pixel row segment); the blend runs one tile per workgroup: each subgroup
+//   loads a batch of one record per lane (independent loads), tests each
+//   Gaussian's α-cut ellipse against its pixel block, and evaluates only the
+//   ballot's needed Gaussians, in depth order, with the record shuffled from
+//   its lane (splat_blend.comp). Loads at per-lane (divergent or strided)
+//   addresses are texel fetches (uniform texel buffers, R32_UINT /
+//   R32G32B32A32_UINT, bit-cast in the shader: exact): the Gaussians and SH
+//   windows in preprocess, touched/rects/records in splat_sorted_counts and
+//   splat_duplicate, values/records/sky in the blends. On lavapipe a texel
+//   fetch is a gather where a storage-buffer load at a divergent address is a
+//   per-lane loop; on NVIDIA/AMD both are ordinary loads. The sky model
 //   (SplatOptions::sky, sky.h) is applied in the blend: C + T·sky(d).
 //   The result is the reference's (tile, depth, Gaussian index) order of the
 //   64-bit keys tile << 32 | depth bits, with 4 + 2 passes over N + instances
@@ -23,8 +35,9 @@
 // in double) and the camera position is split against the same origin, so
 // scenes far from the world origin render like scenes at it.
 // Limits: Gaussians, their projections and the instance keys each fit one
-// storage binding (lavapipe: 2.7 M Gaussians, 33.5 M instances); larger
-// frames fail with a clear message.
+// storage binding (lavapipe: 2.7 M Gaussians, 33.5 M instances) and one
+// texel-buffer view (maxTexelBufferElements: 3 texels per blend record, one
+// per instance); larger frames fail with a clear message.
 // Tests: tests/test_splat.cpp; benchmark: bench/bench_splat.cpp.
 #pragma once
 
@@ -67,9 +80,18 @@ struct SplatDebug {
   std::vector<uint32_t> ranges;  // 2 per tile
 };
 
+// Pipeline variants (for side-by-side benchmarks; the defaults are the fast ones, and every
+// variant gives the same images). exact_cull = false bins whole getRect rects
+// (TileRule::Rect, more instances); tile_blend = false uses splat_blend_rows.comp (the
+// previous blend: 4 tiles per workgroup, per-lane skip loops).
+struct SplatGpuVariant {
+  bool exact_cull = true;
+  bool tile_blend = true;
+};
+
 class SplatRendererGpu {
  public:
-  explicit SplatRendererGpu(gpu::Context& ctx);
+  explicit SplatRendererGpu(gpu::Context& ctx, SplatGpuVariant variant = {});
   ~SplatRendererGpu();
 
   GpuGaussians upload(const GaussianCloud& cloud);
@@ -86,6 +108,7 @@ class SplatRendererGpu {
   gpu::Program& duplicate_;
   gpu::Program& ranges_;
   gpu::Program& blend_;
+  SplatGpuVariant variant_;
   kernels::PrefixScan scan_;
   kernels::RadixSort sort_;
   std::unique_ptr<Frame> f_;

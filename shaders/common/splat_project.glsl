@@ -3,7 +3,7 @@
 // project_gaussian() operation by operation; conventions in
 // engine/splat/rasterizer_cpu.h. Included by shaders/splat_preprocess.comp,
 // which declares the push constants `p` (SplatPreprocessParams) and
-// `float sh_coeffs[]` (the SH window).
+// `float splat_sh_coeff(uint o)` (coefficient o of the SH window).
 #ifndef ICUBE_SPLAT_PROJECT_GLSL
 #define ICUBE_SPLAT_PROJECT_GLSL
 
@@ -17,7 +17,7 @@ const float SH_C3_0 = -0.5900435899266435, SH_C3_1 = 2.890611442640554, SH_C3_2 
 
 vec3 splat_sh(uint base, int k) {
   const uint o = base + uint(3 * k);
-  return vec3(sh_coeffs[o], sh_coeffs[o + 1u], sh_coeffs[o + 2u]);
+  return vec3(splat_sh_coeff(o), splat_sh_coeff(o + 1u), splat_sh_coeff(o + 2u));
 }
 
 vec3 splat_sh_color(uint base, uint degree, vec3 dir) {

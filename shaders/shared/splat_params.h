@@ -18,6 +18,11 @@
 #ifndef SPLAT_BLEND_PIXELS
 #define SPLAT_BLEND_PIXELS 16
 #endif
+// Exact tile culling (shaders/common/splat_tiles.glsl, rasterizer_cpu.h
+// tile_row_span): tile t spans pixels [16t - M, 16t + 16 + M] in the
+// ellipse-against-tile test, M = SPLAT_CULL_MARGIN px (covers both pixel
+// conventions' samples 16t + o .. 16t + 15 + o with at least 0.5 px to spare).
+#define SPLAT_CULL_MARGIN 0.5
 
 ICUBE_SHADER_NAMESPACE_BEGIN
 
@@ -68,7 +73,8 @@ struct SplatPreprocessParams {
 struct SplatDuplicateParams {
   uint n;  // Gaussians
   uint grid_x;
-  uint pad0, pad1;
+  uint cull;  // 1: exact tile culling (splat_tiles.glsl), 0: whole tile rects
+  uint pad1;
 };
 
 struct SplatRangesParams {
