@@ -1,6 +1,7 @@
 // viewer/residency.h: the chunk index, the tiles within the residency radius,
-// brick subsets, and the GPU world following the camera (background copy,
-// swap) with rays through the resident part equal to the full world's.
+// brick subsets, and the GPU world following the camera (background change,
+// applied in bounded slices) with rays through the resident part equal to the
+// full world's, after every slice.
 #include <doctest/doctest.h>
 
 #include "gpu_test_context.h"
@@ -8,6 +9,8 @@
 #include "render/raycast_gpu.h"
 #include "residency.h"
 
+#include <chrono>
+#include <thread>
 #include <vector>
 
 using namespace icube;
@@ -79,4 +82,56 @@ TEST_CASE("viewer residency: the GPU world follows the camera; rays in the resid
   }
   CHECK(bad == 0);
   CHECK(want[40].sem_hit);  // the pillar at x = 250 m
+}
+
+TEST_CASE("viewer residency: a change is applied in bounded slices; every slice leaves a consistent world") {
+  gpu::Context& ctx = test::gpu_context();
+  const world::VoxelGrid g = strip();
+  viewer::Residency r(ctx, g, 60.0, 51.2, viewer::kMaxResidentBricks, 40);  // at most 40 bricks per slice
+  r.update({10.0, 2.0});
+  const size_t first = r.stats().resident_bricks;
+  CHECK(r.stats().swaps == 1);
+  r.update({250.0, 2.0});
+  REQUIRE(r.pending());
+  while (!r.ready()) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  size_t slices = 0;
+  std::vector<render::Ray> rays;
+  for (int k = 0; k < 60; ++k) rays.push_back({{200.0 + k, 2.0, 3.0}, glm::normalize(glm::dvec3(0.3, 0.1, -1.0))});
+  render::RaycasterGpu rc(ctx);
+  render::RaycastOptions o;
+  o.t_max = 30.0;
+  const std::vector<render::RayResult> want = render::cast_rays_cpu(g, rays, o);
+  size_t bad = 0, last_hits = 0;
+  while (r.ready()) {
+    r.swap();
+    ++slices;
+    // Each ray either finds what the full world has there or (its tile not loaded yet) nothing.
+    const std::vector<shader::RaycastHit> got = rc.cast_rays(r.world().world(), rays, o);
+    size_t hits = 0;
+    for (size_t i = 0; i < rays.size(); ++i) {
+      const bool hit = (got[i].flags & RAYCAST_FLAG_SEM) != 0;
+      if (hit) ++hits;
+      if (hit && (!want[i].sem_hit || got[i].sem_class != want[i].class_id)) ++bad;
+    }
+    CHECK(hits >= last_hits);  // tiles only arrive during the change
+    last_hits = hits;
+  }
+  CHECK(bad == 0);
+  const viewer::ResidencyStats& st = r.stats();
+  CHECK(st.swaps == 2);
+  CHECK(st.last_steps == slices);
+  CHECK(slices == (st.last_added + 39) / 40);
+  CHECK(slices >= 3);
+  CHECK(st.last_removed > 0);
+  CHECK(st.resident_bricks != first);
+  CHECK(r.resident({4, 0}));
+  CHECK_FALSE(r.resident({0, 0}));
+  // All rays now match the full world.
+  const std::vector<shader::RaycastHit> got = rc.cast_rays(r.world().world(), rays, o);
+  size_t diff = 0;
+  for (size_t i = 0; i < rays.size(); ++i) {
+    const bool hit = (got[i].flags & RAYCAST_FLAG_SEM) != 0;
+    if (hit != want[i].sem_hit || (hit && got[i].sem_class != want[i].class_id)) ++diff;
+  }
+  CHECK(diff == 0);
 }

@@ -1,6 +1,6 @@
 // viewer/teleport.h: teleport targets from a hand-built scene's map and a
 // hand-built world's chunks, and placing the car on the ground there facing
-// along the lane; viewer/script.h's teleport / shadows / ao / load / frame-shot commands.
+// along the lane; viewer/script.h's teleport / shadows / ao / load / frame-shot(s) commands.
 #include <doctest/doctest.h>
 
 #include "script.h"
@@ -127,4 +127,10 @@ TEST_CASE("viewer script: teleport, shadows, ao, load and frame-shot commands") 
   CHECK_THROWS_AS(viewer::parse_script("0 shadows maybe\n", "s"), std::invalid_argument);
   CHECK_THROWS_AS(viewer::parse_script("0 frame-shot a.png x 1\n", "s"), std::invalid_argument);
   CHECK_THROWS_AS(viewer::parse_script("0 frame-shot a.png 1\n", "s"), std::invalid_argument);
+  const auto shots = viewer::parse_script("0 frame-shots out/frame 10\n", "s");
+  REQUIRE(shots.size() == 1);
+  CHECK(shots[0].command == "frame-shots");
+  CHECK(shots[0].args[1] == "10");
+  CHECK_THROWS_AS(viewer::parse_script("0 frame-shots out/frame 0\n", "s"), std::invalid_argument);
+  CHECK_THROWS_AS(viewer::parse_script("0 frame-shots out/frame\n", "s"), std::invalid_argument);
 }

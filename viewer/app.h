@@ -40,6 +40,8 @@ inline constexpr double kPi = 3.14159265358979323846;
 // Worlds with more bricks than fit one GPU world get a residency radius by default (--resident-radius).
 inline constexpr size_t kAutoResidencyBricks = kMaxResidentBricks;
 inline constexpr double kAutoResidencyRadius = 150.0;  // m
+// Adaptive resolution never renders below this scale (the panel's and the script's minimum too).
+inline constexpr double kMinAdaptiveScale = 0.25;
 
 enum class Control { Drive, Fly, Replay };
 
@@ -54,10 +56,11 @@ struct App {
 
   // Content.
   world::VoxelGrid grid;  // the whole static world (CPU; ground following and teleport see it)
+  world::IjkBounds grid_bounds;  // grid.bounds() (the world panel's extent), computed at load
   bool have_world = false;
   std::optional<scene::Scene> scene;
   std::unique_ptr<Residency> residency;  // the static world (near the camera) on the GPU + the cars
-  render::OverlayWorld& gpu_world() { return residency->world(); }
+  ResidentWorld& gpu_world() { return residency->world(); }
   world::TriangleMesh car_mesh;
   render::CarVoxelCache car_cache;
   int time_index = 0, shown_time_index = -1;
@@ -115,8 +118,15 @@ struct App {
   bool quit = false;
   int failures = 0;
   FrameStats stats;
-  // Per-frame parts (--stats): waiting for the previous frame (its GPU work), host work, submit + present.
-  FrameStats wait_ms, host_ms, present_ms;
+  // Per-frame parts (--stats, p50 each): host work on the main thread (simulation + script, residency,
+  // cars, ImGui panels, recording the compute), the presenter's calls (waiting for the previous
+  // frame, acquire, submit, present) and the device's timestamps (compute, copy to the swapchain, UI pass).
+  struct FrameParts {
+    FrameStats sim, residency, cars, ui, record, fence, acquire, submit, present, gpu_compute, gpu_copy, gpu_ui;
+    FrameStats gpu_compute_sliced;
+    FrameStats scale;               // the render scale used (adaptive resolution)  // compute of the frames right after a residency slice (occupancy masks rebuilt)
+    std::string summary() const;
+  } parts;
   std::deque<float> frame_graph;
   double last_frame_ms = 0.0, avg_ms = 16.0;
   render::Camera last_cam;

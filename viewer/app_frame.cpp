@@ -16,6 +16,7 @@ int App::run() {
   using clock = std::chrono::steady_clock;
   auto last = clock::now();
   int frame = 0;
+  bool sliced_prev = false;  // the frame before this one applied a residency slice
   while (!glfwWindowShouldClose(window) && !quit) {
     glfwPollEvents();
     const auto now = clock::now();
@@ -41,8 +42,11 @@ int App::run() {
       ++failures;
       quit = true;
     }
-    const auto t_host = clock::now();
+    const auto t_res = clock::now();
+    const size_t steps_before = residency ? residency->stats().steps : 0;
     update_residency();
+    const bool sliced = residency && residency->stats().steps != steps_before;
+    const auto t_cars = clock::now();
     update_cars();
     adapt_resolution();
 
@@ -54,6 +58,7 @@ int App::run() {
     ImGui::NewFrame();
     ui();
     ImGui::Render();
+    const auto t_ui = clock::now();
     const VkExtent2D ext = presenter.extent();
     const uint32_t w = std::max(1u, static_cast<uint32_t>(std::lround(ext.width * eff_scale)));
     const uint32_t h = std::max(1u, static_cast<uint32_t>(std::lround(ext.height * eff_scale)));
@@ -64,13 +69,26 @@ int App::run() {
     const auto t_submit = clock::now();
     presenter.end_frame(have_world ? &renderer.rgba() : nullptr, have_world ? w : 0, have_world ? h : 0,
                         ImGui::GetDrawData());
-    const auto t_end = clock::now();
     if (frame > 3) {
       auto ms = [](auto a, auto b) { return std::chrono::duration<double, std::milli>(b - a).count(); };
-      wait_ms.add(ms(t_wait, t_begun));
-      host_ms.add(ms(t_host, t_wait) + ms(t_begun, t_submit));
-      present_ms.add(ms(t_submit, t_end));
+      parts.sim.add(ms(now, t_res));
+      parts.scale.add(eff_scale);
+      parts.residency.add(ms(t_res, t_cars));
+      parts.cars.add(ms(t_cars, t_wait));
+      parts.ui.add(ms(t_begun, t_ui));
+      parts.record.add(ms(t_ui, t_submit));
+      const PresentTimes& pt = presenter.times();
+      parts.fence.add(pt.fence_wait);
+      parts.acquire.add(pt.acquire);
+      parts.submit.add(pt.submit);
+      parts.present.add(pt.present);
+      if (pt.valid) {  // the previous frame's
+        (sliced_prev ? parts.gpu_compute_sliced : parts.gpu_compute).add(pt.gpu_compute);
+        parts.gpu_copy.add(pt.gpu_copy);
+        parts.gpu_ui.add(pt.gpu_ui);
+      }
     }
+    sliced_prev = sliced;
     if (screenshot_pending && have_world) take_screenshot();
     screenshot_pending = false;
     ++frame;
@@ -78,6 +96,19 @@ int App::run() {
   }
   presenter.wait();
   return failures;
+}
+
+std::string App::FrameParts::summary() const {
+  char buf[512];
+  std::snprintf(buf, sizeof buf,
+                "host: sim %.2f, residency %.2f, cars %.2f, ui %.2f, record %.2f; presenter: wait %.2f, acquire %.2f, "
+                "submit %.2f, present %.2f; device: compute %.2f, copy %.2f, ui %.2f; render scale p10/p50/p90 "
+                "%.2f/%.2f/%.2f",
+                sim.percentile(50), residency.percentile(50), cars.percentile(50), ui.percentile(50),
+                record.percentile(50), fence.percentile(50), acquire.percentile(50), submit.percentile(50),
+                present.percentile(50), gpu_compute.percentile(50), gpu_copy.percentile(50), gpu_ui.percentile(50),
+                scale.percentile(10), scale.percentile(50), scale.percentile(90));
+  return buf;
 }
 
 }  // namespace icube::viewer

@@ -63,6 +63,7 @@ void App::load() {
     }
     residency = std::make_unique<Residency>(ctx, grid, radius);
     chunk_targets = viewer::chunk_targets(grid);
+    grid_bounds = grid.bounds();  // a walk over every brick: once, not per frame in the world panel
   }
   if (scene) {
     autopilot.path = ego_path(*scene);

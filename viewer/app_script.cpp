@@ -38,7 +38,19 @@ void App::run_event(const ScriptEvent& e) {
     else if (e.command == "load") load_recording(a.empty() ? std::string(out_path) : a);
     else if (e.command == "screenshot") request_screenshot(a);
     else if (e.command == "frame-shot") frame_shot(e.args.at(0), std::stoul(e.args.at(1)), std::stoul(e.args.at(2)));
-    else if (e.command == "teleport") teleport(rest);
+    else if (e.command == "frame-shots") {
+      const size_t step = std::stoul(e.args.at(1));
+      size_t n = 0;
+      for (size_t p = 0; p < replay.size(); ++p)
+        for (size_t f = 0; f < replay[p].size(); f += step) {
+          char name[64];
+          std::snprintf(name, sizeof name, "_p%zu_f%03zu.png", p, f);
+          frame_shot(e.args.at(0) + name, p, f);
+          ++n;
+        }
+      if (n == 0) throw std::invalid_argument("frame-shots: no loaded pass (load a trajectory first)");
+      status = std::to_string(n) + " frame shots -> " + e.args.at(0) + "_p*_f*.png";
+    } else if (e.command == "teleport") teleport(rest);
     else if (e.command == "quit") quit = true;
   } catch (const std::exception& ex) {
     std::fprintf(stderr, "icube-view: error: script line %d (%s): %s\n", e.line, e.command.c_str(), ex.what());

@@ -109,18 +109,20 @@ void App::apply_cars() {
   gpu_world().set_overlay(all);
 }
 
-// Chunks near the camera on the GPU (residency.h): a background rebuild starts when the camera
-// has moved far enough; a finished one is swapped in between frames (the upload is the stall).
+// Chunks near the camera on the GPU (residency.h): a background job computes the change when the camera
+// has moved far enough; the frame loop applies it one bounded slice per frame (the slice is the stall).
 void App::update_residency() {
   if (!residency || residency->radius() <= 0.0) return;
   residency->update(glm::dvec2(view_pose()[3]));
   if (!residency->ready()) return;
-  presenter.wait();  // the old world may still be read by the frame in flight
-  residency->swap();
-  apply_cars();
+  presenter.wait();  // the frame in flight may still read the table or the records being replaced
+  const size_t swaps = residency->stats().swaps;
+  residency->swap();  // keeps the car overlay
   const ResidencyStats& st = residency->stats();
-  std::printf("icube-view: resident chunks swapped: %zu bricks, copy %.1f ms (background), upload %.1f ms\n",
-              st.resident_bricks, st.last_build_ms, st.last_upload_ms);
+  if (st.swaps != swaps)
+    std::printf("icube-view: resident chunks changed: %zu bricks (+%zu, -%zu) in %zu slice(s), slowest %.1f ms; "
+                "computed in %.1f ms (background)\n",
+                st.resident_bricks, st.last_added, st.last_removed, st.last_steps, st.last_max_step_ms, st.last_build_ms);
 }
 
 void App::adapt_resolution() {
@@ -129,7 +131,7 @@ void App::adapt_resolution() {
     return;
   }
   const double ratio = opt.target_ms / std::max(1.0, avg_ms);
-  eff_scale = std::clamp(eff_scale * std::clamp(std::sqrt(ratio), 0.85, 1.08), 0.3, scale);
+  eff_scale = std::clamp(eff_scale * std::clamp(std::sqrt(ratio), 0.85, 1.08), std::min(kMinAdaptiveScale, scale), scale);
 }
 
 }  // namespace icube::viewer

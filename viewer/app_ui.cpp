@@ -74,7 +74,7 @@ void App::world_panel() {
   if (!ImGui::CollapsingHeader("World and scene", ImGuiTreeNodeFlags_DefaultOpen)) return;
   ImGui::TextWrapped("world: %s", world_name.c_str());
   if (have_world) {
-    const world::IjkBounds b = grid.bounds();
+    const world::IjkBounds& b = grid_bounds;
     ImGui::Text("%llu voxels, %zu bricks", static_cast<unsigned long long>(grid.voxel_count()), grid.brick_count());
     ImGui::Text("extent %.0f x %.0f x %.0f m, %zu chunks", (b.max.x - b.min.x + 1) * grid.voxel_size(),
                 (b.max.y - b.min.y + 1) * grid.voxel_size(), (b.max.z - b.min.z + 1) * grid.voxel_size(),
@@ -112,7 +112,7 @@ void App::drive_panel() {
   ImGui::Text("camera %.1f %.1f %.1f m", p.x, p.y, p.z);
 }
 
-// Chunk status: the residency radius, what is on the GPU, the upload stalls; each tile resident or not.
+// Chunk status: the residency radius, what is on the GPU, the slice stalls; each tile resident or not.
 void App::chunk_panel() {
   if (!residency || !ImGui::CollapsingHeader("Chunks")) return;
   const ResidencyStats& st = residency->stats();
@@ -121,8 +121,8 @@ void App::chunk_panel() {
                 grid.brick_count(), residency->pending() ? " (loading)" : "");
   else
     ImGui::Text("all %zu bricks resident (--resident-radius 0)", grid.brick_count());
-  ImGui::Text("swaps %zu, upload last %.0f ms, max %.0f ms, copy %.0f ms", st.swaps, st.last_upload_ms, st.max_upload_ms,
-              st.last_build_ms);
+  ImGui::Text("changes %zu in %zu slices, slice last %.1f ms, max %.1f ms, background %.0f ms", st.swaps, st.steps,
+              st.last_upload_ms, st.max_upload_ms, st.last_build_ms);
   std::optional<std::string> go;
   if (ImGui::BeginListBox("##chunks", ImVec2(-1, 120))) {
     for (const auto& [k, bricks] : residency->index().tiles()) {

@@ -3,8 +3,9 @@
 # the autopilot drives the demo town's ego track with the dash camera
 # (viewer/sessions/bench_drive.script, 4 simulated seconds = 120 frames) under
 # Xvfb without vsync, at each size with and without adaptive resolution
-# (--target-ms, default 45), each RUNS times; prints the --stats line of every
-# run and a table of the run with the median p50. Load (uptime) first.
+# (--target-ms, default 45), each RUNS times; prints the --stats lines of every
+# run (frame times; p50 of each part of a frame and the render scale) and a
+# table of the run with the median p50. Load (uptime) first.
 #
 #   viewer/bench_frames.sh [BUILD_DIR] [RUNS] [SIZES]   (defaults: build 3 "960 1280"; LP_NUM_THREADS=2)
 set -euo pipefail
@@ -28,10 +29,11 @@ for w in $sizes; do
     [ "$mode" = adaptive ] && flag="--adaptive --target-ms ${TARGET_MS:-45}"
     lines=()
     for ((r = 0; r < runs; ++r)); do
-      line=$(timeout 300 xvfb-run -a -s "-screen 0 1920x1080x24" "$build/icube-view" "$out/world.icw" \
-        --scene "$out/scene.json" --script viewer/sessions/bench_drive.script --size "$w" --no-vsync --stats $flag |
-        grep "stats")
+      full=$(timeout 300 xvfb-run -a -s "-screen 0 1920x1080x24" "$build/icube-view" "$out/world.icw" \
+        --scene "$out/scene.json" --script viewer/sessions/bench_drive.script --size "$w" --no-vsync --stats $flag)
+      line=$(echo "$full" | grep "stats")
       echo "$line"
+      echo "$full" | grep "frame parts" || true
       lines+=("$line")
     done
     # The run with the median p50.

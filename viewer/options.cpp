@@ -38,7 +38,9 @@ int parse_options(int argc, char** argv, Options& o) {
   app.add_option("--screenshot-out", o.screenshot_out, "Where 'screenshot' writes the PNG");
   app.add_option("--load", o.load, "Trajectory (.npy [N,4,4]/[P,N,4,4] or JSON) to replay");
   app.add_option("--max-seconds", o.max_seconds, "Scripted runs fail after this many simulated seconds");
-  app.add_flag("--stats", o.stats, "Print frame-time percentiles at exit");
+  app.add_flag("--stats", o.stats,
+               "Print frame-time percentiles at exit, the p50 of each part of a frame (host, presenter, device "
+               "timestamps) and the residency slices");
   app.add_flag("!--no-vsync", o.vsync, "Present without waiting for vblank (mailbox/immediate) for measurements");
   app.add_option("--verify", o.verify, "No window: check a saved trajectory (shape, forward progress, camera "
                                       "height above the input world's ground) and exit 0 / 1");

@@ -6,6 +6,7 @@
 #include <imgui_impl_vulkan.h>
 
 #include <algorithm>
+#include <chrono>
 #include <stdexcept>
 #include <string>
 
@@ -68,6 +69,15 @@ Presenter::Presenter(gpu::Context& ctx, GLFWwindow* window, bool vsync) : ctx_(c
   VK_CHECK(vkCreateFence(ctx.device(), &fci, nullptr, &fence_));
   VkSemaphoreCreateInfo sci{VK_STRUCTURE_TYPE_SEMAPHORE_CREATE_INFO};
   VK_CHECK(vkCreateSemaphore(ctx.device(), &sci, nullptr, &acquired_));
+  if (q[ctx.queue_family()].timestampValidBits > 0) {
+    VkPhysicalDeviceProperties props{};
+    vkGetPhysicalDeviceProperties(ctx.physical_device(), &props);
+    tick_ms_ = static_cast<double>(props.limits.timestampPeriod) * 1e-6;
+    VkQueryPoolCreateInfo qci{VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO};
+    qci.queryType = VK_QUERY_TYPE_TIMESTAMP;
+    qci.queryCount = 4;
+    VK_CHECK(vkCreateQueryPool(ctx.device(), &qci, nullptr, &queries_));
+  }
 
   // Surface format: an 8-bit UNORM format the blit can write.
   uint32_t nf = 0;
@@ -144,6 +154,7 @@ Presenter::~Presenter() {
   if (imgui_pool_) vkDestroyDescriptorPool(ctx_.device(), imgui_pool_, nullptr);
   vkDestroyRenderPass(ctx_.device(), render_pass_, nullptr);
   vkDestroySemaphore(ctx_.device(), acquired_, nullptr);
+  if (queries_) vkDestroyQueryPool(ctx_.device(), queries_, nullptr);
   vkDestroyFence(ctx_.device(), fence_, nullptr);
   vkDestroyCommandPool(ctx_.device(), pool_, nullptr);
   vkDestroySurfaceKHR(ctx_.instance(), surface_, nullptr);
@@ -277,8 +288,29 @@ void Presenter::wait() {
   }
 }
 
+namespace {
+double ms_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
+}  // namespace
+
 bool Presenter::begin_frame() {
+  const auto t0 = std::chrono::steady_clock::now();
+  const bool had_frame = submitted_;
   wait();
+  times_.fence_wait = ms_since(t0);
+  if (had_frame && queries_written_) {
+    uint64_t ts[4] = {};
+    if (vkGetQueryPoolResults(ctx_.device(), queries_, 0, 4, sizeof ts, ts, sizeof(uint64_t), VK_QUERY_RESULT_64_BIT) ==
+        VK_SUCCESS) {
+      auto d = [&](int a, int b) { return ts[b] >= ts[a] ? static_cast<double>(ts[b] - ts[a]) * tick_ms_ : 0.0; };
+      times_.gpu_compute = d(0, 1);
+      times_.gpu_copy = d(1, 2);
+      times_.gpu_ui = d(2, 3);
+      times_.valid = true;
+    }
+    queries_written_ = false;
+  }
   list_.reset();  // its descriptor pools (without push descriptors) are free now
   int fw = 0, fh = 0;
   glfwGetFramebufferSize(window_, &fw, &fh);
@@ -289,7 +321,9 @@ bool Presenter::begin_frame() {
     create_swapchain();
     if (!swapchain_) return false;
   }
+  const auto t_acq = std::chrono::steady_clock::now();
   const VkResult r = vkAcquireNextImageKHR(ctx_.device(), swapchain_, UINT64_MAX, acquired_, VK_NULL_HANDLE, &image_index_);
+  times_.acquire = ms_since(t_acq);
   if (r == VK_ERROR_OUT_OF_DATE_KHR) {
     VK_CHECK(vkDeviceWaitIdle(ctx_.device()));
     destroy_swapchain();
@@ -301,6 +335,10 @@ bool Presenter::begin_frame() {
   VkCommandBufferBeginInfo bi{VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO};
   bi.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
   VK_CHECK(vkBeginCommandBuffer(cb_, &bi));
+  if (queries_) {
+    vkCmdResetQueryPool(cb_, queries_, 0, 4);
+    vkCmdWriteTimestamp(cb_, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, queries_, 0);
+  }
   list_ = std::make_unique<gpu::CommandList>(ctx_, cb_);
   return true;
 }
@@ -335,7 +373,9 @@ void Presenter::ensure_view_image(uint32_t w, uint32_t h) {
 }
 
 void Presenter::end_frame(const gpu::Buffer* rgba, uint32_t w, uint32_t h, ImDrawData* ui) {
+  const auto t_submit = std::chrono::steady_clock::now();
   const VkImage target = images_[image_index_];
+  if (queries_) vkCmdWriteTimestamp(cb_, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, queries_, 1);
   image_barrier(cb_, target, VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
                 VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT, VK_ACCESS_2_NONE, VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT,
                 VK_ACCESS_2_TRANSFER_WRITE_BIT);  // after the acquire semaphore (waited at the transfer stage)
@@ -368,6 +408,7 @@ void Presenter::end_frame(const gpu::Buffer* rgba, uint32_t w, uint32_t h, ImDra
                 VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
                 VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
                 VK_ACCESS_2_COLOR_ATTACHMENT_READ_BIT | VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT);  // ImGui draws over the view
+  if (queries_) vkCmdWriteTimestamp(cb_, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, queries_, 2);
 
   VkRenderPassBeginInfo rbi{VK_STRUCTURE_TYPE_RENDER_PASS_BEGIN_INFO};
   rbi.renderPass = render_pass_;
@@ -376,6 +417,10 @@ void Presenter::end_frame(const gpu::Buffer* rgba, uint32_t w, uint32_t h, ImDra
   vkCmdBeginRenderPass(cb_, &rbi, VK_SUBPASS_CONTENTS_INLINE);
   if (ui) ImGui_ImplVulkan_RenderDrawData(ui, cb_);
   vkCmdEndRenderPass(cb_);
+  if (queries_) {
+    vkCmdWriteTimestamp(cb_, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, queries_, 3);
+    queries_written_ = true;
+  }
   VK_CHECK(vkEndCommandBuffer(cb_));
 
   VkSemaphoreSubmitInfo wait_info{VK_STRUCTURE_TYPE_SEMAPHORE_SUBMIT_INFO};
@@ -395,6 +440,8 @@ void Presenter::end_frame(const gpu::Buffer* rgba, uint32_t w, uint32_t h, ImDra
   si.pSignalSemaphoreInfos = &signal_info;
   VK_CHECK(vkQueueSubmit2(ctx_.queue(), 1, &si, fence_));
   submitted_ = true;
+  times_.submit = ms_since(t_submit);
+  const auto t_present = std::chrono::steady_clock::now();
 
   VkPresentInfoKHR pi{VK_STRUCTURE_TYPE_PRESENT_INFO_KHR};
   pi.waitSemaphoreCount = 1;
@@ -403,6 +450,7 @@ void Presenter::end_frame(const gpu::Buffer* rgba, uint32_t w, uint32_t h, ImDra
   pi.pSwapchains = &swapchain_;
   pi.pImageIndices = &image_index_;
   const VkResult r = vkQueuePresentKHR(ctx_.queue(), &pi);
+  times_.present = ms_since(t_present);
   if (r == VK_ERROR_OUT_OF_DATE_KHR || r == VK_SUBOPTIMAL_KHR) {
     extent_ = {0, 0};  // recreate at the next begin_frame
   } else {

@@ -4,12 +4,15 @@
 //
 // One frame in flight: begin_frame() waits for the previous frame's fence, so
 // buffers written by the previous frame may be reused and host uploads
-// (OverlayWorld) may run between frames. Per frame, on the engine's queue
+// (ResidentWorld) may run between frames. Per frame, on the engine's queue
 // (a universal queue on lavapipe and desktop GPUs; checked for graphics and
 // present support):
 //   compute (the caller, through cmd())           rgba buffer
 //   buffer -> view image (R8G8B8A8) -> blit (scaled, linear) -> swapchain image
 //   ImGui render pass (load, draw, -> PRESENT_SRC), submit, present.
+// Timestamps at the start, after the compute, after the copy and after the UI
+// pass (times(): the last finished frame's, read after its fence) and the host
+// time of the fence wait, acquire, submit and present feed --stats.
 #pragma once
 
 #include "gpu/buffer.h"
@@ -24,6 +27,19 @@
 struct ImDrawData;
 
 namespace icube::viewer {
+
+// Where the last finished frame's time went (ms): GPU timestamps (the device's
+// queue; lavapipe runs them on the CPU) and host time spent in the presenter's calls.
+struct PresentTimes {
+  bool valid = false;          // timestamps of a finished frame are available
+  double gpu_compute = 0.0;    // start of the command buffer -> end of the caller's compute (ray casting + shading)
+  double gpu_copy = 0.0;       // the copy of the view into the swapchain image (scaled)
+  double gpu_ui = 0.0;         // the ImGui render pass
+  double fence_wait = 0.0;     // host: waiting for the previous frame in begin_frame
+  double acquire = 0.0;        // host: vkAcquireNextImageKHR
+  double submit = 0.0;         // host: recording the presenter's commands + vkQueueSubmit2
+  double present = 0.0;        // host: vkQueuePresentKHR
+};
 
 class Presenter {
  public:
@@ -44,6 +60,8 @@ class Presenter {
   // Waits for the last submitted frame.
   void wait();
   const char* present_mode_name() const;
+  // Timings of the last finished frame (begin_frame reads the timestamps after the fence).
+  const PresentTimes& times() const { return times_; }
 
  private:
   void create_swapchain();
@@ -77,6 +95,11 @@ class Presenter {
   VkDeviceMemory view_memory_ = VK_NULL_HANDLE;
   uint32_t view_w_ = 0, view_h_ = 0;
   bool imgui_ready_ = false;
+  // Timestamps: 0 start, 1 after compute, 2 after the copy, 3 after the UI.
+  VkQueryPool queries_ = VK_NULL_HANDLE;
+  double tick_ms_ = 0.0;
+  bool queries_written_ = false;
+  PresentTimes times_;
 };
 
 }  // namespace icube::viewer

@@ -5,6 +5,8 @@
 #include <chrono>
 #include <cmath>
 
+#include "world/gpu_world.h"
+
 namespace icube::viewer {
 
 ChunkIndex::ChunkIndex(const world::VoxelGrid& grid, double tile_m) : tile_m_(tile_m) {
@@ -51,12 +53,21 @@ world::VoxelGrid ChunkIndex::subset(const world::VoxelGrid& grid, const std::vec
   return g;
 }
 
-Residency::Residency(gpu::Context& ctx, const world::VoxelGrid& grid, double radius_m, double tile_m, size_t max_bricks)
-    : ctx_(ctx), grid_(grid), radius_(radius_m), max_bricks_(max_bricks), index_(grid, tile_m) {
+Residency::Residency(gpu::Context& ctx, const world::VoxelGrid& grid, double radius_m, double tile_m, size_t max_bricks,
+                     size_t step_bricks)
+    : ctx_(ctx),
+      grid_(grid),
+      radius_(radius_m),
+      max_bricks_(max_bricks),
+      step_bricks_(std::max<size_t>(step_bricks, 1)),
+      index_(grid, tile_m) {
+  const size_t capacity = radius_ <= 0.0 ? grid_.brick_count() : std::min(max_bricks_, grid_.brick_count());
+  world_ = std::make_unique<ResidentWorld>(ctx_, grid_.origin(), grid_.voxel_size(), capacity);
   if (radius_ <= 0.0) {
-    world_ = std::make_unique<render::OverlayWorld>(ctx_, grid_);
-    for (const auto& [k, b] : index_.tiles()) keys_.push_back(k);
-    stats_.resident_bricks = grid_.brick_count();
+    std::vector<TileKey> all;
+    for (const auto& [k, b] : index_.tiles()) all.push_back(k);
+    pending_ = std::async(std::launch::deferred, [this, all]() { return change({}, all, glm::dvec2(0.0)); });
+    finish();
   }
 }
 
@@ -64,46 +75,94 @@ Residency::~Residency() {
   if (pending_.valid()) pending_.wait();
 }
 
+Residency::Built Residency::change(const std::vector<TileKey>& have, const std::vector<TileKey>& want,
+                                   const glm::dvec2& xy) const {
+  const auto t0 = std::chrono::steady_clock::now();
+  Built b;
+  b.keys = want;
+  const std::vector<world::Brick>& bricks = grid_.bricks();
+  for (const TileKey& k : have)
+    if (!std::binary_search(want.begin(), want.end(), k))
+      for (uint32_t i : index_.tiles().at(k)) b.removed.push_back(world::brick_key(bricks[i].coord));
+  std::vector<std::pair<double, TileKey>> added;
+  for (const TileKey& k : want)
+    if (!std::binary_search(have.begin(), have.end(), k)) {
+      const double cx = (static_cast<double>(k.first) + 0.5) * index_.tile_m() - xy.x;
+      const double cy = (static_cast<double>(k.second) + 0.5) * index_.tile_m() - xy.y;
+      added.push_back({cx * cx + cy * cy, k});
+    }
+  std::sort(added.begin(), added.end());
+  size_t n = 0;
+  for (const auto& [d, k] : added) n += index_.tiles().at(k).size();
+  b.added.reserve(n);
+  b.records.resize(n * WORLD_BRICK_UINTS);
+  for (const auto& [d, k] : added)
+    for (uint32_t i : index_.tiles().at(k)) {
+      world::write_brick_record(bricks[i], b.records.data() + b.added.size() * WORLD_BRICK_UINTS);
+      b.added.push_back(world::brick_key(bricks[i].coord));
+    }
+  b.build_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  return b;
+}
+
 void Residency::update(const glm::dvec2& xy) {
-  if (radius_ <= 0.0 || pending_.valid()) return;
+  if (radius_ <= 0.0 || pending()) return;
   if (have_centre_ && glm::length(xy - centre_) <= 0.25 * radius_) return;
   std::vector<TileKey> want = index_.tiles_within(xy, radius_, max_bricks_);
+  const bool first = !have_centre_;
   centre_ = xy;
   have_centre_ = true;
-  if (want == keys_ && world_) return;
-  pending_ = std::async(std::launch::async, [this, want = std::move(want)]() {
-    const auto t0 = std::chrono::steady_clock::now();
-    Built b;
-    b.keys = want;
-    b.grid = index_.subset(grid_, want);
-    b.build_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-    return b;
+  if (want == keys_ && !first) return;
+  pending_ = std::async(std::launch::async, [this, have = keys_, want = std::move(want), xy]() {
+    return change(have, want, xy);
   });
-  if (!world_) finish();  // the first set: nothing to show meanwhile
+  if (first) finish();  // the first set: nothing to show meanwhile
 }
 
 bool Residency::ready() const {
-  return pending_.valid() && pending_.wait_for(std::chrono::seconds(0)) == std::future_status::ready;
+  return transit_.has_value() ||
+         (pending_.valid() && pending_.wait_for(std::chrono::seconds(0)) == std::future_status::ready);
 }
 
-void Residency::swap() {
-  if (!pending_.valid()) return;
-  Built b = pending_.get();
+void Residency::step(size_t max_bricks, bool frame_slice) {
   const auto t0 = std::chrono::steady_clock::now();
-  world_ = std::make_unique<render::OverlayWorld>(ctx_, b.grid);
+  if (!transit_) {
+    if (!pending_.valid()) return;
+    transit_ = pending_.get();
+    next_ = 0;
+    transit_steps_ = 0;
+    transit_max_ms_ = 0.0;
+    world_->remove_static(transit_->removed);  // freed before any new record needs the room
+  }
+  const size_t total = transit_->added.size();
+  const size_t n = std::min(max_bricks, total - next_);
+  world_->add_static(transit_->added.data() + next_, transit_->records.data() + next_ * WORLD_BRICK_UINTS, n);
+  next_ += n;
+  world_->commit();
   const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-  keys_ = std::move(b.keys);
-  ++stats_.swaps;
+  if (frame_slice) ++stats_.steps;
+  ++transit_steps_;
   stats_.last_upload_ms = ms;
-  stats_.max_upload_ms = std::max(stats_.max_upload_ms, ms);
-  stats_.last_build_ms = b.build_ms;
-  stats_.resident_bricks = b.grid.brick_count();
+  if (frame_slice) {
+    stats_.max_upload_ms = std::max(stats_.max_upload_ms, ms);
+    transit_max_ms_ = std::max(transit_max_ms_, ms);
+  }
+  stats_.resident_bricks = world_->static_bricks();
+  if (next_ < total) return;
+  keys_ = std::move(transit_->keys);
+  ++stats_.swaps;
+  stats_.last_build_ms = transit_->build_ms;
+  stats_.last_added = total;
+  stats_.last_removed = transit_->removed.size();
+  stats_.last_steps = transit_steps_;
+  stats_.last_max_step_ms = transit_max_ms_;
+  transit_.reset();
 }
+
+void Residency::swap() { step(step_bricks_, true); }
 
 void Residency::finish() {
-  if (!pending_.valid()) return;
-  pending_.wait();
-  swap();
+  while (pending()) step(SIZE_MAX, false);
 }
 
 bool Residency::resident(const TileKey& k) const { return std::binary_search(keys_.begin(), keys_.end(), k); }

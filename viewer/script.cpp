@@ -41,6 +41,7 @@ const std::map<std::string, CommandSpec>& command_specs() {
       {"ao", {1, 1, {}}},
       {"load", {0, 1, {}}},
       {"frame-shot", {3, 3, {}}},
+      {"frame-shots", {2, 2, {}}},
       {"quit", {0, 0, {}}},
   };
   return specs;
@@ -101,6 +102,10 @@ std::vector<ScriptEvent> parse_script(const std::string& text, const std::string
         const long k = std::strtol(e.args[i].c_str(), &end, 10);
         if (*end != '\0' || k < 0) fail("frame-shot PATH PASS FRAME: bad index '" + e.args[i] + "'");
       }
+    if (e.command == "frame-shots") {
+      const long k = std::strtol(e.args[1].c_str(), &end, 10);
+      if (*end != '\0' || k < 1) fail("frame-shots PREFIX STEP: bad step '" + e.args[1] + "'");
+    }
     if (e.command == "scale") {
       const double s = std::strtod(e.args[0].c_str(), &end);
       if (*end != '\0' || !(s >= 0.25 && s <= 1.0)) fail("scale must be in [0.25, 1]");

@@ -24,6 +24,8 @@
 //   ao off|K                   ambient occlusion with K rays per pixel (0..16)
 //   load [PATH]                load a trajectory (PATH or --record-out) and replay it
 //   frame-shot PATH P F        semantic PNG of frame F of loaded pass P as `icube buffers` renders it
+//   frame-shots PREFIX S       the same for every S-th frame (0, S, 2S, ...) of every loaded pass:
+//                              PREFIX_p<P>_f<FFF>.png (frame zero-padded to 3 digits)
 //   quit                       end the session
 // Parse errors throw std::invalid_argument "FILE:LINE: what".
 #pragma once

@@ -90,8 +90,15 @@ int run_window(const Options& o) {
     if (o.stats) {
       std::printf("icube-view: stats %dx%d scale %.2f%s: %s\n", o.width, o.height, o.scale,
                   o.adaptive ? " adaptive" : "", v.stats.summary().c_str());
-      std::printf("icube-view: frame parts (p50 ms): wait for the previous frame %.2f, host %.2f, submit + present %.2f\n",
-                  v.wait_ms.percentile(50), v.host_ms.percentile(50), v.present_ms.percentile(50));
+      std::printf("icube-view: frame parts (p50 ms): %s\n", v.parts.summary().c_str());
+      if (v.residency && v.residency->radius() > 0.0) {
+        const ResidencyStats& st = v.residency->stats();
+        std::printf("icube-view: residency: %zu change(s) (the first at load), %zu slice(s) between frames, slowest %.1f ms on "
+                    "the main thread; "
+                    "device compute p50 %.1f ms in the %zu frames after a slice (occupancy masks rebuilt), %.1f ms in the others\n",
+                    st.swaps, st.steps, st.max_upload_ms, v.parts.gpu_compute_sliced.percentile(50),
+                    v.parts.gpu_compute_sliced.ms.size(), v.parts.gpu_compute.percentile(50));
+      }
     }
   }
   return rc;

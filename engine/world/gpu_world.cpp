@@ -41,18 +41,22 @@ GpuWorldHost build_gpu_world_host(const VoxelGrid& grid) {
     uint32_t slot = slot_hash(b.coord) & h.table_mask;
     while (h.table[slot].brick != WORLD_EMPTY_SLOT) slot = (slot + 1) & h.table_mask;
     h.table[slot] = {static_cast<uint32_t>(key), static_cast<uint32_t>(key >> 32), out, 0};
-    uint32_t* rec = h.bricks.data() + static_cast<size_t>(out) * WORLD_BRICK_UINTS;
-    for (size_t w = 0; w < 8; ++w) {
-      rec[WORLD_MASK_OFFSET + 2 * w] = static_cast<uint32_t>(b.mask[w]);
-      rec[WORLD_MASK_OFFSET + 2 * w + 1] = static_cast<uint32_t>(b.mask[w] >> 32);
-    }
-    for (uint32_t v = 0; v < kBrickVoxels; ++v) {
-      rec[WORLD_CLASS_OFFSET + v / 4] |= static_cast<uint32_t>(b.classes[v]) << (8 * (v % 4));
-      rec[WORLD_INSTANCE_OFFSET + v / 2] |= static_cast<uint32_t>(b.instances[v]) << (16 * (v % 2));
-    }
+    write_brick_record(b, h.bricks.data() + static_cast<size_t>(out) * WORLD_BRICK_UINTS);
     ++out;
   }
   return h;
+}
+
+void write_brick_record(const Brick& b, uint32_t* rec) {
+  std::fill(rec, rec + WORLD_BRICK_UINTS, 0u);
+  for (size_t w = 0; w < 8; ++w) {
+    rec[WORLD_MASK_OFFSET + 2 * w] = static_cast<uint32_t>(b.mask[w]);
+    rec[WORLD_MASK_OFFSET + 2 * w + 1] = static_cast<uint32_t>(b.mask[w] >> 32);
+  }
+  for (uint32_t v = 0; v < kBrickVoxels; ++v) {
+    rec[WORLD_CLASS_OFFSET + v / 4] |= static_cast<uint32_t>(b.classes[v]) << (8 * (v % 4));
+    rec[WORLD_INSTANCE_OFFSET + v / 2] |= static_cast<uint32_t>(b.instances[v]) << (16 * (v % 2));
+  }
 }
 
 Voxel lookup_gpu_world_host(const GpuWorldHost& h, const glm::ivec3& ijk) {

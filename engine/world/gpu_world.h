@@ -30,6 +30,9 @@ struct GpuWorldHost {
 };
 
 GpuWorldHost build_gpu_world_host(const VoxelGrid& grid);
+// One brick's WorldBrickRecord as build_gpu_world_host writes it (rec: WORLD_BRICK_UINTS uints, overwritten),
+// for worlds updated brick by brick (viewer/resident_world.h).
+void write_brick_record(const Brick& b, uint32_t* rec);
 // The CPU mirror of world_voxel() in world_lookup.glsl.
 Voxel lookup_gpu_world_host(const GpuWorldHost& host, const glm::ivec3& ijk);
 
