@@ -17,32 +17,6 @@ constexpr uint64_t kFree = ~uint64_t{0};
 constexpr shader::WorldHashEntry kEmpty{0, 0, WORLD_EMPTY_SLOT, 0};
 constexpr size_t kRecordBytes = WORLD_BRICK_UINTS * sizeof(uint32_t);
 
-uint32_t key_hash(uint64_t key) {
-  return shader::world_brick_hash(static_cast<uint32_t>(key & world::kBrickAxisMask),
-                                  static_cast<uint32_t>((key >> 21) & world::kBrickAxisMask),
-                                  static_cast<uint32_t>((key >> 42) & world::kBrickAxisMask));
-}
-
-bool entry_is(const shader::WorldHashEntry& e, uint64_t key) {
-  return e.brick != WORLD_EMPTY_SLOT && e.key_lo == static_cast<uint32_t>(key) &&
-         e.key_hi == static_cast<uint32_t>(key >> 32);
-}
-
-void write_cell(uint32_t* rec, const glm::ivec3& ijk, uint8_t cls, uint16_t inst) {
-  const uint32_t n = static_cast<uint32_t>(world::voxel_bit(ijk));
-  rec[WORLD_MASK_OFFSET + n / 32] |= 1u << (n % 32);
-  uint32_t& c = rec[WORLD_CLASS_OFFSET + n / 4];
-  c = (c & ~(0xffu << (8 * (n % 4)))) | (uint32_t{cls} << (8 * (n % 4)));
-  uint32_t& i = rec[WORLD_INSTANCE_OFFSET + n / 2];
-  i = (i & ~(0xffffu << (16 * (n % 2)))) | (uint32_t{inst} << (16 * (n % 2)));
-}
-
-world::Voxel read_cell(const uint32_t* rec, const glm::ivec3& ijk) {
-  const uint32_t n = static_cast<uint32_t>(world::voxel_bit(ijk));
-  if (!((rec[WORLD_MASK_OFFSET + n / 32] >> (n % 32)) & 1u)) return {};
-  return {static_cast<uint8_t>(rec[WORLD_CLASS_OFFSET + n / 4] >> (8 * (n % 4))),
-          static_cast<uint16_t>(rec[WORLD_INSTANCE_OFFSET + n / 2] >> (16 * (n % 2)))};
-}
 
 void join(world::IjkBounds& b, uint64_t key) {
   const glm::ivec3 lo = world::brick_from_key(key) * world::kBrickDim;
@@ -150,7 +124,7 @@ void ResidentWorld::rebuild_static_table() {
   for (size_t s = 0; s < static_capacity_; ++s) {
     const uint64_t key = key_of_[s];
     if (key == kFree) continue;
-    uint32_t t = key_hash(key) & world_.gpu.table_mask;
+    uint32_t t = world::brick_key_hash(key) & world_.gpu.table_mask;
     while (table_[t].brick != WORLD_EMPTY_SLOT) t = (t + 1) & world_.gpu.table_mask;
     table_[t] = {static_cast<uint32_t>(key), static_cast<uint32_t>(key >> 32), static_cast<uint32_t>(s), 0};
     join(static_bounds_, key);
@@ -167,7 +141,7 @@ void ResidentWorld::commit() {
     dirty_.clear();
     for (uint32_t s : added_) {
       const uint64_t key = key_of_[s];
-      uint32_t t = key_hash(key) & world_.gpu.table_mask;
+      uint32_t t = world::brick_key_hash(key) & world_.gpu.table_mask;
       while (table_[t].brick != WORLD_EMPTY_SLOT) t = (t + 1) & world_.gpu.table_mask;
       table_[t] = {static_cast<uint32_t>(key), static_cast<uint32_t>(key >> 32), s, 0};
       join(static_bounds_, key);
@@ -187,8 +161,8 @@ void ResidentWorld::commit() {
 
 uint32_t ResidentWorld::find_slot(uint64_t key) const {
   const uint32_t mask = world_.gpu.table_mask;
-  uint32_t s = key_hash(key) & mask;
-  while (table_[s].brick != WORLD_EMPTY_SLOT && !entry_is(table_[s], key)) s = (s + 1) & mask;
+  uint32_t s = world::brick_key_hash(key) & mask;
+  while (table_[s].brick != WORLD_EMPTY_SLOT && !world::table_entry_is(table_[s], key)) s = (s + 1) & mask;
   return s;
 }
 
@@ -235,9 +209,9 @@ render::OverlayStats ResidentWorld::patch_overlay() {
     else
       ++st.new_bricks;
     for (const render::CarCell* c : list) {
-      const world::Voxel old = read_cell(rec, c->ijk);
+      const world::Voxel old = world::record_voxel(rec, c->ijk);
       if (old.class_id == static_cast<uint8_t>(world::SemanticClass::Car) && old.instance > 0) continue;
-      write_cell(rec, c->ijk, static_cast<uint8_t>(world::SemanticClass::Car), c->instance);
+      world::record_set_voxel(rec, c->ijk, static_cast<uint8_t>(world::SemanticClass::Car), c->instance);
       ++st.cells;
     }
     dirty_.push_back({s, table_[s]});

@@ -59,6 +59,33 @@ void write_brick_record(const Brick& b, uint32_t* rec) {
   }
 }
 
+uint32_t brick_key_hash(uint64_t key) {
+  return shader::world_brick_hash(static_cast<uint32_t>(key & kBrickAxisMask),
+                                  static_cast<uint32_t>((key >> 21) & kBrickAxisMask),
+                                  static_cast<uint32_t>((key >> 42) & kBrickAxisMask));
+}
+
+bool table_entry_is(const shader::WorldHashEntry& e, uint64_t key) {
+  return e.brick != WORLD_EMPTY_SLOT && e.key_lo == static_cast<uint32_t>(key) &&
+         e.key_hi == static_cast<uint32_t>(key >> 32);
+}
+
+void record_set_voxel(uint32_t* rec, const glm::ivec3& ijk, uint8_t cls, uint16_t inst) {
+  const uint32_t n = static_cast<uint32_t>(voxel_bit(ijk));
+  rec[WORLD_MASK_OFFSET + n / 32] |= 1u << (n % 32);
+  uint32_t& c = rec[WORLD_CLASS_OFFSET + n / 4];
+  c = (c & ~(0xffu << (8 * (n % 4)))) | (uint32_t{cls} << (8 * (n % 4)));
+  uint32_t& i = rec[WORLD_INSTANCE_OFFSET + n / 2];
+  i = (i & ~(0xffffu << (16 * (n % 2)))) | (uint32_t{inst} << (16 * (n % 2)));
+}
+
+Voxel record_voxel(const uint32_t* rec, const glm::ivec3& ijk) {
+  const uint32_t n = static_cast<uint32_t>(voxel_bit(ijk));
+  if (!((rec[WORLD_MASK_OFFSET + n / 32] >> (n % 32)) & 1u)) return {};
+  return {static_cast<uint8_t>(rec[WORLD_CLASS_OFFSET + n / 4] >> (8 * (n % 4))),
+          static_cast<uint16_t>(rec[WORLD_INSTANCE_OFFSET + n / 2] >> (16 * (n % 2)))};
+}
+
 Voxel lookup_gpu_world_host(const GpuWorldHost& h, const glm::ivec3& ijk) {
   if (!ijk_in_range(ijk)) return {};
   const glm::ivec3 bc = brick_of(ijk);
@@ -67,13 +94,7 @@ Voxel lookup_gpu_world_host(const GpuWorldHost& h, const glm::ivec3& ijk) {
   for (uint32_t probe = 0; probe <= h.table_mask; ++probe) {
     const shader::WorldHashEntry& e = h.table[slot];
     if (e.brick == WORLD_EMPTY_SLOT) return {};
-    if (e.key_lo == static_cast<uint32_t>(key) && e.key_hi == static_cast<uint32_t>(key >> 32)) {
-      const uint32_t* rec = h.bricks.data() + static_cast<size_t>(e.brick) * WORLD_BRICK_UINTS;
-      const uint32_t n = static_cast<uint32_t>(voxel_bit(ijk));
-      if (!((rec[WORLD_MASK_OFFSET + n / 32] >> (n % 32)) & 1u)) return {};
-      return {static_cast<uint8_t>(rec[WORLD_CLASS_OFFSET + n / 4] >> (8 * (n % 4))),
-              static_cast<uint16_t>(rec[WORLD_INSTANCE_OFFSET + n / 2] >> (16 * (n % 2)))};
-    }
+    if (table_entry_is(e, key)) return record_voxel(h.bricks.data() + static_cast<size_t>(e.brick) * WORLD_BRICK_UINTS, ijk);
     slot = (slot + 1) & h.table_mask;
   }
   return {};

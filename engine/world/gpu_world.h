@@ -36,6 +36,14 @@ void write_brick_record(const Brick& b, uint32_t* rec);
 // The CPU mirror of world_voxel() in world_lookup.glsl.
 Voxel lookup_gpu_world_host(const GpuWorldHost& host, const glm::ivec3& ijk);
 
+// Pieces of the layout for code that edits the buffers in place (render/buffers/overlay_world,
+// viewer/resident_world): the table hash of a packed brick key (brick_key), whether table entry
+// e holds that key, and one voxel of a brick record written (mask bit, class, instance) or read.
+uint32_t brick_key_hash(uint64_t key);
+bool table_entry_is(const shader::WorldHashEntry& e, uint64_t key);
+void record_set_voxel(uint32_t* rec, const glm::ivec3& ijk, uint8_t cls, uint16_t inst);
+Voxel record_voxel(const uint32_t* rec, const glm::ivec3& ijk);
+
 struct GpuWorld {
   gpu::Buffer brick_table;  // WorldHashEntry[capacity]
   gpu::Buffer brick_data;   // WorldBrickRecord[brick_count] (one dummy record when empty)

@@ -17,32 +17,6 @@ double seconds_since(Clock::time_point t0) { return std::chrono::duration<double
 
 constexpr shader::WorldHashEntry kEmpty{0, 0, WORLD_EMPTY_SLOT, 0};
 
-uint32_t key_hash(uint64_t key) {
-  return shader::world_brick_hash(static_cast<uint32_t>(key & world::kBrickAxisMask),
-                                  static_cast<uint32_t>((key >> 21) & world::kBrickAxisMask),
-                                  static_cast<uint32_t>((key >> 42) & world::kBrickAxisMask));
-}
-
-bool entry_is(const shader::WorldHashEntry& e, uint64_t key) {
-  return e.brick != WORLD_EMPTY_SLOT && e.key_lo == static_cast<uint32_t>(key) &&
-         e.key_hi == static_cast<uint32_t>(key >> 32);
-}
-
-void write_cell(uint32_t* rec, const glm::ivec3& ijk, uint8_t cls, uint16_t inst) {
-  const uint32_t n = static_cast<uint32_t>(world::voxel_bit(ijk));
-  rec[WORLD_MASK_OFFSET + n / 32] |= 1u << (n % 32);
-  uint32_t& c = rec[WORLD_CLASS_OFFSET + n / 4];
-  c = (c & ~(0xffu << (8 * (n % 4)))) | (uint32_t{cls} << (8 * (n % 4)));
-  uint32_t& i = rec[WORLD_INSTANCE_OFFSET + n / 2];
-  i = (i & ~(0xffffu << (16 * (n % 2)))) | (uint32_t{inst} << (16 * (n % 2)));
-}
-
-world::Voxel read_cell(const uint32_t* rec, const glm::ivec3& ijk) {
-  const uint32_t n = static_cast<uint32_t>(world::voxel_bit(ijk));
-  if (!((rec[WORLD_MASK_OFFSET + n / 32] >> (n % 32)) & 1u)) return {};
-  return {static_cast<uint8_t>(rec[WORLD_CLASS_OFFSET + n / 4] >> (8 * (n % 4))),
-          static_cast<uint16_t>(rec[WORLD_INSTANCE_OFFSET + n / 2] >> (16 * (n % 2)))};
-}
 
 }  // namespace
 
@@ -68,7 +42,7 @@ void OverlayWorld::allocate(size_t cap) {
   world_.gpu.table_mask = mask;
   for (size_t b = 0; b < static_count_; ++b) {
     const uint64_t key = static_keys_[b];
-    uint32_t s = key_hash(key) & mask;
+    uint32_t s = world::brick_key_hash(key) & mask;
     while (table_[s].brick != WORLD_EMPTY_SLOT) s = (s + 1) & mask;
     table_[s] = {static_cast<uint32_t>(key), static_cast<uint32_t>(key >> 32), static_cast<uint32_t>(b), 0};
   }
@@ -92,8 +66,8 @@ void OverlayWorld::allocate(size_t cap) {
 
 uint32_t OverlayWorld::find_slot(uint64_t key) const {
   const uint32_t mask = world_.gpu.table_mask;
-  uint32_t s = key_hash(key) & mask;
-  while (table_[s].brick != WORLD_EMPTY_SLOT && !entry_is(table_[s], key)) s = (s + 1) & mask;
+  uint32_t s = world::brick_key_hash(key) & mask;
+  while (table_[s].brick != WORLD_EMPTY_SLOT && !world::table_entry_is(table_[s], key)) s = (s + 1) & mask;
   return s;
 }
 
@@ -124,9 +98,9 @@ OverlayStats OverlayWorld::set_overlay(const std::vector<CarCell>& cells) {
     else
       ++st.new_bricks;
     for (const CarCell* c : list) {
-      const world::Voxel old = read_cell(rec, c->ijk);
+      const world::Voxel old = world::record_voxel(rec, c->ijk);
       if (old.class_id == static_cast<uint8_t>(world::SemanticClass::Car) && old.instance > 0) continue;
-      write_cell(rec, c->ijk, static_cast<uint8_t>(world::SemanticClass::Car), c->instance);
+      world::record_set_voxel(rec, c->ijk, static_cast<uint8_t>(world::SemanticClass::Car), c->instance);
       ++st.cells;
     }
     dirty_.push_back({s, table_[s]});
