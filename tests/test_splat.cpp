@@ -230,7 +230,7 @@ TEST_CASE("splat cpu: exact tile culling drops only tiles that no pixel needs (i
   }
 }
 
-TEST_CASE("splat gpu vs cpu, stage by stage (splat_preprocess, splat_sorted_counts, splat_duplicate + sort, splat_ranges, splat_blend): random scenes") {
+TEST_CASE("splat gpu vs cpu, stage by stage (splat_preprocess, splat_sorted_counts, splat_duplicate + sort, splat_ranges, splat_blend; splat_blend_rows in the variants): random scenes") {
   Renderer R;
   struct Case {
     uint32_t seed, degree;
@@ -254,7 +254,7 @@ TEST_CASE("splat gpu vs cpu, stage by stage (splat_preprocess, splat_sorted_coun
     std::snprintf(what, sizeof what, "random seed %u (%zu Gaussians, SH%u, %ux%u)", k.seed, k.n, k.degree, k.w, k.h);
     report(what, compare(R.r, cloud, cam, o));
   }
-  // The other pipeline variants (whole-rect binning, the previous row blend) on one scene.
+  // The other pipeline variants (whole-rect binning, the previous row blend splat_blend_rows) on one scene.
   const auto cloud = test::random_cloud(6, 5000, 3, {0.0, 0.0, 0.0}, 2.0);
   const auto cam = test::look_at_camera({1.0, -6.0, 2.0}, {0.0, 0.0, 0.0}, 150, 101, 140.0, 4.5, -2.0);
   SplatOptions o;
