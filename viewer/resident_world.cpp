@@ -17,18 +17,6 @@ constexpr uint64_t kFree = ~uint64_t{0};
 constexpr shader::WorldHashEntry kEmpty{0, 0, WORLD_EMPTY_SLOT, 0};
 constexpr size_t kRecordBytes = WORLD_BRICK_UINTS * sizeof(uint32_t);
 
-
-void join(world::IjkBounds& b, uint64_t key) {
-  const glm::ivec3 lo = world::brick_from_key(key) * world::kBrickDim;
-  const glm::ivec3 hi = lo + glm::ivec3(world::kBrickDim - 1);
-  if (b.empty()) {
-    b = {lo, hi};
-  } else {
-    b.min = glm::min(b.min, lo);
-    b.max = glm::max(b.max, hi);
-  }
-}
-
 }  // namespace
 
 ResidentWorld::ResidentWorld(gpu::Context& ctx, const glm::dvec3& origin, double voxel_size, size_t static_capacity,
@@ -124,10 +112,9 @@ void ResidentWorld::rebuild_static_table() {
   for (size_t s = 0; s < static_capacity_; ++s) {
     const uint64_t key = key_of_[s];
     if (key == kFree) continue;
-    uint32_t t = world::brick_key_hash(key) & world_.gpu.table_mask;
-    while (table_[t].brick != WORLD_EMPTY_SLOT) t = (t + 1) & world_.gpu.table_mask;
+    const uint32_t t = world::find_table_slot(table_, world_.gpu.table_mask, key);  // keys are unique: an empty slot
     table_[t] = {static_cast<uint32_t>(key), static_cast<uint32_t>(key >> 32), static_cast<uint32_t>(s), 0};
-    join(static_bounds_, key);
+    world::join_brick_bounds(static_bounds_, key);
   }
   dirty_.clear();
 }
@@ -141,10 +128,9 @@ void ResidentWorld::commit() {
     dirty_.clear();
     for (uint32_t s : added_) {
       const uint64_t key = key_of_[s];
-      uint32_t t = world::brick_key_hash(key) & world_.gpu.table_mask;
-      while (table_[t].brick != WORLD_EMPTY_SLOT) t = (t + 1) & world_.gpu.table_mask;
+      const uint32_t t = world::find_table_slot(table_, world_.gpu.table_mask, key);  // a new key: an empty slot
       table_[t] = {static_cast<uint32_t>(key), static_cast<uint32_t>(key >> 32), s, 0};
-      join(static_bounds_, key);
+      world::join_brick_bounds(static_bounds_, key);
     }
   }
   rebuild_ = false;
@@ -159,12 +145,7 @@ void ResidentWorld::commit() {
   ++world_.revision;
 }
 
-uint32_t ResidentWorld::find_slot(uint64_t key) const {
-  const uint32_t mask = world_.gpu.table_mask;
-  uint32_t s = world::brick_key_hash(key) & mask;
-  while (table_[s].brick != WORLD_EMPTY_SLOT && !world::table_entry_is(table_[s], key)) s = (s + 1) & mask;
-  return s;
-}
+uint32_t ResidentWorld::find_slot(uint64_t key) const { return world::find_table_slot(table_, world_.gpu.table_mask, key); }
 
 render::OverlayStats ResidentWorld::set_overlay(const std::vector<render::CarCell>& cells) {
   const bool had = !cells_.empty();
@@ -186,11 +167,7 @@ render::OverlayStats ResidentWorld::set_overlay(const std::vector<render::CarCel
 render::OverlayStats ResidentWorld::patch_overlay() {
   const auto t0 = std::chrono::steady_clock::now();
   render::OverlayStats st;
-  std::map<uint64_t, std::vector<const render::CarCell*>> by_brick;  // brick_key order: deterministic slots
-  for (const render::CarCell& c : cells_) {
-    if (!world::ijk_in_range(c.ijk)) continue;
-    by_brick[world::brick_key(world::brick_of(c.ijk))].push_back(&c);
-  }
+  const std::map<uint64_t, std::vector<const render::CarCell*>> by_brick = render::car_cells_by_brick(cells_);
   if (by_brick.empty()) return st;
   if (by_brick.size() > overlay_capacity_) {
     allocate(std::max(by_brick.size(), 2 * overlay_capacity_));  // re-uploads everything and re-patches through commit()
@@ -208,16 +185,11 @@ render::OverlayStats ResidentWorld::patch_overlay() {
       std::memcpy(rec, records_.data() + size_t{table_[s].brick} * WORLD_BRICK_UINTS, kRecordBytes);
     else
       ++st.new_bricks;
-    for (const render::CarCell* c : list) {
-      const world::Voxel old = world::record_voxel(rec, c->ijk);
-      if (old.class_id == static_cast<uint8_t>(world::SemanticClass::Car) && old.instance > 0) continue;
-      world::record_set_voxel(rec, c->ijk, static_cast<uint8_t>(world::SemanticClass::Car), c->instance);
-      ++st.cells;
-    }
+    render::paint_car_cells(rec, list, st);
     dirty_.push_back({s, table_[s]});
     table_[s] = {static_cast<uint32_t>(key), static_cast<uint32_t>(key >> 32),
                  static_cast<uint32_t>(static_capacity_ + k), 0};
-    join(bounds, key);
+    world::join_brick_bounds(bounds, key);
     ++k;
   }
   st.bricks = by_brick.size();

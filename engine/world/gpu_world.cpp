@@ -86,6 +86,23 @@ Voxel record_voxel(const uint32_t* rec, const glm::ivec3& ijk) {
           static_cast<uint16_t>(rec[WORLD_INSTANCE_OFFSET + n / 2] >> (16 * (n % 2)))};
 }
 
+uint32_t find_table_slot(const std::vector<shader::WorldHashEntry>& table, uint32_t mask, uint64_t key) {
+  uint32_t s = brick_key_hash(key) & mask;
+  while (table[s].brick != WORLD_EMPTY_SLOT && !table_entry_is(table[s], key)) s = (s + 1) & mask;
+  return s;
+}
+
+void join_brick_bounds(IjkBounds& b, uint64_t key) {
+  const glm::ivec3 lo = brick_from_key(key) * kBrickDim;
+  const glm::ivec3 hi = lo + glm::ivec3(kBrickDim - 1);
+  if (b.empty()) {
+    b = {lo, hi};
+  } else {
+    b.min = glm::min(b.min, lo);
+    b.max = glm::max(b.max, hi);
+  }
+}
+
 Voxel lookup_gpu_world_host(const GpuWorldHost& h, const glm::ivec3& ijk) {
   if (!ijk_in_range(ijk)) return {};
   const glm::ivec3 bc = brick_of(ijk);

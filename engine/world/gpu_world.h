@@ -43,6 +43,10 @@ uint32_t brick_key_hash(uint64_t key);
 bool table_entry_is(const shader::WorldHashEntry& e, uint64_t key);
 void record_set_voxel(uint32_t* rec, const glm::ivec3& ijk, uint8_t cls, uint16_t inst);
 Voxel record_voxel(const uint32_t* rec, const glm::ivec3& ijk);
+// The slot of `key` in a table of capacity mask + 1: its entry, or the empty slot where it goes.
+uint32_t find_table_slot(const std::vector<shader::WorldHashEntry>& table, uint32_t mask, uint64_t key);
+// Grows `b` to hold the brick of packed key `key`.
+void join_brick_bounds(IjkBounds& b, uint64_t key);
 
 struct GpuWorld {
   gpu::Buffer brick_table;  // WorldHashEntry[capacity]

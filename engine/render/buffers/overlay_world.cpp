@@ -64,23 +64,31 @@ void OverlayWorld::allocate(size_t cap) {
   ++world_.revision;
 }
 
-uint32_t OverlayWorld::find_slot(uint64_t key) const {
-  const uint32_t mask = world_.gpu.table_mask;
-  uint32_t s = world::brick_key_hash(key) & mask;
-  while (table_[s].brick != WORLD_EMPTY_SLOT && !world::table_entry_is(table_[s], key)) s = (s + 1) & mask;
-  return s;
+uint32_t OverlayWorld::find_slot(uint64_t key) const { return world::find_table_slot(table_, world_.gpu.table_mask, key); }
+
+std::map<uint64_t, std::vector<const CarCell*>> car_cells_by_brick(const std::vector<CarCell>& cells) {
+  std::map<uint64_t, std::vector<const CarCell*>> by_brick;
+  for (const CarCell& c : cells) {
+    if (!world::ijk_in_range(c.ijk)) continue;
+    by_brick[world::brick_key(world::brick_of(c.ijk))].push_back(&c);
+  }
+  return by_brick;
+}
+
+void paint_car_cells(uint32_t* rec, const std::vector<const CarCell*>& cells, OverlayStats& st) {
+  for (const CarCell* c : cells) {
+    const world::Voxel old = world::record_voxel(rec, c->ijk);
+    if (old.class_id == static_cast<uint8_t>(world::SemanticClass::Car) && old.instance > 0) continue;
+    world::record_set_voxel(rec, c->ijk, static_cast<uint8_t>(world::SemanticClass::Car), c->instance);
+    ++st.cells;
+  }
 }
 
 OverlayStats OverlayWorld::set_overlay(const std::vector<CarCell>& cells) {
   const auto t0 = Clock::now();
   OverlayStats st;
   const bool had_overlay = !dirty_.empty();
-  // Group the cells by brick (brick_key order, so slots are assigned deterministically).
-  std::map<uint64_t, std::vector<const CarCell*>> by_brick;
-  for (const CarCell& c : cells) {
-    if (!world::ijk_in_range(c.ijk)) continue;
-    by_brick[world::brick_key(world::brick_of(c.ijk))].push_back(&c);
-  }
+  const std::map<uint64_t, std::vector<const CarCell*>> by_brick = car_cells_by_brick(cells);
   if (by_brick.size() > capacity_) allocate(std::max(by_brick.size(), 2 * capacity_));
   // Restore the previous frame's entries (in reverse, so a slot dirtied twice ends at its static value).
   for (auto it = dirty_.rbegin(); it != dirty_.rend(); ++it) table_[it->first] = it->second;
@@ -97,23 +105,11 @@ OverlayStats OverlayWorld::set_overlay(const std::vector<CarCell>& cells) {
                   WORLD_BRICK_UINTS * sizeof(uint32_t));
     else
       ++st.new_bricks;
-    for (const CarCell* c : list) {
-      const world::Voxel old = world::record_voxel(rec, c->ijk);
-      if (old.class_id == static_cast<uint8_t>(world::SemanticClass::Car) && old.instance > 0) continue;
-      world::record_set_voxel(rec, c->ijk, static_cast<uint8_t>(world::SemanticClass::Car), c->instance);
-      ++st.cells;
-    }
+    paint_car_cells(rec, list, st);
     dirty_.push_back({s, table_[s]});
     table_[s] = {static_cast<uint32_t>(key), static_cast<uint32_t>(key >> 32),
                  static_cast<uint32_t>(static_count_ + slot_index), 0};
-    const glm::ivec3 lo = world::brick_from_key(key) * world::kBrickDim;
-    const glm::ivec3 hi = lo + glm::ivec3(world::kBrickDim - 1);
-    if (bounds.empty()) {
-      bounds = {lo, hi};
-    } else {
-      bounds.min = glm::min(bounds.min, lo);
-      bounds.max = glm::max(bounds.max, hi);
-    }
+    world::join_brick_bounds(bounds, key);
     ++slot_index;
   }
   st.bricks = by_brick.size();

@@ -23,6 +23,7 @@
 #include "render/raycast_gpu.h"
 
 #include <cstdint>
+#include <map>
 #include <vector>
 
 namespace icube::render {
@@ -34,6 +35,13 @@ struct OverlayStats {
   size_t uploaded_bytes = 0;    // this frame
   double build_s = 0.0, upload_s = 0.0;
 };
+
+// The car cells grouped by brick (brick_key order, so slots are assigned deterministically);
+// cells outside the grid's range are dropped.
+std::map<uint64_t, std::vector<const CarCell*>> car_cells_by_brick(const std::vector<CarCell>& cells);
+// Paints a brick's car cells into its record `rec` (a copy of the static brick or zeros): class
+// car with the cell's instance, except where a car instance is already painted; counts st.cells.
+void paint_car_cells(uint32_t* rec, const std::vector<const CarCell*>& cells, OverlayStats& st);
 
 class OverlayWorld {
  public:
