@@ -20,6 +20,7 @@
 #include "cli_common.h"
 #include "command_registry.h"
 #include "progress.h"
+#include "staging_dir.h"
 
 #include "gpu/context.h"
 #include "render/buffers/contact_sheet.h"
@@ -69,17 +70,6 @@ std::string sanitize_clip(std::string s) {
   while (!s.empty() && s.front() == '.') s.erase(s.begin());
   return s.empty() ? std::string("clip") : s;
 }
-
-// Removes the staging folder unless released.
-struct StagingDir {
-  fs::path path;
-  bool keep = false;
-  ~StagingDir() {
-    if (keep || path.empty()) return;
-    std::error_code ec;
-    fs::remove_all(path, ec);
-  }
-};
 
 void cmd_buffers(const BuffersArgs& a) {
   run_command([&](scene::Diagnostics& diag) {
@@ -157,11 +147,7 @@ void cmd_buffers(const BuffersArgs& a) {
     render::OverlayWorld overlay(ctx, static_world);
 
     // Output staging.
-    fs::create_directories(a.output);
-    StagingDir staging;
-    staging.path = fs::path(a.output) / ("." + clip + ".partial-" + std::to_string(getpid()));
-    fs::remove_all(staging.path);
-    fs::create_directories(staging.path);
+    StagingDir staging(a.output, clip);
 
     std::signal(SIGPIPE, SIG_IGN);  // a dying ffmpeg must not kill us
     size_t total_frames = 0;

@@ -36,6 +36,7 @@
 #include "cli_common.h"
 #include "command_registry.h"
 #include "progress.h"
+#include "staging_dir.h"
 
 #include "gpu/context.h"
 #include "render/buffers/frame_scene.h"
@@ -117,17 +118,6 @@ render::LidarModel model_from_args(const LidarArgs& a) {
   render::validate_lidar(m);
   return m;
 }
-
-// Removes the staging folder unless released.
-struct StagingDir {
-  fs::path path;
-  bool keep = false;
-  ~StagingDir() {
-    if (keep || path.empty()) return;
-    std::error_code ec;
-    fs::remove_all(path, ec);
-  }
-};
 
 // OUTDIR may be replaced: absent, an empty folder, or an earlier lidar output.
 void check_output(const fs::path& out) {
@@ -214,11 +204,7 @@ void cmd_lidar_gaussians(const LidarArgs& a, scene::Diagnostics& diag) {
     return g;
   };
 
-  fs::create_directories(out.parent_path());
-  StagingDir staging;
-  staging.path = out.parent_path() / ("." + out.filename().string() + ".partial-" + std::to_string(getpid()));
-  fs::remove_all(staging.path);
-  fs::create_directories(staging.path);
+  StagingDir staging(out.parent_path(), out.filename().string());
 
   ProgressBar bar("lidar", "frames");
   render::LidarWriteOptions wo;
@@ -311,11 +297,7 @@ void cmd_lidar(const LidarArgs& a) {
     gpu::Context ctx(gpu::ContextOptions::from_env());
     render::OverlayWorld overlay(ctx, static_world);
 
-    fs::create_directories(out.parent_path());
-    StagingDir staging;
-    staging.path = out.parent_path() / ("." + out.filename().string() + ".partial-" + std::to_string(getpid()));
-    fs::remove_all(staging.path);
-    fs::create_directories(staging.path);
+    StagingDir staging(out.parent_path(), out.filename().string());
 
     ProgressBar bar("lidar", "frames");
     render::LidarWriteOptions wo;
