@@ -252,10 +252,11 @@ bool run_case(gpu::Context& ctx, const Case& c, const render::RaycastOptions& op
     rc.set_tiled(tiled);
     rc.set_exact(exact);
     gpu::GpuTimer timer(ctx, 1);
-    std::vector<double> kernel_ms, submit_ms;
+    std::vector<double> kernel_ms, submit_ms, cpu_ms;
     for (int i = 0; i < warmup + runs; ++i) {
       int iv = 0;
       if (rebuild) ++w.revision;  // as if the world changed: the record rebuilds the occupancy masks
+      const bench::CpuTimes c0 = bench::cpu_times_now();
       const Clock::time_point t0 = Clock::now();
       ctx.submit_and_wait([&](gpu::CommandList& cmd) {
         timer.reset(cmd);
@@ -265,9 +266,11 @@ bool run_case(gpu::Context& ctx, const Case& c, const render::RaycastOptions& op
         timer.end(cmd, iv);
       });
       const double wall = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+      const bench::CpuTimes c1 = bench::cpu_times_now();
       if (i >= warmup) {
         kernel_ms.push_back(timer.milliseconds(iv));
         submit_ms.push_back(wall);
+        cpu_ms.push_back(1e3 * (c1.own_s - c0.own_s));
       }
       std::fprintf(stderr, "%s run %d: %.1f ms\n", label.c_str(), i, wall);
     }
@@ -317,6 +320,10 @@ bool run_case(gpu::Context& ctx, const Case& c, const render::RaycastOptions& op
                 label.c_str(), bad, static_cast<unsigned long long>(n), normal_only, max_dt, pass ? "ok" : "FAIL");
     rows.push_back({label + ": kernel", summarize(kernel_ms), steps / n, pass ? "ok" : "FAIL"});
     rows.push_back({label + ": submit", summarize(submit_ms), steps / n, pass ? "ok" : "FAIL"});
+    // This process's CPU time per run (lavapipe's threads + the submitting thread): on a shared
+    // machine other processes inflate it far less than wall time. Not a rate: its Mrays/s column
+    // is rays per CPU-second.
+    rows.push_back({label + ": cpu time", summarize(cpu_ms), steps / n, pass ? "ok" : "FAIL"});
     return pass;
   };
   bool ok = gpu_rows(true, true, true, false, "gpu occupancy, tiles (default)");
@@ -340,13 +347,18 @@ bool run_case(gpu::Context& ctx, const Case& c, const render::RaycastOptions& op
       });
     }
     const std::vector<render::Ray> rays = render::camera_rays(cam, opts.pixels);  // outside the timing
-    std::vector<double> ms;
+    std::vector<double> ms, cpu_ms;
     std::vector<VdbResult> vr;
     for (int i = 0; i < 1 + (quick ? 3 : std::max(5, runs / 2)); ++i) {
+      const bench::CpuTimes c0 = bench::cpu_times_now();
       const Clock::time_point t0 = Clock::now();
       vr = cast_openvdb(*vg, grid.origin(), grid.voxel_size(), rays, cpu_threads);
       const double t = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
-      if (i >= 1) ms.push_back(t);
+      const bench::CpuTimes c1 = bench::cpu_times_now();
+      if (i >= 1) {
+        ms.push_back(t);
+        cpu_ms.push_back(1e3 * (c1.own_s - c0.own_s));
+      }
       std::fprintf(stderr, "openvdb run %d: %.1f ms\n", i, t);
     }
     size_t flag_diff = 0, same_voxel = 0, both = 0, t_close = 0;
@@ -370,6 +382,7 @@ bool run_case(gpu::Context& ctx, const Case& c, const render::RaycastOptions& op
     std::snprintf(chk, sizeof chk, "%.4f%%", 100.0 * agree);
     rows.push_back({"openvdb VolumeRayIntersector, " + std::to_string(cpu_threads) + " thr", summarize(ms), steps / n,
                     chk});
+    rows.push_back({"openvdb VolumeRayIntersector: cpu time", summarize(cpu_ms), steps / n, chk});
   }
 #else
   std::printf("openvdb: not found at configure time (install libopenvdb-dev and re-run cmake), row skipped\n");

@@ -1,18 +1,19 @@
 #version 460
 #extension GL_GOOGLE_include_directive : require
 // raycast_occupancy: the ray caster's occupancy index over the ray bounds
-// (layout: shared/raycast_params.h, RaycastOccupancyParams), built from the
-// brick hash table in three dispatches of this shader (p.pass), each after a
-// barrier; the host zero-fills words [0, block_word) (super words, the block
-// counter and the column heights) first.
-//   RAYCAST_OCC_MARK     one invocation per table slot: its brick's super word = 1
+// (layout: shared/raycast_params.h, RaycastOccupancyParams: (entry, column
+// height) word pairs), built from the brick hash table in three dispatches of
+// this shader (p.pass), each after a barrier; the host zero-fills words
+// [0, block_word) (the super pairs and the block counter) first.
+//   RAYCAST_OCC_MARK     one invocation per table slot: its brick's super pair x = 1
 //   RAYCAST_OCC_ALLOCATE one invocation per super brick: a marked one takes the next block
 //                        (atomic counter; block order is arbitrary, lookups do not depend on it),
-//                        stores 1 + block and zeroes the block's 64 entries
-//   RAYCAST_OCC_FILL     one invocation per table slot: its brick's entry in the block,
-//                        ((record + 1) << 8) | octant bits of the record's 4³ octants, and
-//                        raises its brick column's and super-brick column's height words to
-//                        1 + its highest occupied z
+//                        stores 1 + block and zeroes the block's pairs
+//   RAYCAST_OCC_FILL     one invocation per table slot: its brick's entry in its block,
+//                        ((record + 1) << 8) | octant bits of the record's 4³ octants; and, with
+//                        h = 1 + its highest occupied z, raises the height word of every super
+//                        pair of its 32 x 32 column and of every brick pair of its 8 x 8 column
+//                        (in each block of the column's super bricks) to h (atomicMax)
 // Bricks outside the bounds' super-brick box are ignored (rays never leave the bounds).
 // Host module: engine/render/raycast_gpu.{h,cpp}; test: tests/test_raycast.cpp.
 #include "shared/world_layout.h"
@@ -48,10 +49,10 @@ bool slot_brick(uint i, out uint sn, out uint local_brick, out uint record, out 
 void main() {
   const uint i = ICUBE_THREAD_LINEAR();
   if (p.pass == RAYCAST_OCC_ALLOCATE) {
-    if (i >= p.supers || occ[i] == 0u) return;
-    const uint k = atomicAdd(occ[p.supers], 1u);
+    if (i >= p.supers || occ[2u * i] == 0u) return;
+    const uint k = atomicAdd(occ[2u * p.supers], 1u);
     if (k >= p.max_blocks) return;  // cannot happen: max_blocks >= occupied super bricks (host)
-    occ[i] = k + 1u;
+    occ[2u * i] = k + 1u;
     const uint first = p.block_word + k * RAYCAST_BLOCK_WORDS;
     for (uint w = 0u; w < RAYCAST_BLOCK_WORDS; ++w) occ[first + w] = 0u;
     return;
@@ -61,7 +62,7 @@ void main() {
   ivec3 brick;
   if (!slot_brick(i, sn, local_brick, record, brick)) return;
   if (p.pass == RAYCAST_OCC_MARK) {
-    occ[sn] = 1u;
+    occ[2u * sn] = 1u;
     return;
   }
   // RAYCAST_OCC_FILL. Octant bits of the record: mask word w covers lz = w / 2 and ly in
@@ -76,13 +77,19 @@ void main() {
     if ((m & 0xf0f0f0f0u) != 0u) oct |= 2u << sh;
     if (m != 0u) top = int(w >> 1u);
   }
-  const uint block = occ[sn] - 1u;
-  occ[p.block_word + block * RAYCAST_BLOCK_WORDS + local_brick] = ((record + 1u) << 8u) | oct;
+  const uint block = occ[2u * sn] - 1u;
+  occ[p.block_word + block * RAYCAST_BLOCK_WORDS + 2u * local_brick] = ((record + 1u) << 8u) | oct;
   if (top >= 0) {
-    const ivec2 c = brick.xy - 4 * ivec2(p.smin_x, p.smin_y);
-    const uint cn = p.col_word + uint(c.x) + 4u * p.sdim_x * uint(c.y);
     const uint h = uint(brick.z * 8 + top - 32 * p.smin_z + 1);
-    atomicMax(occ[cn], h);
-    atomicMax(occ[p.scol_word + uint(c.x >> 2) + p.sdim_x * uint(c.y >> 2)], h);
+    const ivec3 ls = (brick >> (RAYCAST_SUPER_SHIFT - 3)) - ivec3(p.smin_x, p.smin_y, p.smin_z);
+    const uint lb = uint((brick.x & 3) + 4 * (brick.y & 3));
+    for (uint sz = 0u; sz < p.sdim_z; ++sz) {
+      const uint s = uint(ls.x) + p.sdim_x * (uint(ls.y) + p.sdim_y * sz);
+      atomicMax(occ[2u * s + 1u], h);
+      const uint blk = occ[2u * s];  // final after RAYCAST_OCC_ALLOCATE
+      if (blk == 0u) continue;
+      const uint first = p.block_word + (blk - 1u) * RAYCAST_BLOCK_WORDS + 2u * lb + 1u;
+      for (uint lz = 0u; lz < 4u; ++lz) atomicMax(occ[first + 32u * lz], h);
+    }
   }
 }

@@ -78,17 +78,14 @@ bool occupancy_layout(const RaycastWorld& w, const glm::ivec3& ref, shader::Rayc
   if (records > RAYCAST_MAX_OCC_RECORDS) return false;
   // Every occupied super brick holds at least one brick record.
   const uint64_t max_blocks = std::min(supers, records);
-  const uint64_t columns = 16 * sdim.x * sdim.y + sdim.x * sdim.y;  // brick and super-brick columns
-  words = supers + 1 + columns + max_blocks * RAYCAST_BLOCK_WORDS;
+  words = 2 * supers + 2 + max_blocks * RAYCAST_BLOCK_WORDS;
   if (words > RaycasterGpu::kMaxOccupancyWords) return false;
   op = {};
   op.slots = w.gpu.table_mask + 1;
   op.supers = static_cast<uint32_t>(supers);
   op.smin_x = smin.x; op.smin_y = smin.y; op.smin_z = smin.z;
   op.sdim_x = static_cast<uint32_t>(sdim.x); op.sdim_y = static_cast<uint32_t>(sdim.y); op.sdim_z = static_cast<uint32_t>(sdim.z);
-  op.col_word = static_cast<uint32_t>(supers + 1);
-  op.scol_word = static_cast<uint32_t>(supers + 1 + 16 * sdim.x * sdim.y);
-  op.block_word = static_cast<uint32_t>(supers + 1 + columns);
+  op.block_word = static_cast<uint32_t>(2 * supers + 2);
   op.max_blocks = static_cast<uint32_t>(max_blocks);
   return true;
 }
@@ -117,22 +114,6 @@ static uint32_t workgroup_lanes(const gpu::Context& ctx) { return std::max<uint3
 
 RaycasterGpu::RaycasterGpu(gpu::Context& ctx, bool skip_empty_bricks)
     : ctx_(ctx),
-      program_(ctx.program("raycast", gpu::SpecConstants{}
-                                          .set(0, workgroup_lanes(ctx) /* local_size_x */)
-                                          .set(1, skip_empty_bricks /* RAYCAST_SKIP_EMPTY */)
-                                          .set(2, 0u /* RAYCAST_TILE_W: rows */))),
-      program_tiled_(ctx.program("raycast", gpu::SpecConstants{}
-                                                .set(0, workgroup_lanes(ctx) /* local_size_x */)
-                                                .set(1, skip_empty_bricks /* RAYCAST_SKIP_EMPTY */)
-                                                .set(2, tile_width_for(ctx.subgroup_size()) /* RAYCAST_TILE_W */)
-                                                .set(3, ctx.subgroup_size() /* RAYCAST_SUB_LANES */)
-                                                .set(4, tile_width_for(workgroup_lanes(ctx)) /* RAYCAST_WG_W */))),
-      program_exact_(ctx.info().shader_float64
-                         ? &ctx.program("raycast_exact", gpu::SpecConstants{}
-                                                             .set(0, workgroup_lanes(ctx) /* local_size_x */)
-                                                             .set(1, skip_empty_bricks /* RAYCAST_SKIP_EMPTY */)
-                                                             .set(2, 0u /* RAYCAST_TILE_W: unused */))
-                         : nullptr),
       occupancy_program_(ctx.program("raycast_occupancy")),
       tile_w_(tile_width_for(ctx.subgroup_size())),
       wg_w_(tile_width_for(workgroup_lanes(ctx))),
@@ -143,9 +124,21 @@ RaycasterGpu::RaycasterGpu(gpu::Context& ctx, bool skip_empty_bricks)
       occ_(ctx, 16, gpu::MemoryUsage::DeviceLocal, "raycast-occupancy"),
       near_(ctx, 16, gpu::MemoryUsage::DeviceLocal, "raycast-near-list"),
       cam64_(ctx, sizeof(shader::RaycastCameraF64), gpu::MemoryUsage::DeviceLocal, "raycast-camera-f64"),
-      exact_(program_exact_ != nullptr) {}
+      exact_(ctx.info().shader_float64) {}
 
-void RaycasterGpu::set_exact(bool on) { exact_ = on && program_exact_ != nullptr; }
+void RaycasterGpu::set_exact(bool on) { exact_ = on && ctx_.info().shader_float64; }
+
+gpu::Program& RaycasterGpu::cast_program(bool tiled, bool occupancy, bool exact) const {
+  // Created on first use and cached by the context: a world without an occupancy index (or
+  // set_occupancy(false)) compiles the hash-table variant only when it is needed.
+  gpu::SpecConstants spec;
+  spec.set(0, wg_lanes_ /* local_size_x */)
+      .set(1, skip_empty_ /* RAYCAST_SKIP_EMPTY */)
+      .set(2, tiled ? tile_w_ : 0u /* RAYCAST_TILE_W: 0 = rows */)
+      .set(5, occupancy /* RAYCAST_OCCUPANCY */);
+  if (tiled) spec.set(3, ctx_.subgroup_size() /* RAYCAST_SUB_LANES */).set(4, wg_w_ /* RAYCAST_WG_W */);
+  return ctx_.program(exact ? "raycast_exact" : "raycast", spec);
+}
 
 shader::RaycastParams RaycasterGpu::camera_params(const RaycastWorld& w, const Camera& cam,
                                                   const RaycastOptions& opts) const {
@@ -242,14 +235,14 @@ void RaycasterGpu::record(gpu::CommandList& cmd, const RaycastWorld& w, const sh
   }
   const bool exact = cam64 != nullptr && exact_ && p.width != 0;
   const bool tiled = tiled_ && p.width != 0 && tile_w_ > 1;
-  gpu::Program* prog = tiled ? &program_tiled_ : &program_;
+  gpu::Program* prog = &cast_program(tiled, p.occupancy != 0, false);
   uint64_t threads = p.n;
   if (tiled) {
     const uint64_t lanes = wg_lanes_, th = lanes / wg_w_;
     const uint64_t height = p.n / p.width;
     threads = ((p.width + wg_w_ - 1) / wg_w_) * ((height + th - 1) / th) * lanes;
   }
-  const gpu::BufferBinding occ_texels = occ_.texel_binding(VK_FORMAT_R32_UINT, 0, occ_.size() & ~VkDeviceSize{3});
+  const gpu::BufferBinding occ_texels = occ_.texel_binding(VK_FORMAT_R32G32_UINT, 0, occ_.size() & ~VkDeviceSize{7});
   const gpu::BufferBinding brick_texels =
       w.gpu.brick_data.texel_binding(VK_FORMAT_R32_UINT, 0, w.gpu.brick_data.size() & ~VkDeviceSize{3});
   p.mark_near = exact ? 1u : 0u;
@@ -271,7 +264,7 @@ void RaycasterGpu::record(gpu::CommandList& cmd, const RaycastWorld& w, const sh
     // Second pass: the rays flagged RAYCAST_FLAG_NEAR (listed by the first) are cast again with the
     // chords near eps_sem decided in double; a fixed grid strides over the list.
     cmd.barrier(gpu::deps::kComputeToCompute);  // the float pass's hits and list before the exact pass
-    cmd.dispatch(*program_exact_, {std::min<uint64_t>(p.n, kExactPassThreads)}, p,
+    cmd.dispatch(cast_program(false, p.occupancy != 0, true), {std::min<uint64_t>(p.n, kExactPassThreads)}, p,
                  {w.gpu.brick_table.binding(), w.gpu.brick_data.binding(), rays.binding(), hits.binding(0, bytes),
                   occ_texels, brick_texels, near_.binding(), cam64_.binding()});
   }

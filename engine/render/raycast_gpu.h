@@ -106,10 +106,10 @@ class RaycasterGpu {
  private:
   void record(gpu::CommandList& cmd, const RaycastWorld& w, const shader::RaycastParams& params,
               const gpu::Buffer& rays, const gpu::Buffer& hits, const shader::RaycastCameraF64* cam64 = nullptr);
+  // The ray-casting pipeline: rows or tiles, occupancy index or hash table, float pass or the
+  // exact pass (raycast_exact, needs shaderFloat64).
+  gpu::Program& cast_program(bool tiled, bool occupancy, bool exact) const;
   gpu::Context& ctx_;
-  gpu::Program& program_;
-  gpu::Program& program_tiled_;
-  gpu::Program* program_exact_;  // raycast_exact, null without shaderFloat64
   static constexpr uint64_t kExactPassThreads = 4096;  // the exact pass's grid
   gpu::Program& occupancy_program_;
   uint32_t tile_w_ = 1;   // subgroup sub-tile width

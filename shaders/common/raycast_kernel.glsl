@@ -2,11 +2,12 @@
 #define RAYCAST_EXACT_F64 0
 #endif
 // raycast: one invocation per ray, the semantic hit and the depth of the ray
-// in the GPU world (conventions §10.2) by the two-level traversal in
+// in the GPU world (conventions §10.2) by the one-loop traversal of
 // common/raycast_traverse.glsl (column-top, 32³ super-brick, 8³ brick and 4³
 // octant skipping via the occupancy index of binding 4, built by
-// raycast_occupancy.comp, or hash-table brick skipping when p.occupancy == 0;
-// then an exact voxel DDA; rules of the CPU reference engine/render/raycast_cpu.h).
+// raycast_occupancy.comp, or hash-table brick skipping in the RAYCAST_OCCUPANCY
+// = false pipeline; exact voxel DDA steps in occupied octants; rules of the CPU
+// reference engine/render/raycast_cpu.h).
 // Camera mode (p.width > 0): ray i is pixel (i % width, i / width), origin
 // (off_x, off_y, off_z) relative to the camera voxel p.ref, direction
 // normalize(M · (u + pixel_offset, v + pixel_offset, 1)). Ray-list mode
@@ -36,6 +37,10 @@ layout(constant_id = 1) const bool RAYCAST_SKIP_EMPTY = true;
 layout(constant_id = 2) const uint RAYCAST_TILE_W = 0u;
 layout(constant_id = 3) const uint RAYCAST_SUB_LANES = 8u;
 layout(constant_id = 4) const uint RAYCAST_WG_W = 8u;
+// Spec constant 5: cells come from the occupancy index (binding 4); false: every brick is looked
+// up in the hash table (worlds without an index). A pipeline per path: lavapipe runs both sides of
+// a runtime branch (masked), so the unused path would cost every step.
+layout(constant_id = 5) const bool RAYCAST_OCCUPANCY = true;
 layout(push_constant) uniform Push { RaycastParams p; };
 layout(std430, binding = 0) readonly buffer Table { uvec4 world_table[]; };
 layout(std430, binding = 1) readonly buffer Bricks { uint world_bricks[]; };
@@ -44,7 +49,7 @@ layout(std430, binding = 3) writeonly buffer Hits { RaycastHit hits[]; };
 // Rays flagged RAYCAST_FLAG_NEAR: near_list[0] counts them, near_list[1 + k] = ray index
 // (appended by the float pass when p.mark_near, read by the exact pass).
 layout(std430, binding = 6) buffer NearList { uint near_list[]; };
-layout(binding = 4) uniform usamplerBuffer occ_index;    // occupancy index (R32_UINT texels)
+layout(binding = 4) uniform usamplerBuffer occ_index;    // occupancy index (R32G32_UINT texels: word pairs)
 layout(binding = 5) uniform usamplerBuffer brick_words;  // binding 1 as R32_UINT texels
 #if RAYCAST_EXACT_F64
 #include "shared/raycast_f64_params.h"

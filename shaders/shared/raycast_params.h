@@ -40,7 +40,8 @@ struct RaycastParams {
   float m00, m01, m02, m10, m11, m12, m20, m21, m22;
   float gap_eps;  // metres: empty length along the ray that ends a depth run (smaller gaps are bridged)
   // 1: the occupancy buffer (binding 4) holds the super-brick / brick index of the bounds
-  // (layout below); 0: every brick is looked up in the hash table.
+  // (layout below); 0: every brick is looked up in the hash table. The host records the
+  // pipeline whose spec constant RAYCAST_OCCUPANCY matches (the kernel branches on that).
   uint occupancy;
   // Camera mode, 1: flag rays (RAYCAST_FLAG_NEAR) whose semantic decision met a chord within float
   // rounding of eps_sem, for the exact pass (shaders/raycast_exact.comp), which re-casts only those.
@@ -48,24 +49,26 @@ struct RaycastParams {
 };
 
 // Occupancy index of the ray bounds (built on the GPU from the brick table by
-// shaders/raycast_occupancy.comp in three passes). Super level: one word per
-// super brick (4^3 bricks = 32^3 voxels, s = ijk >> 5) of the dense x-fastest
-// box smin = (ref + lo) >> 5, sdim = ((ref + hi - 1) >> 5) - smin + 1 (`supers`
-// words from word 0): 0 = empty, else 1 + its block. Word `supers` counts the
-// blocks. Column level: from word col_word = supers + 1, one word per 8 x 8 voxel
-// brick column (x, y) of the box (4 sdim.x x 4 sdim.y columns from brick column
-// 4 smin.xy, x fastest): 0 = no occupied voxel, else 1 + the column's highest
-// occupied voxel z relative to 32 smin.z; a ray above it skips the rest of the
-// column in one step. Super-column level: from word scol_word = col_word +
-// 16 sdim.x sdim.y, the same per 32 x 32 voxel column (sdim.x x sdim.y of them).
-// Block level: block k is 64 words from word block_word + 64 k
-// (block_word = scol_word + sdim.x sdim.y), one per brick of the super brick, brick
-// (bx, by, bz) & 3 at bx + 4 by + 16 bz: 0 = no brick, else
-// ((record + 1) << 8) | octants, octant bit ox + 2 oy + 4 oz set when the
-// record's 4^3 octant (ox, oy, oz) holds an occupied voxel. So the kernel finds
-// a brick's record and octants in two loads, without the hash table.
+// shaders/raycast_occupancy.comp in three passes), in pairs of words (the kernel
+// reads one pair per level with one R32G32_UINT texel fetch). Super level: pair
+// s of the dense x-fastest box of super bricks (4^3 bricks = 32^3 voxels,
+// s = ijk >> 5) smin = (ref + lo) >> 5, sdim = ((ref + hi - 1) >> 5) - smin + 1
+// (`supers` pairs from word 0): x = 0 for an empty super brick, else 1 + its
+// block; y = the height word of its 32 x 32 voxel column (every super brick of
+// the column holds it): 0 = no occupied voxel in the column, else 1 + the
+// column's highest occupied voxel z relative to 32 smin.z; a ray above it skips
+// the rest of the column in one step. Word 2 supers counts the blocks (word
+// 2 supers + 1 is padding). Block level: block k is RAYCAST_BLOCK_WORDS words
+// (64 pairs) from word block_word + RAYCAST_BLOCK_WORDS k (block_word =
+// 2 supers + 2), pair (bx & 3) + 4 (by & 3) + 16 (bz & 3) for brick (bx, by, bz)
+// of the super brick: x = 0 for no brick, else ((record + 1) << 8) | octants,
+// octant bit ox + 2 oy + 4 oz set when the record's 4^3 octant (ox, oy, oz)
+// holds an occupied voxel; y = the height word of the brick's 8 x 8 voxel
+// column (as above, over the whole column; kept in every brick entry of the
+// column in every block). So a cell costs three dependent fetches (super pair,
+// brick pair, mask word), no hashing.
 #define RAYCAST_SUPER_SHIFT 5
-#define RAYCAST_BLOCK_WORDS 64u
+#define RAYCAST_BLOCK_WORDS 128u  // 64 (entry, column height) pairs
 // Brick records must stay below this for the block entries' 24-bit record field.
 #define RAYCAST_MAX_OCC_RECORDS 16777215u
 #define RAYCAST_OCC_MARK 0u      // pass 0, per table slot: mark the brick's super brick
@@ -76,12 +79,10 @@ struct RaycastOccupancyParams {
   uint supers;      // super bricks in the box (pass 1)
   int smin_x, smin_y, smin_z;
   uint sdim_x, sdim_y, sdim_z;
-  uint block_word;  // first word of block 0 (= scol_word + sdim_x sdim_y)
+  uint block_word;  // first word of block 0 (= 2 supers + 2)
   uint max_blocks;  // blocks allocated (>= the box's occupied super bricks)
   uint pass;        // RAYCAST_OCC_MARK, _ALLOCATE or _FILL
-  uint col_word;    // first word of the column level (= supers + 1)
-  uint scol_word;   // first word of the super-column level (= col_word + 16 sdim_x sdim_y)
-  uint pad0, pad1, pad2;
+  uint pad0, pad1, pad2, pad3, pad4;
 };
 
 // One ray's result (std430 stride 48).
