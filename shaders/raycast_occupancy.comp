@@ -5,11 +5,13 @@
 // height) word pairs), built from the brick hash table in three dispatches of
 // this shader (p.pass), each after a barrier; the host zero-fills words
 // [0, block_word) (the super pairs and the block counter) first.
-//   RAYCAST_OCC_MARK     one invocation per table slot: its brick's super pair x = 1
+//   RAYCAST_OCC_MARK     one invocation per table slot: its brick's super pair x = 1 (and
+//                        invocation 0 stores mask_word in word 2 supers + 1)
 //   RAYCAST_OCC_ALLOCATE one invocation per super brick: a marked one takes the next block
 //                        (atomic counter; block order is arbitrary, lookups do not depend on it),
 //                        stores 1 + block and zeroes the block's pairs
-//   RAYCAST_OCC_FILL     one invocation per table slot: its brick's entry in its block,
+//   RAYCAST_OCC_FILL     one invocation per table slot: its record's mask words copied to the
+//                        mask level, its brick's entry in its block,
 //                        ((record + 1) << 8) | octant bits of the record's 4³ octants; and, with
 //                        h = 1 + its highest occupied z, raises the height word of every super
 //                        pair of its 32 x 32 column and of every brick pair of its 8 x 8 column
@@ -58,6 +60,7 @@ void main() {
     return;
   }
   if (i >= p.slots) return;
+  if (p.pass == RAYCAST_OCC_MARK && i == 0u) occ[2u * p.supers + 1u] = p.mask_word;  // where the kernel finds the masks
   uint sn, local_brick, record;
   ivec3 brick;
   if (!slot_brick(i, sn, local_brick, record, brick)) return;
@@ -72,6 +75,7 @@ void main() {
   int top = -1;  // highest occupied local z
   for (uint w = 0u; w < 16u; ++w) {
     const uint m = world_bricks[base + w];
+    occ[p.mask_word + record * RAYCAST_MASK_WORDS + w] = m;
     const uint sh = 2u * (w & 1u) + 4u * (w >> 3u);
     if ((m & 0x0f0f0f0fu) != 0u) oct |= 1u << sh;
     if ((m & 0xf0f0f0f0u) != 0u) oct |= 2u << sh;

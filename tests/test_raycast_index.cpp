@@ -223,11 +223,13 @@ TEST_CASE("raycast: column-height skips (rays above brick and super-brick column
 TEST_CASE("raycast: the occupancy index and brick words are texel-buffer bindings, checked at dispatch and working with pooled descriptor sets") {
   const gpu::EmbeddedShader& sh = gpu::find_shader("raycast");
   const gpu::ShaderReflection r = gpu::reflect_spirv(sh.words, sh.word_count, sh.name);
-  REQUIRE(r.bindings.size() == 7);
+  REQUIRE(r.bindings.size() == 8);
   CHECK(r.bindings[3].type == VK_DESCRIPTOR_TYPE_STORAGE_BUFFER);
   CHECK(r.bindings[4].type == VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER);
   CHECK(r.bindings[5].type == VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER);
   CHECK(r.bindings[6].type == VK_DESCRIPTOR_TYPE_STORAGE_BUFFER);
+  CHECK(r.bindings[7].binding == 8);  // the mask level of the index
+  CHECK(r.bindings[7].type == VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER);
 
   gpu::Context& ctx = test::gpu_context();
   gpu::Buffer buf(ctx, 256, gpu::MemoryUsage::DeviceLocal, "texel-check");
@@ -236,19 +238,19 @@ TEST_CASE("raycast: the occupancy index and brick words are texel-buffer binding
   p.n = 1;
   ctx.submit_and_wait([&](gpu::CommandList& cmd) {
     CHECK_THROWS_WITH_AS(cmd.dispatch(c, {1}, p, {buf.binding(), buf.binding(), buf.binding(), buf.binding(), buf.binding(),
-                                                  buf.texel_binding(VK_FORMAT_R32_UINT), buf.binding()}),
+                                                  buf.texel_binding(VK_FORMAT_R32_UINT), buf.binding(), buf.texel_binding(VK_FORMAT_R32_UINT)}),
                          doctest::Contains("needs Buffer::texel_binding"), std::logic_error);
     CHECK_THROWS_WITH_AS(cmd.dispatch(c, {1}, p, {buf.texel_binding(VK_FORMAT_R32_UINT), buf.binding(), buf.binding(),
                                                   buf.binding(), buf.texel_binding(VK_FORMAT_R32_UINT),
-                                                  buf.texel_binding(VK_FORMAT_R32_UINT), buf.binding()}),
+                                                  buf.texel_binding(VK_FORMAT_R32_UINT), buf.binding(), buf.texel_binding(VK_FORMAT_R32_UINT)}),
                          doctest::Contains("not a texel buffer"), std::logic_error);
     CHECK_THROWS_WITH_AS(cmd.dispatch(c, {1}, p, {buf.binding(), buf.binding(), buf.binding(), buf.binding(),
                                                   buf.texel_binding(VK_FORMAT_R32_UINT, 4, 64),
-                                                  buf.texel_binding(VK_FORMAT_R32_UINT), buf.binding()}),
+                                                  buf.texel_binding(VK_FORMAT_R32_UINT), buf.binding(), buf.texel_binding(VK_FORMAT_R32_UINT)}),
                          doctest::Contains("is not aligned"), std::invalid_argument);
     CHECK_THROWS_WITH_AS(cmd.dispatch(c, {1}, p, {buf.binding(), buf.binding(), buf.binding(), buf.binding(),
                                                   buf.texel_binding(VK_FORMAT_R32G32B32A32_UINT, 0, 24),
-                                                  buf.texel_binding(VK_FORMAT_R32_UINT), buf.binding()}),
+                                                  buf.texel_binding(VK_FORMAT_R32_UINT), buf.binding(), buf.texel_binding(VK_FORMAT_R32_UINT)}),
                          doctest::Contains("not a multiple of its 16-byte texels"), std::invalid_argument);
   });
 

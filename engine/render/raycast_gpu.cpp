@@ -78,7 +78,7 @@ bool occupancy_layout(const RaycastWorld& w, const glm::ivec3& ref, shader::Rayc
   if (records > RAYCAST_MAX_OCC_RECORDS) return false;
   // Every occupied super brick holds at least one brick record.
   const uint64_t max_blocks = std::min(supers, records);
-  words = 2 * supers + 2 + max_blocks * RAYCAST_BLOCK_WORDS;
+  words = 2 * supers + 2 + max_blocks * RAYCAST_BLOCK_WORDS + records * RAYCAST_MASK_WORDS;
   if (words > RaycasterGpu::kMaxOccupancyWords) return false;
   op = {};
   op.slots = w.gpu.table_mask + 1;
@@ -87,6 +87,7 @@ bool occupancy_layout(const RaycastWorld& w, const glm::ivec3& ref, shader::Rayc
   op.sdim_x = static_cast<uint32_t>(sdim.x); op.sdim_y = static_cast<uint32_t>(sdim.y); op.sdim_z = static_cast<uint32_t>(sdim.z);
   op.block_word = static_cast<uint32_t>(2 * supers + 2);
   op.max_blocks = static_cast<uint32_t>(max_blocks);
+  op.mask_word = static_cast<uint32_t>(2 * supers + 2 + max_blocks * RAYCAST_BLOCK_WORDS);
   return true;
 }
 
@@ -243,6 +244,7 @@ void RaycasterGpu::record(gpu::CommandList& cmd, const RaycastWorld& w, const sh
     threads = ((p.width + wg_w_ - 1) / wg_w_) * ((height + th - 1) / th) * lanes;
   }
   const gpu::BufferBinding occ_texels = occ_.texel_binding(VK_FORMAT_R32G32_UINT, 0, occ_.size() & ~VkDeviceSize{7});
+  const gpu::BufferBinding mask_texels = occ_.texel_binding(VK_FORMAT_R32_UINT, 0, occ_.size() & ~VkDeviceSize{3});
   const gpu::BufferBinding brick_texels =
       w.gpu.brick_data.texel_binding(VK_FORMAT_R32_UINT, 0, w.gpu.brick_data.size() & ~VkDeviceSize{3});
   p.mark_near = exact ? 1u : 0u;
@@ -259,14 +261,14 @@ void RaycasterGpu::record(gpu::CommandList& cmd, const RaycastWorld& w, const sh
   }
   cmd.dispatch(*prog, {threads}, p,
                {w.gpu.brick_table.binding(), w.gpu.brick_data.binding(), rays.binding(), hits.binding(0, bytes),
-                occ_texels, brick_texels, near_.binding()});
+                occ_texels, brick_texels, near_.binding(), mask_texels});
   if (exact) {
     // Second pass: the rays flagged RAYCAST_FLAG_NEAR (listed by the first) are cast again with the
     // chords near eps_sem decided in double; a fixed grid strides over the list.
     cmd.barrier(gpu::deps::kComputeToCompute);  // the float pass's hits and list before the exact pass
     cmd.dispatch(cast_program(false, p.occupancy != 0, true), {std::min<uint64_t>(p.n, kExactPassThreads)}, p,
                  {w.gpu.brick_table.binding(), w.gpu.brick_data.binding(), rays.binding(), hits.binding(0, bytes),
-                  occ_texels, brick_texels, near_.binding(), cam64_.binding()});
+                  occ_texels, brick_texels, near_.binding(), cam64_.binding(), mask_texels});
   }
 }
 

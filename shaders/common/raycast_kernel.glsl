@@ -51,6 +51,7 @@ layout(std430, binding = 3) writeonly buffer Hits { RaycastHit hits[]; };
 layout(std430, binding = 6) buffer NearList { uint near_list[]; };
 layout(binding = 4) uniform usamplerBuffer occ_index;    // occupancy index (R32G32_UINT texels: word pairs)
 layout(binding = 5) uniform usamplerBuffer brick_words;  // binding 1 as R32_UINT texels
+layout(binding = 8) uniform usamplerBuffer occ_masks;    // the occupancy index as R32_UINT texels (mask level)
 #if RAYCAST_EXACT_F64
 #include "shared/raycast_f64_params.h"
 layout(std430, binding = 7) readonly buffer CameraF64 { RaycastCameraF64 cam64; };

@@ -8,8 +8,9 @@
 // looked up in the occupancy index (RAYCAST_OCCUPANCY, texel buffer `occ_index`,
 // layout in raycast_params.h: a (block, 32 x 32 column height) pair per 32³
 // super brick, then per brick of an occupied super brick a (record + octants,
-// 8 x 8 column height) pair, then the voxel's mask word: three dependent
-// fetches, no hashing) and is either skipped to its exit plane in one step —
+// 8 x 8 column height) pair, then the voxel's word of the record's mask copy
+// in the index (`occ_masks`): three dependent fetches, no hashing) and is
+// either skipped to its exit plane in one step —
 // the box of a super-brick or brick column above its highest voxel (to the
 // bounds' top: a driving scene's air above the ground), an empty super brick,
 // an empty 8³ brick, an empty 4³ octant of an occupied brick — or, inside an
@@ -37,8 +38,8 @@
 // decision is the reference's; the including shader then declares `cam64` (RaycastCameraF64).
 //
 // The including shader declares world_table / world_bricks (see
-// world_lookup.glsl), the texel buffers `usamplerBuffer occ_index` (the occupancy index as
-// R32G32_UINT texels) and
+// world_lookup.glsl), the texel buffers `usamplerBuffer occ_index` and `occ_masks` (the
+// occupancy index as R32G32_UINT and R32_UINT texels) and
 // `usamplerBuffer brick_words` (world_bricks as R32_UINT texels: texel fetches are gathers on
 // lavapipe, where storage-buffer loads at divergent addresses run lane by lane), the push constant
 // block `p` (RaycastParams) and the bools RAYCAST_OCCUPANCY (see above) and RAYCAST_SKIP_EMPTY
@@ -150,6 +151,7 @@ RaycastHit raycast_traverse(vec3 o, vec3 d, uvec2 pix) {
   const ivec3 sdim = ((ref + hi - 1) >> RAYCAST_SUPER_SHIFT) - smin + 1;
   const int block_pair = sdim.x * sdim.y * sdim.z + 1;  // pair index of block 0's first entry
   const int col_base = 32 * smin.z - 1;  // height word h: highest occupied z = col_base + h
+  const int mask_word = occ_on ? int(texelFetch(occ_index, block_pair - 1).y) : 0;  // word 2 supers + 1
   // One cell per iteration: an empty cell skipped to its exit plane or one voxel of an occupied
   // octant. Each crosses at least one voxel plane, so a line through the bounds needs at most
   // ext.x + ext.y + ext.z of them.
@@ -172,8 +174,9 @@ RaycastHit raycast_traverse(vec3 o, vec3 d, uvec2 pix) {
       const ivec3 lb = (av >> 3) & 3;
       const uvec2 ent = texelFetch(occ_index, sup.x != 0u ? block_pair + int(sup.x - 1u) * 64 + lb.x + 4 * lb.y + 16 * lb.z : 0).xy;
       const uint entry = sup.x != 0u ? ent.x : 0u;
-      base = entry != 0u ? ((entry >> 8u) - 1u) * WORLD_BRICK_UINTS : 0u;
-      const uint word = texelFetch(brick_words, entry != 0u ? int(base + WORLD_MASK_OFFSET + (n >> 5u)) : 0).x;
+      const uint record = entry != 0u ? (entry >> 8u) - 1u : 0u;
+      base = record * WORLD_BRICK_UINTS;
+      const uint word = texelFetch(occ_masks, entry != 0u ? mask_word + int(record * RAYCAST_MASK_WORDS + (n >> 5u)) : 0).x;
       const int scol_top = col_base + int(sup.y), col_top = col_base + int(ent.y);
       const ivec3 oc = (av >> 2) & 1;
       if (av.z > scol_top) {  // above the whole 32 x 32 column: the longest skip

@@ -65,10 +65,15 @@ struct RaycastParams {
 // octant bit ox + 2 oy + 4 oz set when the record's 4^3 octant (ox, oy, oz)
 // holds an occupied voxel; y = the height word of the brick's 8 x 8 voxel
 // column (as above, over the whole column; kept in every brick entry of the
-// column in every block). So a cell costs three dependent fetches (super pair,
-// brick pair, mask word), no hashing.
+// column in every block). Mask level: from word mask_word = block_word +
+// RAYCAST_BLOCK_WORDS max_blocks (also stored in word 2 supers + 1, where the
+// kernel reads it), RAYCAST_MASK_WORDS words per brick record: a copy of the
+// record's occupancy mask (shared/world_layout.h), 64 bytes per brick instead of
+// one cache line in every 1.6 KB record. So a cell costs three dependent fetches
+// (super pair, brick pair, mask word), no hashing.
 #define RAYCAST_SUPER_SHIFT 5
 #define RAYCAST_BLOCK_WORDS 128u  // 64 (entry, column height) pairs
+#define RAYCAST_MASK_WORDS 16u    // mask words per brick record (512 voxel bits)
 // Brick records must stay below this for the block entries' 24-bit record field.
 #define RAYCAST_MAX_OCC_RECORDS 16777215u
 #define RAYCAST_OCC_MARK 0u      // pass 0, per table slot: mark the brick's super brick
@@ -82,7 +87,8 @@ struct RaycastOccupancyParams {
   uint block_word;  // first word of block 0 (= 2 supers + 2)
   uint max_blocks;  // blocks allocated (>= the box's occupied super bricks)
   uint pass;        // RAYCAST_OCC_MARK, _ALLOCATE or _FILL
-  uint pad0, pad1, pad2, pad3, pad4;
+  uint mask_word;   // first word of the mask level (= block_word + RAYCAST_BLOCK_WORDS max_blocks)
+  uint pad0, pad1, pad2, pad3;
 };
 
 // One ray's result (std430 stride 48).
