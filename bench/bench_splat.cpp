@@ -1,7 +1,8 @@
 // icube-bench-splat: the GPU Gaussian splatting rasterizer (engine/splat/,
 // shaders/splat_*.comp) on random scenes: frames per second and GPU time by
 // phase (preprocess; depth sort of the Gaussians + tile counts in depth order
-// + scan; duplicate tile ids + radix sort by tile + ranges; blend), tile
+// + scan; binning by tile: duplicate tile ids + radix sort by tile + ranges,
+// or the counting sort of tile_binning_gpu.h; blend), tile
 // instances per frame and GPU memory per Gaussian, for every
 // (Gaussian count, resolution) pair; and the CPU reference's frame time for
 // the smallest case as the competing implementation.
@@ -14,7 +15,11 @@
 // Pipeline variants side by side (--variants, SplatGpuVariant): "rect-rows"
 // (whole getRect rects + the previous row blend, splat_blend_rows.comp),
 // "cull-rows", "rect-tile" and "cull-tile" (exact tile culling + one tile per
-// workgroup, the default); their runs alternate, so they share the load.
+// workgroup, the default); all four bin with the device's default
+// (SplatGpuVariant::binning Auto: the counting sort of tile_binning_gpu.h on
+// CPU devices, the radix path on GPUs), "cull-tile-radix" and
+// "cull-tile-counting" force one ("cull-tile-counting-C": with C chunks). Their
+// runs alternate, so they share the load.
 // Check in the same run: each variant's image against the first variant's
 // (max |difference| over RGBA and depth).
 //
@@ -92,7 +97,12 @@ Variant parse_variant(const std::string& s) {
   if (s == "cull-rows") return {s, {true, false}};
   if (s == "rect-tile") return {s, {false, true}};
   if (s == "cull-tile") return {s, {true, true}};
-  throw std::invalid_argument("--variants: unknown variant '" + s + "' (rect-rows, cull-rows, rect-tile, cull-tile)");
+  if (s == "cull-tile-radix") return {s, {true, true, splat::TileBinning::Radix}};
+  if (s == "cull-tile-counting") return {s, {true, true, splat::TileBinning::Counting}};
+  if (s.rfind("cull-tile-counting-", 0) == 0)  // forced chunk count (SplatGpuVariant::bin_chunks)
+    return {s, {true, true, splat::TileBinning::Counting, static_cast<uint32_t>(std::stoul(s.substr(19)))}};
+  throw std::invalid_argument("--variants: unknown variant '" + s +
+                              "' (rect-rows, cull-rows, rect-tile, cull-tile, cull-tile-radix, cull-tile-counting[-CHUNKS])");
 }
 
 double max_diff(const splat::SplatImage& a, const splat::SplatImage& b) {
@@ -120,7 +130,9 @@ int main(int argc, char** argv) {
   app.add_option("--runs", runs)->capture_default_str();
   app.add_option("--warmup", warmup)->capture_default_str();
   app.add_option("--sh", sh, "SH degree 0-3")->capture_default_str();
-  app.add_option("--variants", variants, "Comma-separated pipeline variants: rect-rows, cull-rows, rect-tile, cull-tile")
+  app.add_option("--variants", variants,
+                 "Comma-separated pipeline variants: rect-rows, cull-rows, rect-tile, cull-tile, cull-tile-radix, "
+                 "cull-tile-counting, cull-tile-counting-CHUNKS")
       ->capture_default_str();
   app.add_flag("!--no-cpu", cpu, "Skip the CPU reference row");
   CLI11_PARSE(app, argc, argv);
@@ -139,7 +151,7 @@ int main(int argc, char** argv) {
   std::printf("icube-bench-splat: device %s, subgroup %u, CPU %s (%u CPUs), LP_NUM_THREADS=%s\n",
               ctx.info().name.c_str(), ctx.subgroup_size(), bench::cpu_model().c_str(), bench::online_cpus(),
               bench::env_or_unset("LP_NUM_THREADS").c_str());
-  std::printf("%10s %10s %10s %7s %8s %8s %8s %8s %8s %8s %8s %11s %8s %9s %9s\n", "gaussians", "size", "variant",
+  std::printf("%10s %10s %18s %7s %8s %8s %8s %8s %8s %8s %8s %11s %8s %9s %9s\n", "gaussians", "size", "variant",
               "fps", "min ms", "med ms", "CPU ms", "pre ms", "dsort ms", "tsort ms", "blend ms", "instances", "B/Gauss",
               "other CPU", "max diff");
   std::vector<std::unique_ptr<splat::SplatRendererGpu>> renderers;
@@ -192,7 +204,7 @@ int main(int argc, char** argv) {
       const double other = bench::other_cpu_seconds(c0, bench::cpu_times_now());
       for (size_t k = 0; k < V; ++k) {
         const double bytes_per = static_cast<double>(g.bytes() + t[k].frame_bytes) / static_cast<double>(n);
-        std::printf("%10zu %10s %10s %7.2f %8.1f %8.1f %8.1f %8.1f %8.1f %8.1f %8.1f %11llu %8.0f %8.1fs %9.2g\n", n,
+        std::printf("%10zu %10s %18s %7.2f %8.1f %8.1f %8.1f %8.1f %8.1f %8.1f %8.1f %11llu %8.0f %8.1fs %9.2g\n", n,
                     sz.c_str(), vars[k].name.c_str(), 1000.0 / median(wall[k]),
                     *std::min_element(wall[k].begin(), wall[k].end()), median(wall[k]), median(own[k]), median(pre[k]),
                     median(dsort[k]), median(sort[k]), median(blend[k]),
@@ -213,7 +225,8 @@ int main(int argc, char** argv) {
     (void)img;
   }
   std::printf("pre: preprocess; dsort: depth sort of the Gaussians (32-bit keys) + tile counts in depth order (exact "
-              "tile culling) + scan; tsort: tile ids in depth order + stable radix sort by tile + ranges.\n");
+              "tile culling) + scan; tsort: tile ids in depth order + stable radix sort by tile + ranges (radix "
+              "binning) or count walk + per-tile offsets and ranges + emit walk (counting binning).\n");
   std::printf("B/Gauss: static (Gaussian records + SH) plus the frame buffers (projections, rects, counts, keys, "
               "sort scratch, image) divided by the Gaussian count; other CPU: CPU time other processes used during "
               "the timed runs of the row; CPU ms: median CPU time this process (lavapipe's threads) used per frame, which load "

@@ -28,10 +28,11 @@ void ensure(gpu::Context& ctx, gpu::Buffer& b, VkDeviceSize bytes, const char* n
 
 struct SplatRendererGpu::Frame {
   gpu::Buffer proj, records, rects, touched, depth_keys, order, counts, offsets, scan_scratch, keys, values, ranges, rgba,
-      depth, total, sky;
+      depth, total, sky, incomplete;
   std::shared_ptr<const SkyImage> sky_image;  // the image currently in `sky`
   std::unique_ptr<kernels::RadixSortScratch> sort_scratch;
   std::unique_ptr<gpu::GpuTimer> t1, t2;
+  uint64_t binning_bytes = 0;  // TileBinningGpu's counters (counting path)
   uint64_t bytes() const {
     uint64_t s = 0;
     for (const gpu::Buffer* b : {&proj, &records, &rects, &touched, &depth_keys, &order, &counts, &offsets, &scan_scratch, &keys,
@@ -40,7 +41,7 @@ struct SplatRendererGpu::Frame {
     if (sort_scratch)
       s += sort_scratch->keys.size() + sort_scratch->values.size() + sort_scratch->histogram.size() +
            sort_scratch->scan_scratch.size();
-    return s;
+    return s + binning_bytes;
   }
 };
 
@@ -55,12 +56,16 @@ SplatRendererGpu::SplatRendererGpu(gpu::Context& ctx, SplatGpuVariant variant)
                                                                            /* local_size_x: one tile per workgroup */))
                  : ctx.program("splat_blend_rows", local_size())),
       variant_(variant),
+      counting_(variant.binning == TileBinning::Counting ||
+                (variant.binning == TileBinning::Auto && ctx.info().type == VK_PHYSICAL_DEVICE_TYPE_CPU)),
       scan_(ctx),
       sort_(ctx, kernels::KeyWidth::Bits32),
+      binning_(ctx),
       f_(std::make_unique<Frame>()) {
   f_->t1 = std::make_unique<gpu::GpuTimer>(ctx, 4);
   f_->t2 = std::make_unique<gpu::GpuTimer>(ctx, 4);
   f_->total = gpu::Buffer(ctx, 16, gpu::MemoryUsage::Readback, "splat-total");
+  f_->incomplete = gpu::Buffer(ctx, 16, gpu::MemoryUsage::DeviceLocal, "splat-bin-incomplete");
 }
 
 SplatRendererGpu::~SplatRendererGpu() = default;
@@ -190,16 +195,21 @@ SplatImage SplatRendererGpu::render(const GpuGaussians& g, const render::Camera&
     depth_sort_ms = f.t1->milliseconds(1);
   }
 
-  // Submission 2: instances in depth order, stable sort by tile id, ranges, blend.
+  // Submission 2: binning by tile (counting sort, or instances in depth order + stable radix
+  // sort by tile id + ranges), blend.
   const uint64_t inst = total;
-  if (inst > sort_.max_elements() || inst * 4 > limit || inst > texel_limit)
-    throw std::runtime_error("splat: " + std::to_string(inst) + " tile instances exceed the radix sort limit of " +
-                             std::to_string(sort_.max_elements()));
-  if (inst > 0) {
+  const uint32_t chunks = counting_ && inst > 0 ? binning_.chunks_for(inst, tiles, variant_.bin_chunks) : 0u;
+  bool counting = chunks > 0;  // else radix (also when the counters would not fit one binding)
+  if (inst * 4 > limit || inst > texel_limit || (!counting && inst > sort_.max_elements()))
+    throw std::runtime_error("splat: " + std::to_string(inst) + " tile instances exceed one storage binding, one " +
+                             "texel-buffer view or the radix sort limit of " + std::to_string(sort_.max_elements()));
+  auto prepare_radix = [&] {
+    if (inst == 0) return;
     ensure(ctx_, f.keys, inst * 4, "splat-keys");
-    ensure(ctx_, f.values, inst * 4, "splat-values");
     ensure_sort_scratch(inst);
-  }
+  };
+  if (inst > 0) ensure(ctx_, f.values, inst * 4, "splat-values");
+  if (!counting) prepare_radix();
   const uint32_t tile_bits = std::max<uint32_t>(1, static_cast<uint32_t>(std::bit_width(tiles - 1u)));
   shader::SplatBlendParams bp{};
   bp.width = W;
@@ -226,10 +236,15 @@ SplatImage SplatRendererGpu::render(const GpuGaussians& g, const render::Camera&
   bp.gnd_g = sg.ground.y;
   bp.gnd_b = sg.ground.z;
   sky_ray_matrix(cam, &bp.m00);
-  ctx_.submit_and_wait([&](gpu::CommandList& cmd) {
+  auto submit2 = [&](gpu::CommandList& cmd) {
     f.t2->reset(cmd);
     const int ts = f.t2->begin(cmd, "sort");
-    if (inst > 0) {
+    if (counting) {
+      binning_.record(cmd,
+                      TileBinningGpu::Frame{f.order, f.offsets, f.rects, f.records, n, inst, frame.grid_x, tiles,
+                                            variant_.exact_cull, chunks},
+                      f.values, f.ranges, f.incomplete);
+    } else if (inst > 0) {
       cmd.dispatch(duplicate_, {n}, shader::SplatDuplicateParams{static_cast<uint32_t>(n), frame.grid_x, cull, 0},
                    {f.order.binding(0, n * 4), f.rects.texel_binding(VK_FORMAT_R32G32B32A32_UINT, 0, n * 16),
                     f.counts.binding(0, n * 4), f.offsets.binding(0, n * 4), f.keys.binding(0, inst * 4),
@@ -238,12 +253,14 @@ SplatImage SplatRendererGpu::render(const GpuGaussians& g, const render::Camera&
       cmd.barrier(gpu::deps::kComputeToCompute);  // the sort reads the keys and values
       sort_.record(cmd, f.keys, f.values, inst, *f.sort_scratch, tile_bits);
     }
-    cmd.fill_buffer(f.ranges.binding(0, uint64_t{tiles} * 8), 0u);
-    cmd.barrier(gpu::deps::kTransferToCompute);  // the ranges kernel writes into the zeroed ranges
-    cmd.barrier(gpu::deps::kComputeToCompute);   // ... and reads the sorted keys
-    if (inst > 0)
-      cmd.dispatch(ranges_, {inst}, shader::SplatRangesParams{static_cast<uint32_t>(inst), 1, 0, 0},
-                   {f.keys.binding(0, inst * 4), f.ranges.binding(0, uint64_t{tiles} * 8)});
+    if (!counting) {
+      cmd.fill_buffer(f.ranges.binding(0, uint64_t{tiles} * 8), 0u);
+      cmd.barrier(gpu::deps::kTransferToCompute);  // the ranges kernel writes into the zeroed ranges
+      cmd.barrier(gpu::deps::kComputeToCompute);   // ... and reads the sorted keys
+      if (inst > 0)
+        cmd.dispatch(ranges_, {inst}, shader::SplatRangesParams{static_cast<uint32_t>(inst), 1, 0, 0},
+                     {f.keys.binding(0, inst * 4), f.ranges.binding(0, uint64_t{tiles} * 8)});
+    }
     f.t2->end(cmd, ts);
     cmd.barrier(gpu::deps::kComputeToCompute);  // blend reads the ranges
     const int tb = f.t2->begin(cmd, "blend");
@@ -258,7 +275,23 @@ SplatImage SplatRendererGpu::render(const GpuGaussians& g, const render::Camera&
                       ? f.sky.texel_binding(VK_FORMAT_R32_UINT, 0, opts.sky.image->rgba.size() & ~size_t{3})
                       : f.ranges.texel_binding(VK_FORMAT_R32_UINT, 0, 8)});
     f.t2->end(cmd, tb);
-  });
+    if (counting) {
+      cmd.barrier(gpu::deps::kComputeToTransfer);  // the copy reads the walks' flag
+      cmd.copy_buffer(f.incomplete.binding(0, 4), f.total.binding(4, 4));
+    }
+  };
+  ctx_.submit_and_wait(submit2);
+  bool fallback = false;
+  if (counting) {
+    uint32_t incomplete = 0;
+    std::memcpy(&incomplete, static_cast<const char*>(f.total.mapped()) + 4, 4);
+    if (incomplete) {  // a walk was cut short (lavapipe's loop limit): bin this frame with the radix path
+      fallback = true;
+      counting = false;
+      prepare_radix();
+      ctx_.submit_and_wait(submit2);
+    }
+  }
 
   SplatImage img;
   img.width = W;
@@ -269,15 +302,24 @@ SplatImage SplatRendererGpu::render(const GpuGaussians& g, const render::Camera&
   }
   if (debug) {
     debug->proj = gpu::download_vector<shader::SplatProjected>(ctx_, f.proj, n);
-    const auto tile_ids = inst ? gpu::download_vector<uint32_t>(ctx_, f.keys, inst) : std::vector<uint32_t>{};
     debug->values = inst ? gpu::download_vector<uint32_t>(ctx_, f.values, inst) : std::vector<uint32_t>{};
+    debug->ranges = gpu::download_vector<uint32_t>(ctx_, f.ranges, size_t{tiles} * 2);
+    debug->counting = counting;
+    debug->binning_fallback = fallback;
+    std::vector<uint32_t> tile_ids;
+    if (!counting) {
+      tile_ids = inst ? gpu::download_vector<uint32_t>(ctx_, f.keys, inst) : std::vector<uint32_t>{};
+    } else {  // the counting path keeps no tile ids: each instance's tile from the ranges (UINT32_MAX: none)
+      tile_ids.assign(inst, UINT32_MAX);
+      for (uint32_t t = 0; t < tiles; ++t)
+        for (uint32_t k = debug->ranges[2 * t]; k < debug->ranges[2 * t + 1] && k < inst; ++k) tile_ids[k] = t;
+    }
     debug->keys.resize(inst);
     for (size_t i = 0; i < inst; ++i) {
       uint32_t zbits;
       std::memcpy(&zbits, &debug->proj[debug->values[i]].depth, 4);
       debug->keys[i] = (uint64_t{tile_ids[i]} << 32) | zbits;
     }
-    debug->ranges = gpu::download_vector<uint32_t>(ctx_, f.ranges, size_t{tiles} * 2);
   }
   if (timings) {
     timings->preprocess_ms = pre_ms;
@@ -285,6 +327,9 @@ SplatImage SplatRendererGpu::render(const GpuGaussians& g, const render::Camera&
     timings->sort_ms = f.t2->milliseconds(0);
     timings->blend_ms = f.t2->milliseconds(1);
     timings->instances = inst;
+    timings->binning_chunks = counting ? chunks : 0;
+    timings->binning_fallback = fallback;
+    f.binning_bytes = binning_.bytes();
     timings->frame_bytes = f.bytes();
     timings->wall_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   }

@@ -1,6 +1,6 @@
 // GPU host module of the tile-based Gaussian splatting rasterizer
 // (shaders/splat_preprocess.comp, splat_sorted_counts.comp,
-// splat_duplicate.comp, splat_ranges.comp, splat_blend.comp; the
+// splat_duplicate.comp, splat_ranges.comp, splat_blend.comp; TileBinningGpu; the
 // foundation PrefixScan and 32-bit RadixSort from kernels/). Same rules and outputs as the CPU reference rasterizer_cpu.h.
 //
 // Frame = two submissions (one CPU sync, as in the reference rasterizer):
@@ -14,6 +14,13 @@
 //   2. duplicate tile ids in depth order at the scan offsets -> stable 32-bit
 //      RadixSort of the bits(#tiles) low bits (2 passes up to 65,536 tiles)
 //      -> fill ranges 0 -> splat_ranges -> blend (+ sky, sky.h).
+//   Binning by tile (SplatGpuVariant::binning): the above is the Radix path
+//   (GPUs); on CPU devices (lavapipe) the Counting path of tile_binning_gpu.h
+//   replaces splat_duplicate + sort + splat_ranges in submission 2 by a stable
+//   counting sort (chunked count walk, scan of the per-(tile, chunk) counters
+//   and ranges in splat_bin_offsets, emit walk): the same instance list and ranges in
+//   O(instances + tiles·chunks). Should a walk be cut short (lavapipe's loop
+//   limit), the frame's submission 2 is redone with the Radix path.
 //   Preprocess also writes a 48-byte blend record per Gaussian
 //   (SplatBlendRecord: the first two vec4 decide whether a Gaussian can touch
 //   a pixel row segment); the blend runs one tile per workgroup: each subgroup
@@ -46,6 +53,7 @@
 #include "prefix_scan.h"
 #include "radix_sort.h"
 #include "splat/rasterizer_cpu.h"
+#include "splat/tile_binning_gpu.h"
 
 #include <memory>
 
@@ -65,11 +73,13 @@ struct GpuGaussians {
 struct SplatTimings {
   double preprocess_ms = 0;  // preprocess
   double depth_sort_ms = 0;  // depth sort of the Gaussians + tiles touched in depth order + scan
-  double sort_ms = 0;        // duplicate tile ids + radix sort by tile + ranges
+  double sort_ms = 0;        // binning: duplicate tile ids + radix sort by tile + ranges, or the counting sort
   double blend_ms = 0;
   double wall_ms = 0;        // host wall clock for the whole frame (both submissions + downloads)
   uint64_t instances = 0;    // (tile, Gaussian) pairs
   uint64_t frame_bytes = 0;  // per-frame GPU buffers currently allocated
+  uint32_t binning_chunks = 0;    // counting binning: its chunk count C (0: the radix path binned the frame)
+  bool binning_fallback = false;  // the counting walks were cut short and the radix path re-binned the frame
 };
 
 // Intermediate results for tests.
@@ -78,15 +88,26 @@ struct SplatDebug {
   std::vector<uint64_t> keys;    // sorted, as tile << 32 | depth bits of proj[value] (rebuilt on the host)
   std::vector<uint32_t> values;  // sorted
   std::vector<uint32_t> ranges;  // 2 per tile
+  bool counting = false;          // the counting binning made the lists (keys' tile ids rebuilt from the ranges)
+  bool binning_fallback = false;  // see SplatTimings
 };
 
-// Pipeline variants (for side-by-side benchmarks; the defaults are the fast ones, and every
-// variant gives the same images). exact_cull = false bins whole getRect rects
+// How the tile instances are sorted by tile (both give the same list and ranges): Radix =
+// splat_duplicate + stable RadixSort of the tile-id bits + splat_ranges; Counting = the
+// chunked counting sort of tile_binning_gpu.h; Auto = Counting on CPU devices
+// (VK_PHYSICAL_DEVICE_TYPE_CPU: lavapipe), Radix on GPUs.
+enum class TileBinning { Auto, Radix, Counting };
+
+// Pipeline variants (for side-by-side benchmarks and tests; the defaults are the fast ones, and
+// every variant gives the same images). exact_cull = false bins whole getRect rects
 // (TileRule::Rect, more instances); tile_blend = false uses splat_blend_rows.comp (the
-// previous blend: 4 tiles per workgroup, per-lane skip loops).
+// previous blend: 4 tiles per workgroup, per-lane skip loops); bin_chunks > 0 forces the
+// counting sort's chunk count (TileBinningGpu::chunks_for; tests).
 struct SplatGpuVariant {
   bool exact_cull = true;
   bool tile_blend = true;
+  TileBinning binning = TileBinning::Auto;
+  uint32_t bin_chunks = 0;
 };
 
 class SplatRendererGpu {
@@ -95,6 +116,10 @@ class SplatRendererGpu {
   ~SplatRendererGpu();
 
   GpuGaussians upload(const GaussianCloud& cloud);
+  // The binning path this renderer takes (Auto resolved for the device). A Counting renderer
+  // still bins a frame with the radix path when the counters would not fit one binding or a
+  // walk was cut short (SplatTimings::binning_chunks, binning_fallback).
+  TileBinning binning() const { return counting_ ? TileBinning::Counting : TileBinning::Radix; }
 
   // Renders one frame. `download` = false skips reading the image back (benchmarks).
   SplatImage render(const GpuGaussians& g, const render::Camera& cam, const SplatOptions& opts,
@@ -109,8 +134,10 @@ class SplatRendererGpu {
   gpu::Program& ranges_;
   gpu::Program& blend_;
   SplatGpuVariant variant_;
+  bool counting_;  // the resolved TileBinning
   kernels::PrefixScan scan_;
   kernels::RadixSort sort_;
+  TileBinningGpu binning_;
   std::unique_ptr<Frame> f_;
 };
 

@@ -77,6 +77,19 @@ struct SplatDuplicateParams {
   uint pad1;
 };
 
+// splat_bin_chunks.comp / splat_bin_offsets.comp (the counting-sort tile
+// binning, engine/splat/tile_binning_gpu.h).
+struct SplatBinParams {
+  uint n;          // Gaussians (depth-sorted positions)
+  uint grid_x;
+  uint chunks;     // C: chunks of the instance list = counters per tile (chunk-major: counter chunk · tiles + tile)
+  uint chunk_len;  // instances per chunk: chunk c = [c · chunk_len, min(instances, (c + 1) · chunk_len))
+  uint cull;       // 1: exact tile culling (splat_tiles.glsl), 0: whole tile rects
+  uint tiles;      // grid_x · grid_y
+  uint instances;  // tile instances of the frame (the last inclusive offset)
+  uint pad0;
+};
+
 struct SplatRangesParams {
   uint n;          // instances (sorted keys)
   uint key_words;  // uint32 words per key, the tile id in the last: 1 (rasterizer tile ids) or 2 (LiDAR 64-bit keys)
@@ -123,6 +136,10 @@ ICUBE_CHECK_LAYOUT(SplatPreprocessParams, lim_x_pos, 80);
 ICUBE_CHECK_LAYOUT(SplatPreprocessParams, near_z, 96);
 ICUBE_CHECK_LAYOUT(SplatPreprocessParams, width, 112);
 ICUBE_CHECK_SIZE(SplatDuplicateParams, 16);
+ICUBE_CHECK_SIZE(SplatBinParams, 32);
+ICUBE_CHECK_LAYOUT(SplatBinParams, chunks, 8);
+ICUBE_CHECK_LAYOUT(SplatBinParams, tiles, 20);
+ICUBE_CHECK_LAYOUT(SplatBinParams, instances, 24);
 ICUBE_CHECK_SIZE(SplatRangesParams, 16);
 ICUBE_CHECK_SIZE(SplatBlendParams, 120);
 ICUBE_CHECK_LAYOUT(SplatBlendParams, pixel_offset, 16);
