@@ -9,25 +9,44 @@
 // range of the sorted instance list (rules and thresholds in
 // engine/splat/rasterizer_cpu.h: skip power > 0 and α < 1/255, α ≤ 0.99, stop
 // before T·(1−α) < 1e-4, per pixel).
-// One workgroup per tile (tile = linear workgroup id: the tile's range is
-// uniform). One invocation blends P = SPLAT_BLEND_PIXELS (splat_params.h)
+// Layout: one workgroup per tile (tile = linear workgroup id: the tile's range
+// is uniform). One invocation blends P = SPLAT_BLEND_PIXELS (splat_params.h)
 // consecutive pixels of one tile row in registers; S = 16/P segments per row,
 // 16·S invocations per workgroup: invocation l covers row (l & 7) +
 // 8·((l >> 3) / S), columns P·((l >> 3) % S) + [0, P), so 8 consecutive
-// invocations (lavapipe's subgroup) cover a P × 8 block.
-// The subgroup walks the tile's Gaussians in batches of one per live lane:
-// each lane loads one instance's blend record (independent loads, so their
-// cache misses overlap; a chain of one uniform load per Gaussian waits for
-// each miss in turn) and tests whether its α-cut ellipse (q <= −2·log_cut,
-// log_cut = ln(0.9/(255·o)), the 10 % margin) reaches the subgroup's pixel
-// block grown by 1 px (the slab test of common/splat_tiles.glsl: the chord's
-// extreme x over the block's rows); a ballot gives the batch's needed
-// Gaussians, which all lanes then evaluate in depth order with the record
-// shuffled from its lane (uniform). Skipped Gaussians cannot pass the
-// per-pixel tests, so results equal the reference loop. Loops exit on
-// subgroup votes (uniform), so on lavapipe they are real loops, not masked
-// branches; the blend stops when no pixel of the subgroup is live. No shared
-// memory or barriers (slow on lavapipe).
+// invocations (lavapipe's subgroup) cover a P × 8 block. The P pixels are
+// SPLAT_BLEND_GROUPS column groups of G = SPLAT_BLEND_G columns (G × the
+// subgroup's rows: the unit of skipping).
+// Batches: each lane loads SPLAT_BLEND_SLOTS blend records (slot s: instance
+// base + s·stride + lane; independent loads, so their cache misses overlap)
+// and tests each one's α-cut ellipse (dᵀ·conic·d <= −2·log_cut, log_cut =
+// ln(0.9/(255·o)), the 10 % margin) against the subgroup's rows grown by 1 px
+// (the slab test of common/splat_tiles.glsl), then against each column group
+// grown by 1 px with the chord's extreme x over those rows. One ballot word per
+// group holds the batch's needed entries (bit s·stride + lane: bit order is
+// depth order). Then, group by group, a loop over the group's bits evaluates
+// each needed Gaussian on the group's G pixels of every lane, the derived
+// values selected from the entry's slot and shuffled from its lane (uniform).
+// Skipped Gaussians cannot pass the per-pixel tests on the skipped pixels, so
+// the skips do not change the result. Why loops per group and not ifs: Mesa's
+// gallivm (lavapipe) executes every if, even a uniform one, under a lane
+// mask, so only a loop's trip count skips work; a loop also runs the rest of
+// its body once more, masked, at its exit, so batches of several records per
+// lane amortise that. Loops exit on subgroup votes (uniform); the blend stops when no pixel
+// of the subgroup (per group: of the group) is live. No shared memory or
+// barriers (slow on lavapipe).
+// Numerics: per Gaussian (once per batch entry and lane) A = −½·a·log2e,
+// B = −b·log2e, C = −½·c·log2e and log2 o; per pixel q = dx·(A·dx + B·dy) +
+// C·dy² + log2 o (= log2(o·e^power); the dy terms once per Gaussian and lane),
+// α = min(0.99, 2^q); the reference's skips power > 0 and α < 1/255 are
+// q > log2 o and q < log2(1/255); test_t = T·(1−α), w = α·T and the stop rule
+// as in the reference. So α differs from the reference's o·e^power by rounding
+// (the tests' max interior difference stays ~1.5e-5); a threshold decided on
+// q instead of α flips for a few more pixels at the 1/255 and 1e-4 boundaries
+// (the degenerate-Gaussians test: 31 instead of 22 of 4800 pixels beyond
+// 1e-3; the other tests 0), for ~8 % of the blend time against α = o·2^(q −
+// log2 o). T > 0 marks a live pixel, T < 0 a stopped one with transmittance
+// −T (pixels outside the image start stopped).
 #include "shared/splat_params.h"
 #include "common/dispatch.glsl"
 
@@ -78,6 +97,70 @@ vec3 splat_sky(float px, float py) {
   return top * (1.0 - ay) + bot * ay;
 }
 
+// Pixels of one column group (a uniform skip unit): the invocation's P pixels are
+// SPLAT_BLEND_GROUPS groups of G consecutive columns.
+#ifndef SPLAT_BLEND_G
+#define SPLAT_BLEND_G 4
+#endif
+#define SPLAT_BLEND_GROUPS (SPLAT_BLEND_PIXELS / SPLAT_BLEND_G)
+#if SPLAT_BLEND_GROUPS != 1 && SPLAT_BLEND_GROUPS != 2 && SPLAT_BLEND_GROUPS != 4
+#error "main() expands SPLAT_BLEND_GROUP for 1, 2 or 4 column groups"
+#endif
+// Records per lane per batch (slot s of lane l holds instance base + s·stride + l; batch
+// bit s·stride + l, so bit order is depth order). Capped at runtime so that slots ·
+// stride <= 32 (one ballot word).
+#ifndef SPLAT_BLEND_SLOTS
+#define SPLAT_BLEND_SLOTS 4
+#endif
+
+const float kLog2e = 1.4426950408889634;
+const float kQMin = -7.9943534368588579;  // log2(1/255)
+
+// One needed Gaussian after another (bits of gmask[GRP], depth order) on the G pixels
+// of column group GRP: the entry's derived values h0 = (mx, my, A, B), h1 = (C, log2 o,
+// depth), rgb (uniform after the shuffle). The group's loop stops when none of its
+// pixels is live.
+#define SPLAT_BLEND_GROUP(GRP)                                                                  \
+  {                                                                                             \
+    uint mask = gmask[GRP];                                                                     \
+    while (mask != 0u) {                                                                        \
+      float live = T[GRP * SPLAT_BLEND_G];                                                      \
+      for (int jj = 1; jj < SPLAT_BLEND_G; ++jj) live = max(live, T[GRP * SPLAT_BLEND_G + jj]); \
+      if (!subgroupAny(live > 0.0)) break;                                                      \
+      const uint e = uint(findLSB(mask));                                                       \
+      mask &= mask - 1u;                                                                        \
+      const uint s = e >> lane_bits, src = e & (stride - 1u);                                   \
+      vec4 h0 = d0[0], h1 = d1[0];                                                              \
+      vec3 rgb = d2[0];                                                                         \
+      for (int t = 1; t < SPLAT_BLEND_SLOTS; ++t)                                               \
+        if (s == uint(t)) {                                                                     \
+          h0 = d0[t];                                                                           \
+          h1 = d1[t];                                                                           \
+          rgb = d2[t];                                                                          \
+        }                                                                                       \
+      h0 = subgroupShuffle(h0, src);                                                            \
+      h1 = subgroupShuffle(h1, src);                                                            \
+      rgb = subgroupShuffle(rgb, src);                                                          \
+      const float dy = h0.y - py;                                                               \
+      const float by = h0.w * dy, hy = h1.x * dy * dy + h1.y;                                   \
+      for (int jj = 0; jj < SPLAT_BLEND_G; ++jj) {                                              \
+        const int j = GRP * SPLAT_BLEND_G + jj;                                                 \
+        const float dx = h0.x - (px0 + float(j));                                               \
+        const float q = dx * (h0.z * dx + by) + hy;                                             \
+        const float alpha = min(0.99, exp2(q));                                                 \
+        const bool ok = T[j] > 0.0 && q >= kQMin && q <= h1.y;                                  \
+        const float test_t = T[j] * (1.0 - alpha);                                              \
+        const bool stop = ok && test_t < 1e-4;                                                  \
+        const bool use = ok && !stop;                                                           \
+        const float w = use ? alpha * T[j] : 0.0;                                               \
+        C[j] += rgb * w;                                                                        \
+        wz[j] += h1.z * w;                                                                      \
+        median[j] = use && T[j] > 0.5 && test_t <= 0.5 ? h1.z : median[j];                      \
+        T[j] = stop ? -T[j] : (use ? test_t : T[j]);                                            \
+      }                                                                                         \
+    }                                                                                           \
+  }
+
 void main() {
   const uint tile = icube_group_linear();  // uniform: one tile per workgroup
   if (tile >= p.grid_x * p.grid_y) return;
@@ -87,72 +170,79 @@ void main() {
   const float py = float(v) + p.pixel_offset;
   const float px0 = float(u0) + p.pixel_offset;  // sample x of the segment's first pixel
   // The subgroup's pixel block (sample coordinates), grown by 1 px: uniform.
-  const float bx0 = subgroupMin(px0) - 1.0, bx1 = subgroupMax(px0) + float(SPLAT_BLEND_PIXELS - 1) + 1.0;
+  const float bxs = subgroupMin(px0);
   const float by0 = subgroupMin(py) - 1.0, by1 = subgroupMax(py) + 1.0;
   const uint lanes = subgroupBallotBitCount(subgroupBallot(true));  // active lanes: 0 .. lanes-1
   const uint lane = gl_SubgroupInvocationID;
+  // Batch lanes: the largest power of two <= lanes (lanes <= 16: one tile per workgroup).
+  const uint lane_bits = uint(findMSB(lanes)), stride = 1u << lane_bits;
+  const uint slots = min(uint(SPLAT_BLEND_SLOTS), 32u >> lane_bits);
   float T[SPLAT_BLEND_PIXELS], wz[SPLAT_BLEND_PIXELS], median[SPLAT_BLEND_PIXELS];
   vec3 C[SPLAT_BLEND_PIXELS];
-  uint alive = 0u;  // bit j: pixel u0 + j is inside the image and not finished
   for (int j = 0; j < SPLAT_BLEND_PIXELS; ++j) {
-    T[j] = 1.0;
+    T[j] = u0 + uint(j) < p.width && v < p.height ? 1.0 : -1.0;
     wz[j] = 0.0;
     median[j] = 0.0;
     C[j] = vec3(0.0);
-    if (u0 + uint(j) < p.width && v < p.height) alive |= 1u << j;
   }
   const uvec2 range = ranges[tile];
-  for (uint base = range.x; base < range.y && subgroupAny(alive != 0u); base += lanes) {
-    // This lane's instance of the batch: record and block test.
-    const uint k = base + lane;
-    vec4 b0 = vec4(0.0), b1 = vec4(0.0), b2 = vec4(0.0);
-    bool need = false;
-    if (k < range.y) {
-      const uint gi = texelFetch(values, int(k)).x;
-      b0 = record(3u * gi);
-      b1 = record(3u * gi + 1u);
-      b2 = record(3u * gi + 2u);
-      const float mx = b0.x, my = b0.y, a = b0.z, b = b0.w, c = b1.x;
-      const float R = -2.0 * b1.y;
-      const float D = a * c - b * b;
-      const float ex = sqrt(R * c / D), ey = sqrt(R * a / D);
-      const float lo = max(by0 - my, -ey), hi = min(by1 - my, ey);
-      const float dyr = -(b / c) * ex;
-      const float yr = min(max(dyr, lo), hi), yl = min(max(-dyr, lo), hi);
-      const float xr = mx + (sqrt(max(0.0, a * R - D * (yr * yr))) - b * yr) / a;
-      const float xl = mx + (-sqrt(max(0.0, a * R - D * (yl * yl))) - b * yl) / a;
-      need = !(lo > hi || xr < bx0 || xl > bx1);  // NaN anywhere: needed (conservative)
-    }
-    uint mask = subgroupBallot(need).x;  // batch entries in depth order (lanes <= 32 here)
-    while (mask != 0u && subgroupAny(alive != 0u)) {
-      const uint e = findLSB(mask);
-      mask &= mask - 1u;
-      const vec4 g0 = subgroupShuffle(b0, e), g1 = subgroupShuffle(b1, e);
-      const vec3 rgb = subgroupShuffle(b2, e).xyz;
-      const float dy = g0.y - py;
-      for (int j = 0; j < SPLAT_BLEND_PIXELS; ++j) {
-        const float dx = g0.x - (float(u0 + uint(j)) + p.pixel_offset);
-        const float power = -0.5 * (g0.z * dx * dx + g1.x * dy * dy) - g0.w * dx * dy;
-        const float alpha = min(0.99, g1.z * exp(power));
-        const bool ok = (alive & (1u << j)) != 0u && power <= 0.0 && alpha >= 1.0 / 255.0;
-        const float test_t = T[j] * (1.0 - alpha);
-        const bool stop = ok && test_t < 1e-4;
-        alive &= stop ? ~(1u << j) : ~0u;
-        const bool use = ok && !stop;
-        const float w = use ? alpha * T[j] : 0.0;
-        C[j] += rgb * w;
-        wz[j] += g1.w * w;
-        median[j] = use && T[j] > 0.5 && test_t <= 0.5 ? g1.w : median[j];
-        T[j] = use ? test_t : T[j];
+  for (uint base = range.x; base < range.y; base += slots << lane_bits) {
+    float live = T[0];
+    for (int j = 1; j < SPLAT_BLEND_PIXELS; ++j) live = max(live, T[j]);
+    if (!subgroupAny(live > 0.0)) break;
+    // This lane's instances of the batch: records, derived values and block tests.
+    vec4 d0[SPLAT_BLEND_SLOTS], d1[SPLAT_BLEND_SLOTS];
+    vec3 d2[SPLAT_BLEND_SLOTS];
+    uint gmask[SPLAT_BLEND_GROUPS];
+    for (int g = 0; g < SPLAT_BLEND_GROUPS; ++g) gmask[g] = 0u;
+    for (int s = 0; s < SPLAT_BLEND_SLOTS; ++s) {
+      const uint k = base + (uint(s) << lane_bits) + lane;
+      d0[s] = vec4(0.0);
+      d1[s] = vec4(0.0);
+      d2[s] = vec3(0.0);
+      bool need = false;
+      float xl = 0.0, xr = 0.0;
+      if (uint(s) < slots && lane < stride && k < range.y) {
+        const uint gi = texelFetch(values, int(k)).x;
+        const vec4 b0 = record(3u * gi), b1 = record(3u * gi + 1u), b2 = record(3u * gi + 2u);
+        const float mx = b0.x, my = b0.y, a = b0.z, b = b0.w, c = b1.x;
+        const float R = -2.0 * b1.y;
+        const float D = a * c - b * b;
+        const float ex = sqrt(R * c / D), ey = sqrt(R * a / D);
+        const float lo = max(by0 - my, -ey), hi = min(by1 - my, ey);
+        const float dyr = -(b / c) * ex;
+        const float yr = min(max(dyr, lo), hi), yl = min(max(-dyr, lo), hi);
+        xr = mx + (sqrt(max(0.0, a * R - D * (yr * yr))) - b * yr) / a;
+        xl = mx + (-sqrt(max(0.0, a * R - D * (yl * yl))) - b * yl) / a;
+        need = !(lo > hi);
+        d0[s] = vec4(mx, my, -0.5 * kLog2e * a, -kLog2e * b);
+        d1[s] = vec4(-0.5 * kLog2e * c, log2(b1.z), b1.w, 0.0);
+        d2[s] = b2.xyz;
+      }
+      // Column group g spans samples bxs + G·g + [0, G−1], grown by 1 px. NaN: needed.
+      for (int g = 0; g < SPLAT_BLEND_GROUPS; ++g) {
+        const float gx0 = bxs + float(SPLAT_BLEND_G * g) - 1.0;
+        const float gx1 = bxs + float(SPLAT_BLEND_G * g + SPLAT_BLEND_G);
+        const uint bits = subgroupBallot(need && !(xr < gx0 || xl > gx1)).x;
+        gmask[g] |= uint(s) < slots ? bits << (uint(s) << lane_bits) : 0u;
       }
     }
+    SPLAT_BLEND_GROUP(0)
+#if SPLAT_BLEND_GROUPS > 1
+    SPLAT_BLEND_GROUP(1)
+#endif
+#if SPLAT_BLEND_GROUPS > 2
+    SPLAT_BLEND_GROUP(2)
+    SPLAT_BLEND_GROUP(3)
+#endif
   }
   if (v >= p.height) return;
   for (int j = 0; j < SPLAT_BLEND_PIXELS; ++j) {
     const uint u = u0 + uint(j);
     if (u >= p.width) break;
     const uint pix = v * p.width + u;
-    rgba[pix] = vec4(C[j] + T[j] * splat_sky(float(u) + p.pixel_offset, py), 1.0 - T[j]);
-    depth[pix] = vec2(T[j] < 1.0 ? wz[j] / (1.0 - T[j]) : 0.0, median[j]);
+    const float t = abs(T[j]);
+    rgba[pix] = vec4(C[j] + t * splat_sky(float(u) + p.pixel_offset, py), 1.0 - t);
+    depth[pix] = vec2(t < 1.0 ? wz[j] / (1.0 - t) : 0.0, median[j]);
   }
 }

@@ -30,6 +30,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <memory>
+#include <random>
 #include <string>
 #include <vector>
 
@@ -475,6 +476,62 @@ TEST_CASE("splat: degenerate Gaussians") {
   float amax = 0.0f;
   for (size_t p = 0; p < size_t{80} * 60; ++p) amax = std::max(amax, img.rgba[4 * p + 3]);
   CHECK(amax == doctest::Approx(0.99f));
+}
+
+// splat_blend.comp skips, per batch, the column groups (4 columns × the subgroup's rows) that
+// a Gaussian's α-cut ellipse cannot reach, and tests rows against the subgroup's block. Small
+// Gaussians centred 1.5 px outside every group and block boundary reach exactly one column
+// (row) across it: a group or block skipped wrongly loses that column (row), far more than
+// the threshold-flip band. Odd image size (partial tiles), both pixel conventions, plus
+// thin rotated Gaussians.
+TEST_CASE("splat gpu: blend column-group and row-block skipping, Gaussians reaching one column or row of a block") {
+  Renderer R;
+  const uint32_t W = 77, H = 45;  // 5 × 3 tiles, the last ones partial
+  const double f = 100.0, z = 5.0;
+  render::Camera cam;  // at the origin looking along +z (OpenCV axes)
+  cam.K = {f, f, 0.5 * W, 0.5 * H, W, H};
+  for (const auto conv : {render::PixelConvention::Centre, render::PixelConvention::Integer}) {
+    CAPTURE(int(conv));
+    const double o = render::pixel_offset(conv);
+    splat::GaussianCloud c;
+    c.sh_degree = 0;
+    std::mt19937 rng(17);
+    std::uniform_real_distribution<double> u(-1.0, 1.0), u01(0.0, 1.0);
+    auto add = [&](double mx, double my, const glm::vec3& scale, const glm::vec4& q, float op) {
+      const float dc[3] = {float(u(rng) / splat::kShC0), float(u(rng) / splat::kShC0), float(u(rng) / splat::kShC0)};
+      const double zi = z + 0.5 * u01(rng);  // projects to (mx, my) at any depth
+      c.add({(mx - cam.K.cx) * zi / f, (my - cam.K.cy) * zi / f, zi}, scale, q, op, dc);
+    };
+    // σ = 0.01 m → 0.18–0.2 px, with the 0.3 px² dilation σ ≈ 0.58 px: at opacity 0.9 a sample
+    // 1.5 px away gets α ≈ 0.03, one 2.5 px away α < 1/255.
+    const glm::vec3 tiny(0.01f);
+    const glm::vec4 q0(1, 0, 0, 0);
+    for (uint32_t bx = 4; bx < W; bx += 4)  // column group boundaries (every 4th column)
+      for (uint32_t yy = 1; yy < H; yy += 6) {
+        const double sy = yy + o + 0.3 * u(rng);
+        add(bx + o - 1.5, sy, tiny, q0, 0.9f);        // reaches column bx only, of the group right of it
+        add(bx - 1 + o + 1.5, sy + 3.0, tiny, q0, 0.9f);  // reaches column bx − 1 only, of the group left of it
+      }
+    for (uint32_t by = 8; by < H; by += 8)  // row block boundaries (subgroup blocks of 8 rows)
+      for (uint32_t xx = 1; xx < W; xx += 5) {
+        const double sx = xx + o + 0.3 * u(rng);
+        add(sx, by + o - 1.5, tiny, q0, 0.9f);
+        add(sx + 2.5, by - 1 + o + 1.5, tiny, q0, 0.9f);
+      }
+    // Thin needles rotated about 45° in the image plane at random places: their chords reach
+    // a group or block at a few rows or columns only.
+    for (int i = 0; i < 40; ++i) {
+      const double a = 0.25 * 3.14159265358979 + 0.2 * u(rng);
+      add(W * u01(rng), H * u01(rng), glm::vec3(0.1f, 0.004f, 0.004f),
+          glm::vec4(float(std::cos(0.5 * a)), 0.0f, 0.0f, float(std::sin(0.5 * a))), 0.8f);
+    }
+    SplatOptions opts;
+    opts.pixels = conv;
+    opts.background = {0.1f, 0.2f, 0.3f};
+    const Compare r = compare(R.r, c, cam, opts, 0.003);
+    report(conv == render::PixelConvention::Centre ? "skip boundaries, centre samples" : "skip boundaries, integer samples",
+           r);
+  }
 }
 
 TEST_CASE("splat gpu: empty scene and Gaussians all culled give the background (both binning paths)") {

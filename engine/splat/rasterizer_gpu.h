@@ -24,10 +24,10 @@
 //   Preprocess also writes a 48-byte blend record per Gaussian
 //   (SplatBlendRecord: the first two vec4 decide whether a Gaussian can touch
 //   a pixel row segment); the blend runs one tile per workgroup: each subgroup
-//   loads a batch of one record per lane (independent loads), tests each
-//   Gaussian's α-cut ellipse against its pixel block, and evaluates only the
-//   ballot's needed Gaussians, in depth order, with the record shuffled from
-//   its lane (splat_blend.comp). Loads at per-lane (divergent or strided)
+//   loads a batch of 4 records per lane (independent loads), tests each
+//   Gaussian's α-cut ellipse against its pixel block's 4-column groups, and
+//   per group evaluates only the ballot's needed Gaussians, in depth order,
+//   with the record shuffled from its lane (splat_blend.comp). Loads at per-lane (divergent or strided)
 //   addresses are texel fetches (uniform texel buffers, R32_UINT /
 //   R32G32B32A32_UINT, bit-cast in the shader: exact): the Gaussians and SH
 //   windows in preprocess, touched/rects/records in splat_sorted_counts and
