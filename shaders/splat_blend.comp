@@ -64,6 +64,8 @@ layout(binding = 2) uniform usamplerBuffer records;  // R32G32B32A32_UINT: 3 tex
 layout(std430, binding = 3) writeonly buffer Rgba { vec4 rgba[]; };
 layout(std430, binding = 4) writeonly buffer Depth { vec2 depth[]; };
 layout(binding = 5) uniform usamplerBuffer sky_texels;  // R32_UINT: RGBA8 sky texels
+// Tiles whose loops reached p.loop_budget (see below); zeroed by the host before the blend.
+layout(std430, binding = 6) buffer Status { uint status; };
 
 vec3 sky_texel(int x, int y) { return unpackUnorm4x8(texelFetch(sky_texels, int(uint(y) * p.sky_w + uint(x))).x).xyz; }
 vec4 record(uint t) { return uintBitsToFloat(texelFetch(records, int(t))); }
@@ -123,7 +125,9 @@ const float kQMin = -7.9943534368588579;  // log2(1/255)
 #define SPLAT_BLEND_GROUP(GRP)                                                                  \
   {                                                                                             \
     uint mask = gmask[GRP];                                                                     \
+    ++iters; /* the loop's masked exit iteration */                                             \
     while (mask != 0u) {                                                                        \
+      ++iters;                                                                                  \
       float live = T[GRP * SPLAT_BLEND_G];                                                      \
       for (int jj = 1; jj < SPLAT_BLEND_G; ++jj) live = max(live, T[GRP * SPLAT_BLEND_G + jj]); \
       if (!subgroupAny(live > 0.0)) break;                                                      \
@@ -186,7 +190,13 @@ void main() {
     C[j] = vec3(0.0);
   }
   const uvec2 range = ranges[tile];
+  // Loop iterations of this invocation (all lanes run the loops together: uniform exits). With
+  // p.loop_budget (lavapipe, which silently ends every loop of an invocation after 65,535
+  // iterations in all) a tile that reaches the budget is counted in `status`, and the host
+  // reports the frame as incomplete instead of returning a cut-short blend.
+  uint iters = 1u;
   for (uint base = range.x; base < range.y; base += slots << lane_bits) {
+    ++iters;
     float live = T[0];
     for (int j = 1; j < SPLAT_BLEND_PIXELS; ++j) live = max(live, T[j]);
     if (!subgroupAny(live > 0.0)) break;
@@ -236,6 +246,7 @@ void main() {
     SPLAT_BLEND_GROUP(3)
 #endif
   }
+  if (p.loop_budget != 0u && iters >= p.loop_budget && subgroupElect()) atomicAdd(status, 1u);
   if (v >= p.height) return;
   for (int j = 0; j < SPLAT_BLEND_PIXELS; ++j) {
     const uint u = u0 + uint(j);

@@ -478,6 +478,34 @@ TEST_CASE("splat: degenerate Gaussians") {
   CHECK(amax == doctest::Approx(0.99f));
 }
 
+// lavapipe silently ends every loop of a shader invocation after 65,535 iterations in all, so
+// splat_blend counts its loop iterations against SplatBlendParams::loop_budget and the renderer
+// throws instead of returning a blend cut short. Forced small budget: the clear error; the
+// device's own budget: the same frame renders and matches the CPU reference.
+TEST_CASE("splat gpu: a tile over the blend's loop budget is an error, not a cut-short image") {
+  splat::GaussianCloud c;
+  c.sh_degree = 0;
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(-0.15, 0.15);
+  const float dc[3] = {0.5f, 0.2f, -0.3f};
+  for (int i = 0; i < 3000; ++i)  // faint, overlapping: no pixel saturates before the end
+    c.add({u(rng), u(rng), u(rng)}, glm::vec3(0.04f), glm::vec4(1, 0, 0, 0), 0.004f, dc);
+  const auto cam = test::look_at_camera({0.0, -3.0, 0.0}, {0.0, 0.0, 0.0}, 37, 29, 30.0);
+  SplatOptions o;
+  o.background = {0.1f, 0.2f, 0.3f};
+  {
+    splat::SplatGpuVariant v;
+    v.blend_loop_budget = 500;
+    splat::SplatRendererGpu r(test::gpu_context(), v);
+    CHECK_THROWS_WITH_AS(r.render(r.upload(c), cam, o), doctest::Contains("blend loop iterations"), std::runtime_error);
+  }
+  splat::SplatRendererGpu r(test::gpu_context());
+  const Compare cmp = compare(r, c, cam, o, 0.01);
+  CHECK(cmp.instances > 3000);
+  std::printf("loop budget scene: %zu visible, %zu instances, band %zu of %zu pixels, max interior %.3g\n", cmp.visible,
+              cmp.instances, cmp.band, cmp.pixels, cmp.max_interior);
+}
+
 // splat_blend.comp skips, per batch, the column groups (4 columns × the subgroup's rows) that
 // a Gaussian's α-cut ellipse cannot reach, and tests rows against the subgroup's block. Small
 // Gaussians centred 1.5 px outside every group and block boundary reach exactly one column

@@ -28,7 +28,7 @@ void ensure(gpu::Context& ctx, gpu::Buffer& b, VkDeviceSize bytes, const char* n
 
 struct SplatRendererGpu::Frame {
   gpu::Buffer proj, records, rects, touched, depth_keys, order, counts, offsets, scan_scratch, keys, values, ranges, rgba,
-      depth, total, sky, incomplete;
+      depth, total, sky, incomplete, blend_status;
   std::shared_ptr<const SkyImage> sky_image;  // the image currently in `sky`
   std::unique_ptr<kernels::RadixSortScratch> sort_scratch;
   std::unique_ptr<gpu::GpuTimer> t1, t2;
@@ -66,6 +66,7 @@ SplatRendererGpu::SplatRendererGpu(gpu::Context& ctx, SplatGpuVariant variant)
   f_->t2 = std::make_unique<gpu::GpuTimer>(ctx, 4);
   f_->total = gpu::Buffer(ctx, 16, gpu::MemoryUsage::Readback, "splat-total");
   f_->incomplete = gpu::Buffer(ctx, 16, gpu::MemoryUsage::DeviceLocal, "splat-bin-incomplete");
+  f_->blend_status = gpu::Buffer(ctx, 16, gpu::MemoryUsage::DeviceLocal, "splat-blend-status");
 }
 
 SplatRendererGpu::~SplatRendererGpu() = default;
@@ -236,7 +237,17 @@ SplatImage SplatRendererGpu::render(const GpuGaussians& g, const render::Camera&
   bp.gnd_g = sg.ground.y;
   bp.gnd_b = sg.ground.z;
   sky_ray_matrix(cam, &bp.m00);
+  const bool tile_blend = variant_.tile_blend;
+  if (tile_blend)
+    bp.loop_budget = variant_.blend_loop_budget >= 0 ? static_cast<uint32_t>(variant_.blend_loop_budget)
+                     : ctx_.info().type == VK_PHYSICAL_DEVICE_TYPE_CPU ? SPLAT_BLEND_LOOP_BUDGET
+                                                                        : 0u;
   auto submit2 = [&](gpu::CommandList& cmd) {
+    if (tile_blend) {
+      cmd.barrier(gpu::deps::kComputeToTransfer);  // an earlier frame's blend and copy are done with it
+      cmd.fill_buffer(f.blend_status.binding(0, 4), 0u);
+      cmd.barrier(gpu::deps::kTransferToCompute);  // zeroed status before the blend counts into it
+    }
     f.t2->reset(cmd);
     const int ts = f.t2->begin(cmd, "sort");
     if (counting) {
@@ -264,17 +275,24 @@ SplatImage SplatRendererGpu::render(const GpuGaussians& g, const render::Camera&
     f.t2->end(cmd, ts);
     cmd.barrier(gpu::deps::kComputeToCompute);  // blend reads the ranges
     const int tb = f.t2->begin(cmd, "blend");
-    cmd.dispatch(blend_, {uint64_t{tiles} * kBlendInvocationsPerTile}, bp,
-                 {f.ranges.binding(0, uint64_t{tiles} * 8),
-                  inst > 0 ? f.values.texel_binding(VK_FORMAT_R32_UINT, 0, inst * 4)
-                           : f.ranges.texel_binding(VK_FORMAT_R32_UINT, 0, 8),
-                  n > 0 ? f.records.texel_binding(VK_FORMAT_R32G32B32A32_UINT, 0, n * sizeof(shader::SplatBlendRecord))
-                        : f.rgba.texel_binding(VK_FORMAT_R32G32B32A32_UINT, 0, 16),
-                  f.rgba.binding(0, uint64_t{W} * H * 16), f.depth.binding(0, uint64_t{W} * H * 8),
-                  opts.sky.kind == SkyKind::Equirect
-                      ? f.sky.texel_binding(VK_FORMAT_R32_UINT, 0, opts.sky.image->rgba.size() & ~size_t{3})
-                      : f.ranges.texel_binding(VK_FORMAT_R32_UINT, 0, 8)});
+    std::vector<gpu::BufferBinding> blend_bindings = {
+        f.ranges.binding(0, uint64_t{tiles} * 8),
+        inst > 0 ? f.values.texel_binding(VK_FORMAT_R32_UINT, 0, inst * 4)
+                 : f.ranges.texel_binding(VK_FORMAT_R32_UINT, 0, 8),
+        n > 0 ? f.records.texel_binding(VK_FORMAT_R32G32B32A32_UINT, 0, n * sizeof(shader::SplatBlendRecord))
+              : f.rgba.texel_binding(VK_FORMAT_R32G32B32A32_UINT, 0, 16),
+        f.rgba.binding(0, uint64_t{W} * H * 16), f.depth.binding(0, uint64_t{W} * H * 8),
+        opts.sky.kind == SkyKind::Equirect
+            ? f.sky.texel_binding(VK_FORMAT_R32_UINT, 0, opts.sky.image->rgba.size() & ~size_t{3})
+            : f.ranges.texel_binding(VK_FORMAT_R32_UINT, 0, 8)};
+    if (tile_blend) blend_bindings.push_back(f.blend_status.binding(0, 4));
+    cmd.dispatch_raw(blend_, {uint64_t{tiles} * kBlendInvocationsPerTile}, &bp, sizeof bp, blend_bindings.data(),
+                     blend_bindings.size());
     f.t2->end(cmd, tb);
+    if (tile_blend) {
+      cmd.barrier(gpu::deps::kComputeToTransfer);  // the copy reads the blend's status
+      cmd.copy_buffer(f.blend_status.binding(0, 4), f.total.binding(8, 4));
+    }
     if (counting) {
       cmd.barrier(gpu::deps::kComputeToTransfer);  // the copy reads the walks' flag
       cmd.copy_buffer(f.incomplete.binding(0, 4), f.total.binding(4, 4));
@@ -291,6 +309,17 @@ SplatImage SplatRendererGpu::render(const GpuGaussians& g, const render::Camera&
       prepare_radix();
       ctx_.submit_and_wait(submit2);
     }
+  }
+
+  if (tile_blend) {
+    uint32_t over = 0;
+    std::memcpy(&over, static_cast<const char*>(f.total.mapped()) + 8, 4);
+    if (over > 0)
+      throw std::runtime_error("splat: " + std::to_string(over) + " pixel block(s) of " + std::to_string(W) + "x" +
+                               std::to_string(H) + " frame need more than " + std::to_string(bp.loop_budget) +
+                               " blend loop iterations (lavapipe ends a shader's loops after 65,535), so the image "
+                               "would be incomplete; too many Gaussians overlap one 16x16 tile (" +
+                               std::to_string(inst) + " tile instances in all)");
   }
 
   SplatImage img;

@@ -108,6 +108,10 @@ struct SplatGpuVariant {
   bool tile_blend = true;
   TileBinning binning = TileBinning::Auto;
   uint32_t bin_chunks = 0;
+  // splat_blend's loop budget (SplatBlendParams::loop_budget): -1 = SPLAT_BLEND_LOOP_BUDGET on
+  // CPU devices (lavapipe's loop limit), none on GPUs; tests force a small one. A frame in
+  // which a tile reached it throws std::runtime_error instead of returning a cut-short blend.
+  int64_t blend_loop_budget = -1;
 };
 
 class SplatRendererGpu {

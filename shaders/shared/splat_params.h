@@ -23,6 +23,10 @@
 // ellipse-against-tile test, M = SPLAT_CULL_MARGIN px (covers both pixel
 // conventions' samples 16t + o .. 16t + 15 + o with at least 0.5 px to spare).
 #define SPLAT_CULL_MARGIN 0.5
+// The blend's loop budget on CPU devices (lavapipe: gallivm's LP_MAX_TGSI_LOOP_ITERATIONS =
+// 65,535 loop iterations per invocation, all loops together), with a margin for the
+// iterations the kernel does not count.
+#define SPLAT_BLEND_LOOP_BUDGET 64000u
 
 ICUBE_SHADER_NAMESPACE_BEGIN
 
@@ -112,7 +116,10 @@ struct SplatBlendParams {
   float hor_r, hor_g, hor_b;  // gradient: horizon
   float gnd_r, gnd_g, gnd_b;  // gradient: straight down
   float m00, m01, m02, m10, m11, m12, m20, m21, m22;
-  float pad0;
+  // splat_blend.comp: a workgroup whose loops made at least this many iterations counts itself
+  // in the status word (0 = no budget). lavapipe ends every loop of an invocation once its
+  // loops have made 65,535 iterations in all, so the host sets SPLAT_BLEND_LOOP_BUDGET there.
+  uint loop_budget;
 };
 
 ICUBE_SHADER_NAMESPACE_END
@@ -147,6 +154,6 @@ ICUBE_CHECK_LAYOUT(SplatBlendParams, sky_h, 28);
 ICUBE_CHECK_LAYOUT(SplatBlendParams, bg_r, 32);
 ICUBE_CHECK_LAYOUT(SplatBlendParams, gnd_r, 68);
 ICUBE_CHECK_LAYOUT(SplatBlendParams, m00, 80);
-ICUBE_CHECK_LAYOUT(SplatBlendParams, pad0, 116);
+ICUBE_CHECK_LAYOUT(SplatBlendParams, loop_budget, 116);
 
 #endif
