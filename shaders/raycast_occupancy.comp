@@ -26,7 +26,9 @@ layout(local_size_x = 64) in;
 layout(push_constant) uniform Push { RaycastOccupancyParams p; };
 layout(std430, binding = 0) readonly buffer Table { uvec4 world_table[]; };
 layout(std430, binding = 1) buffer Occupancy { uint occ[]; };
-layout(std430, binding = 2) readonly buffer Bricks { uint world_bricks[]; };
+// The brick words as R32_UINT texels: the mask reads are at per-lane addresses (a gather on
+// lavapipe, where a storage-buffer load there is a loop over the lanes).
+layout(binding = 2) uniform usamplerBuffer brick_words;
 
 // Super word index of table slot i's brick and the brick's place in its block; false when
 // the slot is empty or the brick lies outside the box.
@@ -74,7 +76,7 @@ void main() {
   uint oct = 0u;
   int top = -1;  // highest occupied local z
   for (uint w = 0u; w < 16u; ++w) {
-    const uint m = world_bricks[base + w];
+    const uint m = texelFetch(brick_words, int(base + w)).x;
     occ[p.mask_word + record * RAYCAST_MASK_WORDS + w] = m;
     const uint sh = 2u * (w & 1u) + 4u * (w >> 3u);
     if ((m & 0x0f0f0f0fu) != 0u) oct |= 1u << sh;
