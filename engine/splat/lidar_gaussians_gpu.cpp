@@ -1,7 +1,7 @@
 // LiDAR on Gaussians, GPU host module; see lidar_gaussians_gpu.h.
 #include "splat/lidar_gaussians_gpu.h"
 
-#include "shared/splat_params.h"  // SplatRangesParams (splat_ranges.comp)
+#include "splat/tile_ranges_gpu.h"
 
 #include <algorithm>
 #include <bit>
@@ -203,12 +203,7 @@ std::vector<shader::SplatLidarHit> LidarGaussiansGpu::cast(const GpuLidarGaussia
       cmd.barrier(gpu::deps::kComputeToCompute);  // the sort reads the keys and values
       sort_.record(cmd, f.keys, f.values, inst, *f.sort_scratch, key_bits);
     }
-    cmd.fill_buffer(f.ranges.binding(0, uint64_t{tiles} * 8), 0u);
-    cmd.barrier(gpu::deps::kTransferToCompute);  // the ranges kernel writes into the zeroed ranges
-    cmd.barrier(gpu::deps::kComputeToCompute);   // ... and reads the sorted keys
-    if (inst > 0)
-      cmd.dispatch(ranges_, {inst}, shader::SplatRangesParams{static_cast<uint32_t>(inst), 2, 0, 0},
-                   {f.keys.binding(0, inst * 8), f.ranges.binding(0, uint64_t{tiles} * 8)});
+    record_tile_ranges(cmd, ranges_, f.keys, 2, inst, f.ranges, tiles);
     f.t2->end(cmd, ts);
     cmd.barrier(gpu::deps::kComputeToCompute);  // the cast reads the ranges
     const int tc = f.t2->begin(cmd, "cast");

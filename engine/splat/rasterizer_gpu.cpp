@@ -1,6 +1,8 @@
 // GPU host module of the Gaussian splatting rasterizer; see rasterizer_gpu.h.
 #include "splat/rasterizer_gpu.h"
 
+#include "splat/tile_ranges_gpu.h"
+
 #include <algorithm>
 #include <bit>
 #include <chrono>
@@ -264,14 +266,7 @@ SplatImage SplatRendererGpu::render(const GpuGaussians& g, const render::Camera&
       cmd.barrier(gpu::deps::kComputeToCompute);  // the sort reads the keys and values
       sort_.record(cmd, f.keys, f.values, inst, *f.sort_scratch, tile_bits);
     }
-    if (!counting) {
-      cmd.fill_buffer(f.ranges.binding(0, uint64_t{tiles} * 8), 0u);
-      cmd.barrier(gpu::deps::kTransferToCompute);  // the ranges kernel writes into the zeroed ranges
-      cmd.barrier(gpu::deps::kComputeToCompute);   // ... and reads the sorted keys
-      if (inst > 0)
-        cmd.dispatch(ranges_, {inst}, shader::SplatRangesParams{static_cast<uint32_t>(inst), 1, 0, 0},
-                     {f.keys.binding(0, inst * 4), f.ranges.binding(0, uint64_t{tiles} * 8)});
-    }
+    if (!counting) record_tile_ranges(cmd, ranges_, f.keys, 1, inst, f.ranges, tiles);
     f.t2->end(cmd, ts);
     cmd.barrier(gpu::deps::kComputeToCompute);  // blend reads the ranges
     const int tb = f.t2->begin(cmd, "blend");
