@@ -214,7 +214,7 @@ void RaycasterGpu::record(gpu::CommandList& cmd, const RaycastWorld& w, const sh
       // An earlier record (this command list or an earlier one) may still read or build the index.
       cmd.barrier(gpu::deps::kComputeToTransfer);
       cmd.fill_buffer(occ_.binding(0, VkDeviceSize{op.block_word} * 4), 0u);
-      cmd.barrier(gpu::deps::kTransferToCompute);  // zeroed super words, block counter and columns before marking
+      cmd.barrier(gpu::deps::kTransferToCompute);  // zeroed super pairs and block counter before marking
       const auto bindings = {w.gpu.brick_table.binding(), occ_.binding(0, occ_bytes),
                              w.gpu.brick_data.texel_binding(VK_FORMAT_R32_UINT, 0, w.gpu.brick_data.size() & ~VkDeviceSize{3})};
       shader::RaycastOccupancyParams pass = op;  // op (pass 0) is what the cache compares

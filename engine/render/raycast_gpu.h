@@ -53,18 +53,19 @@ class RaycasterGpu {
   // skip_empty_bricks = false selects the flat walk (every voxel of every brick; for benchmarks).
   explicit RaycasterGpu(gpu::Context& ctx, bool skip_empty_bricks = true);
 
-  // Occupancy index (on by default with skip_empty_bricks): a word per 32³ super
-  // brick of the bounds, the highest occupied voxel of every 32 x 32 and 8 x 8
-  // voxel column and, per occupied super brick, a block of 64 brick entries (brick
-  // record and 4³ octant bits), built from the brick table (raycast_occupancy.comp:
-  // a fill and three passes); the kernel skips column tops, empty super bricks,
-  // bricks and octants and finds bricks in two loads without hashing. A record
+  // Occupancy index (on by default with skip_empty_bricks; layout in
+  // shared/raycast_params.h): a (block, 32 x 32 column height) pair per 32³ super
+  // brick of the bounds, per occupied super brick a block of 64 (brick record + 4³
+  // octant bits, 8 x 8 column height) pairs, and a copy of every record's mask,
+  // built from the brick table (raycast_occupancy.comp: a fill and three passes);
+  // the kernel skips column tops, empty super bricks, bricks and octants and finds
+  // a voxel's cell in three fetches without hashing. A record
   // rebuilds it unless the last build was for the same world (RaycastWorld id != 0,
   // same revision and layout); a recorded command list must then be submitted
   // before the next record relies on it. Off: empty bricks are found by hash
   // lookups (the same results; for benchmarks). Worlds whose index would pass
-  // kMaxOccupancyWords words (one 128 MiB binding) always run without. The index
-  // and the brick words are read as R32_UINT texel buffers (gathers on lavapipe).
+  // kMaxOccupancyWords words (one 128 MiB binding) always run without (the hash-table
+  // pipeline). The index and the brick words are read as texel buffers.
   static constexpr uint64_t kMaxOccupancyWords = uint64_t{1} << 25;
   void set_occupancy(bool on) { occupancy_ = on; }
   // Number of occupancy builds recorded so far (for tests and benchmarks).
