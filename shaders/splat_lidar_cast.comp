@@ -23,6 +23,11 @@
 // against the same origin on the host (100 km from the origin casts the
 // same). No shared memory or barriers (slow on lavapipe).
 // Output: SplatLidarHit per ray, ray index = ring · columns + column.
+// Known limit: lavapipe ends every loop of an invocation once its loops have made
+// 65,535 iterations in all (gallivm's LP_MAX_TGSI_LOOP_ITERATIONS); a tile list of
+// tens of thousands of Gaussians could be cut short there without a flag (the loops
+// here are per-lane divergent, so a lane's own count cannot tell; splat_blend,
+// whose loops are uniform, counts and reports).
 // Host module: engine/splat/lidar_gaussians_gpu.cpp; test: tests/test_lidar_gaussians.cpp.
 #include "shared/splat_lidar_params.h"
 #include "common/dispatch.glsl"
