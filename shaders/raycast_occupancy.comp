@@ -3,10 +3,10 @@
 // raycast_occupancy: the ray caster's occupancy index over the ray bounds
 // (layout: shared/raycast_params.h, RaycastOccupancyParams: (entry, column
 // height) word pairs), built from the brick hash table in three dispatches of
-// this shader (p.pass), each after a barrier; the host zero-fills words
-// [0, block_word) (the super pairs and the block counter) first.
-//   RAYCAST_OCC_MARK     one invocation per table slot: its brick's super pair x = 1 (and
-//                        invocation 0 stores mask_word in word 2 supers + 1)
+// this shader (p.pass), each after a barrier; the host first zero-fills words
+// [0, 2 supers + 1) (the super pairs and the block counter) and writes mask_word
+// into word 2 supers + 1, where the kernel finds the mask level.
+//   RAYCAST_OCC_MARK     one invocation per table slot: its brick's super pair x = 1
 //   RAYCAST_OCC_ALLOCATE one invocation per super brick: a marked one takes the next block
 //                        (atomic counter; block order is arbitrary, lookups do not depend on it),
 //                        stores 1 + block and zeroes the block's pairs
@@ -62,7 +62,6 @@ void main() {
     return;
   }
   if (i >= p.slots) return;
-  if (p.pass == RAYCAST_OCC_MARK && i == 0u) occ[2u * p.supers + 1u] = p.mask_word;  // where the kernel finds the masks
   uint sn, local_brick, record;
   ivec3 brick;
   if (!slot_brick(i, sn, local_brick, record, brick)) return;

@@ -194,7 +194,7 @@ void main() {
   // p.loop_budget (lavapipe, which silently ends every loop of an invocation after 65,535
   // iterations in all) a tile that reaches the budget is counted in `status`, and the host
   // reports the frame as incomplete instead of returning a cut-short blend.
-  uint iters = 1u;
+  uint iters = 1u;  // 1: the batch loop's masked exit iteration
   for (uint base = range.x; base < range.y; base += slots << lane_bits) {
     ++iters;
     float live = T[0];

@@ -137,6 +137,12 @@ namespace {
 constexpr VkDeviceSize kStagingChunk = 64ull << 20;
 }
 
+void ensure_capacity(Context& ctx, Buffer& b, VkDeviceSize bytes, const std::string& name, MemoryUsage usage) {
+  bytes = std::max<VkDeviceSize>(bytes, 16);
+  if (b.valid() && b.size() >= bytes) return;
+  b = Buffer(ctx, bytes + bytes / 2, usage, name);
+}
+
 void upload(Context& ctx, const Buffer& dst, const void* src, size_t bytes, VkDeviceSize dst_offset) {
   if (dst_offset + bytes > dst.size())
     throw std::out_of_range("upload to '" + dst.name() + "' past its end");

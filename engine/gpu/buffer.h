@@ -90,6 +90,12 @@ std::vector<ElementWindow> storage_windows(const DeviceInfo& info, uint64_t elem
 void upload(Context& ctx, const Buffer& dst, const void* src, size_t bytes, VkDeviceSize dst_offset = 0);
 void download(Context& ctx, const Buffer& src, void* dst, size_t bytes, VkDeviceSize src_offset = 0);
 
+// Makes `b` hold at least `bytes` (at least 16): keeps it when it already does, else replaces it
+// with a new buffer of 1.5 x `bytes`, so per-frame buffers that grow slowly are not reallocated
+// every frame. The old contents are not kept.
+void ensure_capacity(Context& ctx, Buffer& b, VkDeviceSize bytes, const std::string& name,
+                     MemoryUsage usage = MemoryUsage::DeviceLocal);
+
 template <class T>
 Buffer upload_vector(Context& ctx, const std::vector<T>& data, const std::string& name = "") {
   Buffer b(ctx, data.empty() ? sizeof(T) : data.size() * sizeof(T), MemoryUsage::DeviceLocal, name);

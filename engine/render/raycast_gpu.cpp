@@ -213,8 +213,11 @@ void RaycasterGpu::record(gpu::CommandList& cmd, const RaycastWorld& w, const sh
     } else {
       // An earlier record (this command list or an earlier one) may still read or build the index.
       cmd.barrier(gpu::deps::kComputeToTransfer);
-      cmd.fill_buffer(occ_.binding(0, VkDeviceSize{op.block_word} * 4), 0u);
-      cmd.barrier(gpu::deps::kTransferToCompute);  // zeroed super pairs and block counter before marking
+      // Zeroed super pairs and block counter, and word 2 supers + 1: where the kernel finds the masks.
+      const VkDeviceSize mask_word_at = (2 * VkDeviceSize{op.supers} + 1) * 4;
+      cmd.fill_buffer(occ_.binding(0, mask_word_at), 0u);
+      cmd.update_buffer(occ_.binding(mask_word_at, 4), &op.mask_word, 4);
+      cmd.barrier(gpu::deps::kTransferToCompute);  // both before marking
       const auto bindings = {w.gpu.brick_table.binding(), occ_.binding(0, occ_bytes),
                              w.gpu.brick_data.texel_binding(VK_FORMAT_R32_UINT, 0, w.gpu.brick_data.size() & ~VkDeviceSize{3})};
       shader::RaycastOccupancyParams pass = op;  // op (pass 0) is what the cache compares

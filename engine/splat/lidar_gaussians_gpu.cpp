@@ -19,12 +19,6 @@ static_assert(SPLAT_LIDAR_TILE_ROWS * SPLAT_LIDAR_TILE_COLS == SPLAT_LIDAR_TILE_
 
 gpu::SpecConstants local_size() { return gpu::SpecConstants{}.set(0, kLocal /* local_size_x */); }
 
-void ensure(gpu::Context& ctx, gpu::Buffer& b, VkDeviceSize bytes, const char* name) {
-  bytes = std::max<VkDeviceSize>(bytes, 16);
-  if (b.valid() && b.size() >= bytes) return;
-  b = gpu::Buffer(ctx, bytes + bytes / 2, gpu::MemoryUsage::DeviceLocal, name);
-}
-
 const render::LidarModel& validated(const render::LidarModel& m) {
   render::validate_lidar(m);
   return m;
@@ -149,11 +143,11 @@ std::vector<shader::SplatLidarHit> LidarGaussiansGpu::cast(const GpuLidarGaussia
   p.oy = static_cast<float>(o.y);
   p.oz = static_cast<float>(o.z);
 
-  ensure(ctx_, f.rects, n * 16, "lidar-gs-rects");
-  ensure(ctx_, f.touched, n * 4, "lidar-gs-touched");
-  ensure(ctx_, f.offsets, n * 4, "lidar-gs-offsets");
-  ensure(ctx_, f.bound, n * 4, "lidar-gs-bound");
-  ensure(ctx_, f.scan_scratch, kernels::PrefixScan::scratch_elements(n) * 4, "lidar-gs-scan-scratch");
+  gpu::ensure_capacity(ctx_, f.rects, n * 16, "lidar-gs-rects");
+  gpu::ensure_capacity(ctx_, f.touched, n * 4, "lidar-gs-touched");
+  gpu::ensure_capacity(ctx_, f.offsets, n * 4, "lidar-gs-offsets");
+  gpu::ensure_capacity(ctx_, f.bound, n * 4, "lidar-gs-bound");
+  gpu::ensure_capacity(ctx_, f.scan_scratch, kernels::PrefixScan::scratch_elements(n) * 4, "lidar-gs-scan-scratch");
 
   // Submission 1: bin, scan of the tile counts, the total to the host.
   uint32_t total = 0;
@@ -183,13 +177,13 @@ std::vector<shader::SplatLidarHit> LidarGaussiansGpu::cast(const GpuLidarGaussia
     throw std::runtime_error("lidar gaussians: " + std::to_string(inst) +
                              " tile instances exceed the radix sort / storage binding limit");
   if (inst > 0) {
-    ensure(ctx_, f.keys, inst * 8, "lidar-gs-keys");
-    ensure(ctx_, f.values, inst * 4, "lidar-gs-values");
+    gpu::ensure_capacity(ctx_, f.keys, inst * 8, "lidar-gs-keys");
+    gpu::ensure_capacity(ctx_, f.values, inst * 4, "lidar-gs-values");
     if (!f.sort_scratch || f.sort_scratch->capacity < inst)
       f.sort_scratch = std::make_unique<kernels::RadixSortScratch>(ctx_, inst + inst / 2, kernels::KeyWidth::Bits64);
   } else {
-    ensure(ctx_, f.keys, 16, "lidar-gs-keys");
-    ensure(ctx_, f.values, 16, "lidar-gs-values");
+    gpu::ensure_capacity(ctx_, f.keys, 16, "lidar-gs-keys");
+    gpu::ensure_capacity(ctx_, f.values, 16, "lidar-gs-values");
   }
   const uint32_t key_bits = 32 + std::max<uint32_t>(1, static_cast<uint32_t>(std::bit_width(tiles - 1u)));
   const uint64_t rays = model_.rays();

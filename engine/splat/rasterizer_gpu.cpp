@@ -19,13 +19,6 @@ constexpr uint64_t kBlendInvocationsPerTile = SPLAT_TILE_PIXELS / SPLAT_BLEND_PI
 
 gpu::SpecConstants local_size() { return gpu::SpecConstants{}.set(0, kLocal /* local_size_x */); }
 
-// Grows `b` to at least `bytes` (rounded up by 1.5x to avoid reallocating every frame).
-void ensure(gpu::Context& ctx, gpu::Buffer& b, VkDeviceSize bytes, const char* name,
-            gpu::MemoryUsage usage = gpu::MemoryUsage::DeviceLocal) {
-  bytes = std::max<VkDeviceSize>(bytes, 16);
-  if (b.valid() && b.size() >= bytes) return;
-  b = gpu::Buffer(ctx, bytes + bytes / 2, usage, name);
-}
 }  // namespace
 
 struct SplatRendererGpu::Frame {
@@ -121,18 +114,18 @@ SplatImage SplatRendererGpu::render(const GpuGaussians& g, const render::Camera&
   if (uint64_t{W} * H * 16 > limit)
     throw std::invalid_argument("splat: a " + std::to_string(W) + "x" + std::to_string(H) +
                                 " image exceeds one storage binding");
-  ensure(ctx_, f.proj, n * sizeof(shader::SplatProjected), "splat-proj");
-  ensure(ctx_, f.records, n * sizeof(shader::SplatBlendRecord), "splat-blend-records");
-  ensure(ctx_, f.rects, n * 16, "splat-rects");
-  ensure(ctx_, f.touched, n * 4, "splat-touched");
-  ensure(ctx_, f.depth_keys, n * 4, "splat-depth-keys");
-  ensure(ctx_, f.order, n * 4, "splat-order");
-  ensure(ctx_, f.counts, n * 4, "splat-counts");
-  ensure(ctx_, f.offsets, n * 4, "splat-offsets");
-  ensure(ctx_, f.scan_scratch, kernels::PrefixScan::scratch_elements(n) * 4, "splat-scan-scratch");
-  ensure(ctx_, f.ranges, uint64_t{tiles} * 8, "splat-ranges");
-  ensure(ctx_, f.rgba, uint64_t{W} * H * 16, "splat-rgba");
-  ensure(ctx_, f.depth, uint64_t{W} * H * 8, "splat-depth");
+  gpu::ensure_capacity(ctx_, f.proj, n * sizeof(shader::SplatProjected), "splat-proj");
+  gpu::ensure_capacity(ctx_, f.records, n * sizeof(shader::SplatBlendRecord), "splat-blend-records");
+  gpu::ensure_capacity(ctx_, f.rects, n * 16, "splat-rects");
+  gpu::ensure_capacity(ctx_, f.touched, n * 4, "splat-touched");
+  gpu::ensure_capacity(ctx_, f.depth_keys, n * 4, "splat-depth-keys");
+  gpu::ensure_capacity(ctx_, f.order, n * 4, "splat-order");
+  gpu::ensure_capacity(ctx_, f.counts, n * 4, "splat-counts");
+  gpu::ensure_capacity(ctx_, f.offsets, n * 4, "splat-offsets");
+  gpu::ensure_capacity(ctx_, f.scan_scratch, kernels::PrefixScan::scratch_elements(n) * 4, "splat-scan-scratch");
+  gpu::ensure_capacity(ctx_, f.ranges, uint64_t{tiles} * 8, "splat-ranges");
+  gpu::ensure_capacity(ctx_, f.rgba, uint64_t{W} * H * 16, "splat-rgba");
+  gpu::ensure_capacity(ctx_, f.depth, uint64_t{W} * H * 8, "splat-depth");
   if (opts.sky.kind == SkyKind::Equirect && f.sky_image != opts.sky.image) {
     const SkyImage& im = *opts.sky.image;
     if (im.rgba.size() > limit || im.rgba.size() / 4 > texel_limit)
@@ -208,10 +201,10 @@ SplatImage SplatRendererGpu::render(const GpuGaussians& g, const render::Camera&
                              "texel-buffer view or the radix sort limit of " + std::to_string(sort_.max_elements()));
   auto prepare_radix = [&] {
     if (inst == 0) return;
-    ensure(ctx_, f.keys, inst * 4, "splat-keys");
+    gpu::ensure_capacity(ctx_, f.keys, inst * 4, "splat-keys");
     ensure_sort_scratch(inst);
   };
-  if (inst > 0) ensure(ctx_, f.values, inst * 4, "splat-values");
+  if (inst > 0) gpu::ensure_capacity(ctx_, f.values, inst * 4, "splat-values");
   if (!counting) prepare_radix();
   const uint32_t tile_bits = std::max<uint32_t>(1, static_cast<uint32_t>(std::bit_width(tiles - 1u)));
   shader::SplatBlendParams bp{};

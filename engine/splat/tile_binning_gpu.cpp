@@ -16,12 +16,6 @@ constexpr uint32_t kLocal = 64;  // splat_bin_offsets: any multiple of the subgr
 gpu::SpecConstants walk_spec(const gpu::Context& ctx, bool emit) {
   return gpu::SpecConstants{}.set(0, ctx.subgroup_size() /* local_size_x */).set(1, emit /* EMIT */);
 }
-
-void ensure(gpu::Context& ctx, gpu::Buffer& b, VkDeviceSize bytes, const char* name) {
-  bytes = std::max<VkDeviceSize>(bytes, 16);
-  if (b.valid() && b.size() >= bytes) return;
-  b = gpu::Buffer(ctx, bytes + bytes / 2, gpu::MemoryUsage::DeviceLocal, name);
-}
 }  // namespace
 
 TileBinningGpu::TileBinningGpu(gpu::Context& ctx)
@@ -48,11 +42,11 @@ uint32_t TileBinningGpu::chunks_for(uint64_t instances, uint32_t tiles, uint32_t
 void TileBinningGpu::record(gpu::CommandList& cmd, const Frame& f, const gpu::Buffer& values, const gpu::Buffer& ranges,
                             const gpu::Buffer& incomplete) {
   const uint64_t tc = uint64_t{f.tiles} * f.chunks, tiles = f.tiles;
-  ensure(ctx_, counts_, tc * 4, "splat-bin-counts");
-  ensure(ctx_, cursors_, tc * 4, "splat-bin-cursors");
-  ensure(ctx_, totals_buf_, tiles * 4, "splat-bin-tile-totals");
-  ensure(ctx_, tile_first_, tiles * 4, "splat-bin-tile-first");
-  ensure(ctx_, scan_scratch_, kernels::PrefixScan::scratch_elements(tiles) * 4, "splat-bin-scan-scratch");
+  gpu::ensure_capacity(ctx_, counts_, tc * 4, "splat-bin-counts");
+  gpu::ensure_capacity(ctx_, cursors_, tc * 4, "splat-bin-cursors");
+  gpu::ensure_capacity(ctx_, totals_buf_, tiles * 4, "splat-bin-tile-totals");
+  gpu::ensure_capacity(ctx_, tile_first_, tiles * 4, "splat-bin-tile-first");
+  gpu::ensure_capacity(ctx_, scan_scratch_, kernels::PrefixScan::scratch_elements(tiles) * 4, "splat-bin-scan-scratch");
   const uint64_t n = f.n;
   const shader::SplatBinParams p{static_cast<uint32_t>(n),
                                  f.grid_x,

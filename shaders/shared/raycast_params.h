@@ -66,7 +66,7 @@ struct RaycastParams {
 // holds an occupied voxel; y = the height word of the brick's 8 x 8 voxel
 // column (as above, over the whole column; kept in every brick entry of the
 // column in every block). Mask level: from word mask_word = block_word +
-// RAYCAST_BLOCK_WORDS max_blocks (also stored in word 2 supers + 1, where the
+// RAYCAST_BLOCK_WORDS max_blocks (also written by the host into word 2 supers + 1, where the
 // kernel reads it), RAYCAST_MASK_WORDS words per brick record: a copy of the
 // record's occupancy mask (shared/world_layout.h), 64 bytes per brick instead of
 // one cache line in every 1.6 KB record. So a cell costs three dependent fetches
