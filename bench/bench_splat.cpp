@@ -19,9 +19,12 @@
 // (SplatGpuVariant::binning Auto: the counting sort of tile_binning_gpu.h on
 // CPU devices, the radix path on GPUs), "cull-tile-radix" and
 // "cull-tile-counting" force one ("cull-tile-counting-C": with C chunks). Their
-// runs alternate, so they share the load.
+// runs alternate, so they share the load. A "-color" suffix (e.g.
+// "cull-tile-color") renders without the depth outputs (SplatOptions::depth =
+// false: splat_blend's pipeline without them), as `icube splat render` does
+// without --depth.
 // Check in the same run: each variant's image against the first variant's
-// (max |difference| over RGBA and depth).
+// (max |difference| over RGBA, and depth where both have it).
 //
 //   LP_NUM_THREADS=2 icube-bench-splat [--gaussians 100000,1000000] [--sizes 1280x720,1920x1080] [--runs 5]
 //       [--variants rect-rows,cull-tile]
@@ -90,9 +93,23 @@ std::vector<T> parse_list(const std::string& s) {
 struct Variant {
   std::string name;
   splat::SplatGpuVariant v;
+  bool depth = true;  // SplatOptions::depth
 };
 
+Variant parse_pipeline(const std::string& s);
+
 Variant parse_variant(const std::string& s) {
+  const std::string suffix = "-color";
+  if (s.size() > suffix.size() && s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0) {
+    Variant v = parse_pipeline(s.substr(0, s.size() - suffix.size()));
+    v.name = s;
+    v.depth = false;
+    return v;
+  }
+  return parse_pipeline(s);
+}
+
+Variant parse_pipeline(const std::string& s) {
   if (s == "rect-rows") return {s, {false, false}};
   if (s == "cull-rows") return {s, {true, false}};
   if (s == "rect-tile") return {s, {false, true}};
@@ -102,13 +119,14 @@ Variant parse_variant(const std::string& s) {
   if (s.rfind("cull-tile-counting-", 0) == 0)  // forced chunk count (SplatGpuVariant::bin_chunks)
     return {s, {true, true, splat::TileBinning::Counting, static_cast<uint32_t>(std::stoul(s.substr(19)))}};
   throw std::invalid_argument("--variants: unknown variant '" + s +
-                              "' (rect-rows, cull-rows, rect-tile, cull-tile, cull-tile-radix, cull-tile-counting[-CHUNKS])");
+                              "' (rect-rows, cull-rows, rect-tile, cull-tile, cull-tile-radix, cull-tile-counting[-CHUNKS], each with an "
+                              "optional -color suffix)");
 }
 
 double max_diff(const splat::SplatImage& a, const splat::SplatImage& b) {
   double d = 0.0;
   for (size_t i = 0; i < a.rgba.size(); ++i) d = std::max(d, std::fabs(double(a.rgba[i]) - double(b.rgba[i])));
-  for (size_t i = 0; i < a.depth.size(); ++i) d = std::max(d, std::fabs(double(a.depth[i]) - double(b.depth[i])));
+  for (size_t i = 0; i < std::min(a.depth.size(), b.depth.size()); ++i) d = std::max(d, std::fabs(double(a.depth[i]) - double(b.depth[i])));
   return d;
 }
 
@@ -132,7 +150,7 @@ int main(int argc, char** argv) {
   app.add_option("--sh", sh, "SH degree 0-3")->capture_default_str();
   app.add_option("--variants", variants,
                  "Comma-separated pipeline variants: rect-rows, cull-rows, rect-tile, cull-tile, cull-tile-radix, "
-                 "cull-tile-counting, cull-tile-counting-CHUNKS")
+                 "cull-tile-counting, cull-tile-counting-CHUNKS; a -color suffix leaves the depth outputs out")
       ->capture_default_str();
   app.add_flag("!--no-cpu", cpu, "Skip the CPU reference row");
   CLI11_PARSE(app, argc, argv);
@@ -151,9 +169,9 @@ int main(int argc, char** argv) {
   std::printf("icube-bench-splat: device %s, subgroup %u, CPU %s (%u CPUs), LP_NUM_THREADS=%s\n",
               ctx.info().name.c_str(), ctx.subgroup_size(), bench::cpu_model().c_str(), bench::online_cpus(),
               bench::env_or_unset("LP_NUM_THREADS").c_str());
-  std::printf("%10s %10s %18s %7s %8s %8s %8s %8s %8s %8s %8s %11s %8s %9s %9s\n", "gaussians", "size", "variant",
-              "fps", "min ms", "med ms", "CPU ms", "pre ms", "dsort ms", "tsort ms", "blend ms", "instances", "B/Gauss",
-              "other CPU", "max diff");
+  std::printf("%10s %10s %18s %7s %8s %8s %8s %8s %8s %8s %8s %9s %11s %8s %9s %9s\n", "gaussians", "size", "variant",
+              "fps", "min ms", "med ms", "CPU ms", "pre ms", "dsort ms", "tsort ms", "blend ms", "blend min", "instances",
+              "B/Gauss", "other CPU", "max diff");
   std::vector<std::unique_ptr<splat::SplatRendererGpu>> renderers;
   for (const Variant& v : vars) renderers.push_back(std::make_unique<splat::SplatRendererGpu>(ctx, v.v));
   for (const size_t n : parse_list<size_t>(gaussians)) {
@@ -170,7 +188,8 @@ int main(int argc, char** argv) {
       const uint32_t w = static_cast<uint32_t>(std::stoul(sz.substr(0, xpos)));
       const uint32_t h = static_cast<uint32_t>(std::stoul(sz.substr(xpos + 1)));
       const render::Camera cam = make_camera(w, h);
-      splat::SplatOptions opts;
+      std::vector<splat::SplatOptions> opts(vars.size());
+      for (size_t k = 0; k < vars.size(); ++k) opts[k].depth = vars[k].depth;
       const size_t V = vars.size();
       std::vector<splat::SplatTimings> t(V);
       std::vector<double> diff(V, 0.0);
@@ -178,7 +197,7 @@ int main(int argc, char** argv) {
         // First frame of each variant: JIT, buffers, and the image for the check.
         splat::SplatImage first;
         for (size_t k = 0; k < V; ++k) {
-          const splat::SplatImage img = renderers[k]->render(g, cam, opts, &t[k]);
+          const splat::SplatImage img = renderers[k]->render(g, cam, opts[k], &t[k]);
           if (k == 0) first = img;
           else diff[k] = max_diff(img, first);
         }
@@ -187,13 +206,13 @@ int main(int argc, char** argv) {
         continue;
       }
       for (int i = 0; i < warmup; ++i)
-        for (size_t k = 0; k < V; ++k) renderers[k]->render(g, cam, opts, &t[k], nullptr, false);
+        for (size_t k = 0; k < V; ++k) renderers[k]->render(g, cam, opts[k], &t[k], nullptr, false);
       std::vector<std::vector<double>> wall(V), pre(V), dsort(V), sort(V), blend(V), own(V);
       const bench::CpuTimes c0 = bench::cpu_times_now();
       for (int i = 0; i < runs; ++i)
         for (size_t k = 0; k < V; ++k) {  // alternate the variants: they share the load
           const double own0 = bench::cpu_times_now().own_s;
-          renderers[k]->render(g, cam, opts, &t[k], nullptr, false);
+          renderers[k]->render(g, cam, opts[k], &t[k], nullptr, false);
           own[k].push_back(1e3 * (bench::cpu_times_now().own_s - own0));
           wall[k].push_back(t[k].wall_ms);
           pre[k].push_back(t[k].preprocess_ms);
@@ -204,10 +223,11 @@ int main(int argc, char** argv) {
       const double other = bench::other_cpu_seconds(c0, bench::cpu_times_now());
       for (size_t k = 0; k < V; ++k) {
         const double bytes_per = static_cast<double>(g.bytes() + t[k].frame_bytes) / static_cast<double>(n);
-        std::printf("%10zu %10s %18s %7.2f %8.1f %8.1f %8.1f %8.1f %8.1f %8.1f %8.1f %11llu %8.0f %8.1fs %9.2g\n", n,
-                    sz.c_str(), vars[k].name.c_str(), 1000.0 / median(wall[k]),
+        std::printf("%10zu %10s %18s %7.2f %8.1f %8.1f %8.1f %8.1f %8.1f %8.1f %8.1f %9.1f %11llu %8.0f %8.1fs %9.2g\n",
+                    n, sz.c_str(), vars[k].name.c_str(), 1000.0 / median(wall[k]),
                     *std::min_element(wall[k].begin(), wall[k].end()), median(wall[k]), median(own[k]), median(pre[k]),
                     median(dsort[k]), median(sort[k]), median(blend[k]),
+                    *std::min_element(blend[k].begin(), blend[k].end()),
                     static_cast<unsigned long long>(t[k].instances), bytes_per, other, diff[k]);
       }
       std::fflush(stdout);

@@ -16,7 +16,8 @@
 // 8·((l >> 3) / S), columns P·((l >> 3) % S) + [0, P), so 8 consecutive
 // invocations (lavapipe's subgroup) cover a P × 8 block. The P pixels are
 // SPLAT_BLEND_GROUPS column groups of G = SPLAT_BLEND_G columns (G × the
-// subgroup's rows: the unit of skipping).
+// subgroup's rows: the unit of skipping; G = 8 and U = 4 measured fastest on
+// lavapipe, bench/README.md).
 // Batches: each lane loads SPLAT_BLEND_SLOTS blend records (slot s: instance
 // base + s·stride + lane; independent loads, so their cache misses overlap)
 // and tests each one's α-cut ellipse (dᵀ·conic·d <= −2·log_cut, log_cut =
@@ -25,16 +26,20 @@
 // grown by 1 px with the chord's extreme x over those rows. One ballot word per
 // group holds the batch's needed entries (bit s·stride + lane: bit order is
 // depth order). Then, group by group, a loop over the group's bits evaluates
-// each needed Gaussian on the group's G pixels of every lane, the derived
-// values selected from the entry's slot and shuffled from its lane (uniform).
+// SPLAT_BLEND_UNROLL needed Gaussians per iteration on the group's G pixels of
+// every lane, the derived values selected from the entry's slot and shuffled
+// from its lane (uniform); past the last bit an entry blends nothing.
 // Skipped Gaussians cannot pass the per-pixel tests on the skipped pixels, so
 // the skips do not change the result. Why loops per group and not ifs: Mesa's
 // gallivm (lavapipe) executes every if, even a uniform one, under a lane
-// mask, so only a loop's trip count skips work; a loop also runs the rest of
-// its body once more, masked, at its exit, so batches of several records per
-// lane amortise that. Loops exit on subgroup votes (uniform); the blend stops when no pixel
-// of the subgroup (per group: of the group) is live. No shared memory or
-// barriers (slow on lavapipe).
+// mask, so only a loop's trip count skips work. gallivm tests a loop's exit at
+// the end of its body: a while loop or a break runs the rest of the body once
+// more, masked, when it ends, so every loop here is a do-while whose condition
+// (more entries and, by a subgroup vote, a live pixel) is its last statement,
+// and the U Gaussians of an iteration share its vote, loop control and masked
+// state writes (their selects and exp2s overlap). No shared memory or barriers
+// (slow on lavapipe). The spec constant SPLAT_DEPTH = false leaves the depth
+// outputs out (SplatOptions::depth).
 // Numerics: per Gaussian (once per batch entry and lane) A = −½·a·log2e,
 // B = −b·log2e, C = −½·c·log2e and log2 o; per pixel q = dx·(A·dx + B·dy) +
 // C·dy² + log2 o (= log2(o·e^power); the dy terms once per Gaussian and lane),
@@ -54,6 +59,8 @@
 #define SPLAT_BLEND_PER_TILE (SPLAT_TILE * SPLAT_BLEND_SEGS)  // invocations per tile
 
 layout(local_size_x_id = 0) in;
+// false: leave out the expected and median depth (their state, updates and stores).
+layout(constant_id = 1) const bool SPLAT_DEPTH = true;
 layout(push_constant) uniform Push { SplatBlendParams p; };
 layout(std430, binding = 0) readonly buffer Ranges { uvec2 ranges[]; };
 // Divergent (per-lane) loads go through texel buffers: on lavapipe a texel fetch is a
@@ -102,7 +109,7 @@ vec3 splat_sky(float px, float py) {
 // Pixels of one column group (a uniform skip unit): the invocation's P pixels are
 // SPLAT_BLEND_GROUPS groups of G consecutive columns.
 #ifndef SPLAT_BLEND_G
-#define SPLAT_BLEND_G 4
+#define SPLAT_BLEND_G 8
 #endif
 #define SPLAT_BLEND_GROUPS (SPLAT_BLEND_PIXELS / SPLAT_BLEND_G)
 #if SPLAT_BLEND_GROUPS != 1 && SPLAT_BLEND_GROUPS != 2 && SPLAT_BLEND_GROUPS != 4
@@ -117,52 +124,110 @@ vec3 splat_sky(float px, float py) {
 
 const float kLog2e = 1.4426950408889634;
 const float kQMin = -7.9943534368588579;  // log2(1/255)
+const float kNoEntry = -1.0e30;  // log2 o of "no entry": q <= -1e30 fails q >= kQMin
 
-// One needed Gaussian after another (bits of gmask[GRP], depth order) on the G pixels
-// of column group GRP: the entry's derived values h0 = (mx, my, A, B), h1 = (C, log2 o,
-// depth), rgb (uniform after the shuffle). The group's loop stops when none of its
-// pixels is live.
-#define SPLAT_BLEND_GROUP(GRP)                                                                  \
-  {                                                                                             \
-    uint mask = gmask[GRP];                                                                     \
-    ++iters; /* the loop's masked exit iteration */                                             \
-    while (mask != 0u) {                                                                        \
-      ++iters;                                                                                  \
-      float live = T[GRP * SPLAT_BLEND_G];                                                      \
-      for (int jj = 1; jj < SPLAT_BLEND_G; ++jj) live = max(live, T[GRP * SPLAT_BLEND_G + jj]); \
-      if (!subgroupAny(live > 0.0)) break;                                                      \
-      const uint e = uint(findLSB(mask));                                                       \
-      mask &= mask - 1u;                                                                        \
-      const uint s = e >> lane_bits, src = e & (stride - 1u);                                   \
-      vec4 h0 = d0[0], h1 = d1[0];                                                              \
-      vec3 rgb = d2[0];                                                                         \
-      for (int t = 1; t < SPLAT_BLEND_SLOTS; ++t)                                               \
-        if (s == uint(t)) {                                                                     \
-          h0 = d0[t];                                                                           \
-          h1 = d1[t];                                                                           \
-          rgb = d2[t];                                                                          \
-        }                                                                                       \
-      h0 = subgroupShuffle(h0, src);                                                            \
-      h1 = subgroupShuffle(h1, src);                                                            \
-      rgb = subgroupShuffle(rgb, src);                                                          \
-      const float dy = h0.y - py;                                                               \
-      const float by = h0.w * dy, hy = h1.x * dy * dy + h1.y;                                   \
-      for (int jj = 0; jj < SPLAT_BLEND_G; ++jj) {                                              \
-        const int j = GRP * SPLAT_BLEND_G + jj;                                                 \
-        const float dx = h0.x - (px0 + float(j));                                               \
-        const float q = dx * (h0.z * dx + by) + hy;                                             \
-        const float alpha = min(0.99, exp2(q));                                                 \
-        const bool ok = T[j] > 0.0 && q >= kQMin && q <= h1.y;                                  \
-        const float test_t = T[j] * (1.0 - alpha);                                              \
-        const bool stop = ok && test_t < 1e-4;                                                  \
-        const bool use = ok && !stop;                                                           \
-        const float w = use ? alpha * T[j] : 0.0;                                               \
-        C[j] += rgb * w;                                                                        \
-        wz[j] += h1.z * w;                                                                      \
-        median[j] = use && T[j] > 0.5 && test_t <= 0.5 ? h1.z : median[j];                      \
-        T[j] = stop ? -T[j] : (use ? test_t : T[j]);                                            \
-      }                                                                                         \
-    }                                                                                           \
+// Gaussians per group-loop iteration (1, 2 or 4): their record selects and exp2s are
+// independent, so they overlap, and the iteration's fixed cost (vote, loop control, the
+// masked writes of the group's pixel state) is paid once for U Gaussians.
+#ifndef SPLAT_BLEND_UNROLL
+#define SPLAT_BLEND_UNROLL 4
+#endif
+#if SPLAT_BLEND_UNROLL != 1 && SPLAT_BLEND_UNROLL != 2 && SPLAT_BLEND_UNROLL != 4
+#error "SPLAT_BLEND_GROUP expands SPLAT_BLEND_TAKE for 1, 2 or 4 Gaussians"
+#endif
+
+// The next needed Gaussian of `mask` (its lowest bit; depth order) into H0 = (mx, my, A, B),
+// H1 = (C, log2 o, depth), RGB: selected from the entry's slot and shuffled from its lane
+// (uniform). With no bit left, H1.y = log2 o = −1e30: q ≈ −1e30 fails q >= kQMin on every
+// pixel, so the entry blends nothing.
+#define SPLAT_BLEND_TAKE(H0, H1, RGB)                                 \
+  {                                                                   \
+    const uint e = uint(findLSB(mask)); /* 0xFFFFFFFF when mask == 0 */ \
+    mask &= mask - 1u;                                                \
+    const uint s = e >> lane_bits, src = e & (stride - 1u);           \
+    H0 = d0[0];                                                       \
+    H1 = d1[0];                                                       \
+    RGB = d2[0];                                                      \
+    for (int t = 1; t < SPLAT_BLEND_SLOTS; ++t)                       \
+      if (s == uint(t)) {                                             \
+        H0 = d0[t];                                                   \
+        H1 = d1[t];                                                   \
+        RGB = d2[t];                                                  \
+      }                                                               \
+    H0 = subgroupShuffle(H0, src);                                    \
+    H1 = subgroupShuffle(H1, src);                                    \
+    RGB = subgroupShuffle(RGB, src);                                  \
+    H1.y = e == 0xFFFFFFFFu ? kNoEntry : H1.y;                       \
+  }
+
+// One Gaussian (H0, H1, RGB as above) blended into the G pixels of column group GRP.
+#define SPLAT_BLEND_APPLY(GRP, H0, H1, RGB)                                  \
+  {                                                                          \
+    const float dy = H0.y - py;                                              \
+    const float by = H0.w * dy, hy = H1.x * dy * dy + H1.y;                  \
+    for (int jj = 0; jj < SPLAT_BLEND_G; ++jj) {                             \
+      const int j = GRP * SPLAT_BLEND_G + jj;                                \
+      const float dx = H0.x - (px0 + float(j));                              \
+      const float q = dx * (H0.z * dx + by) + hy;                            \
+      const float alpha = min(0.99, exp2(q));                                \
+      const bool ok = T[j] > 0.0 && q >= kQMin && q <= H1.y;                 \
+      const float test_t = T[j] * (1.0 - alpha);                             \
+      const bool stop = ok && test_t < 1e-4;                                 \
+      const bool use = ok && !stop;                                          \
+      const float w = use ? alpha * T[j] : 0.0;                              \
+      C[j] += RGB * w;                                                       \
+      if (SPLAT_DEPTH) {                                                     \
+        wz[j] += H1.z * w;                                                   \
+        median[j] = use && T[j] > 0.5 && test_t <= 0.5 ? H1.z : median[j];   \
+      }                                                                      \
+      T[j] = stop ? -T[j] : (use ? test_t : T[j]);                           \
+    }                                                                        \
+  }
+
+// The needed Gaussians of column group GRP (bits of gmask[GRP], depth order), U per
+// iteration. A do-while: gallivm tests a loop's exit at the end of its body, so a while
+// loop (or a break) runs the rest of the body once more, masked, when it ends; a do-while
+// whose condition is its last statement ends without that. It runs once with no needed
+// Gaussian (entries blend nothing). It stops when no pixel of the group is live.
+#if SPLAT_BLEND_UNROLL == 1
+#define SPLAT_BLEND_UNROLLED(GRP)  \
+  vec4 ha0, ha1;                   \
+  vec3 hac;                        \
+  SPLAT_BLEND_TAKE(ha0, ha1, hac)  \
+  SPLAT_BLEND_APPLY(GRP, ha0, ha1, hac)
+#elif SPLAT_BLEND_UNROLL == 2
+#define SPLAT_BLEND_UNROLLED(GRP)  \
+  vec4 ha0, ha1, hb0, hb1;         \
+  vec3 hac, hbc;                   \
+  SPLAT_BLEND_TAKE(ha0, ha1, hac)  \
+  SPLAT_BLEND_TAKE(hb0, hb1, hbc)  \
+  SPLAT_BLEND_APPLY(GRP, ha0, ha1, hac) \
+  SPLAT_BLEND_APPLY(GRP, hb0, hb1, hbc)
+#else
+#define SPLAT_BLEND_UNROLLED(GRP)  \
+  vec4 ha0, ha1, hb0, hb1, hc0, hc1, hd0, hd1; \
+  vec3 hac, hbc, hcc, hdc;         \
+  SPLAT_BLEND_TAKE(ha0, ha1, hac)  \
+  SPLAT_BLEND_TAKE(hb0, hb1, hbc)  \
+  SPLAT_BLEND_TAKE(hc0, hc1, hcc)  \
+  SPLAT_BLEND_TAKE(hd0, hd1, hdc)  \
+  SPLAT_BLEND_APPLY(GRP, ha0, ha1, hac) \
+  SPLAT_BLEND_APPLY(GRP, hb0, hb1, hbc) \
+  SPLAT_BLEND_APPLY(GRP, hc0, hc1, hcc) \
+  SPLAT_BLEND_APPLY(GRP, hd0, hd1, hdc)
+#endif
+
+#define SPLAT_BLEND_GROUP(GRP)                                                                   \
+  {                                                                                              \
+    uint mask = gmask[GRP];                                                                      \
+    bool more;                                                                                   \
+    do {                                                                                         \
+      ++iters;                                                                                   \
+      SPLAT_BLEND_UNROLLED(GRP)                                                                  \
+      float live = T[GRP * SPLAT_BLEND_G];                                                       \
+      for (int jj = 1; jj < SPLAT_BLEND_G; ++jj) live = max(live, T[GRP * SPLAT_BLEND_G + jj]);  \
+      more = subgroupAny(live > 0.0);                                                            \
+    } while (mask != 0u && more);                                                                \
   }
 
 void main() {
@@ -194,12 +259,13 @@ void main() {
   // p.loop_budget (lavapipe, which silently ends every loop of an invocation after 65,535
   // iterations in all) a tile that reaches the budget is counted in `status`, and the host
   // reports the frame as incomplete instead of returning a cut-short blend.
-  uint iters = 1u;  // 1: the batch loop's masked exit iteration
-  for (uint base = range.x; base < range.y; base += slots << lane_bits) {
+  uint iters = 0u;
+  // A do-while, like the group loops (no masked extra batch at its end); an empty range runs
+  // one batch of no entries.
+  uint base = range.x;
+  bool more;
+  do {
     ++iters;
-    float live = T[0];
-    for (int j = 1; j < SPLAT_BLEND_PIXELS; ++j) live = max(live, T[j]);
-    if (!subgroupAny(live > 0.0)) break;
     // This lane's instances of the batch: records, derived values and block tests.
     vec4 d0[SPLAT_BLEND_SLOTS], d1[SPLAT_BLEND_SLOTS];
     vec3 d2[SPLAT_BLEND_SLOTS];
@@ -245,7 +311,11 @@ void main() {
     SPLAT_BLEND_GROUP(2)
     SPLAT_BLEND_GROUP(3)
 #endif
-  }
+    base += slots << lane_bits;
+    float live = T[0];
+    for (int j = 1; j < SPLAT_BLEND_PIXELS; ++j) live = max(live, T[j]);
+    more = subgroupAny(live > 0.0);
+  } while (base < range.y && more);
   if (p.loop_budget != 0u && iters >= p.loop_budget && subgroupElect()) atomicAdd(status, 1u);
   if (v >= p.height) return;
   for (int j = 0; j < SPLAT_BLEND_PIXELS; ++j) {
@@ -254,6 +324,6 @@ void main() {
     const uint pix = v * p.width + u;
     const float t = abs(T[j]);
     rgba[pix] = vec4(C[j] + t * splat_sky(float(u) + p.pixel_offset, py), 1.0 - t);
-    depth[pix] = vec2(t < 1.0 ? wz[j] / (1.0 - t) : 0.0, median[j]);
+    if (SPLAT_DEPTH) depth[pix] = vec2(t < 1.0 ? wz[j] / (1.0 - t) : 0.0, median[j]);
   }
 }

@@ -273,6 +273,38 @@ TEST_CASE("splat gpu vs cpu, stage by stage (splat_preprocess, splat_sorted_coun
     }
 }
 
+// SplatOptions::depth = false: splat_blend's pipeline without the depth outputs (SPLAT_DEPTH = 0)
+// blends the same colours and alpha bit for bit and returns no depth; so does the CPU reference.
+TEST_CASE("splat gpu: colour-only frames (SplatOptions::depth = false, splat_blend without depth) equal the full blend") {
+  Renderer R;
+  const auto cloud = test::random_cloud(21, 4000, 3, {0.0, 0.0, 0.0}, 2.0);
+  const auto cam = test::look_at_camera({1.0, -6.0, 2.0}, {0.0, 0.0, 0.0}, 157, 93, 140.0, 3.5, -1.0);
+  const auto g = R.r.upload(cloud);
+  for (const auto conv : {render::PixelConvention::Centre, render::PixelConvention::Integer}) {
+    CAPTURE(int(conv));
+    SplatOptions full;
+    full.pixels = conv;
+    full.background = {0.2f, 0.3f, 0.4f};
+    SplatOptions color = full;
+    color.depth = false;
+    const auto a = R.r.render(g, cam, full);
+    const auto b = R.r.render(g, cam, color);
+    const auto c = R.r.render(g, cam, full);  // switching back: the depth pipeline again
+    REQUIRE(a.rgba.size() == size_t{157} * 93 * 4);
+    CHECK(a.depth.size() == size_t{157} * 93 * 2);
+    CHECK(b.depth.empty());
+    CHECK(b.rgba == a.rgba);
+    CHECK(c.rgba == a.rgba);
+    CHECK(c.depth == a.depth);
+    size_t covered = 0;
+    for (size_t p = 0; p < a.rgba.size() / 4; ++p) covered += a.rgba[4 * p + 3] > 0.5f;
+    CHECK(covered > 1000);  // the scene covers much of the frame
+    const auto cpu = splat::render_cpu(cloud, cam, color);
+    CHECK(cpu.depth.empty());
+    CHECK(cpu.rgba.size() == a.rgba.size());
+  }
+}
+
 TEST_CASE("splat gpu binning: the counting sort (splat_bin_chunks, splat_bin_offsets; 1, few, odd and many chunks) and the radix path give the CPU's tile lists and ranges") {
   using splat::SplatGpuVariant;
   using splat::TileBinning;
@@ -506,7 +538,8 @@ TEST_CASE("splat gpu: a tile over the blend's loop budget is an error, not a cut
               cmp.instances, cmp.band, cmp.pixels, cmp.max_interior);
 }
 
-// splat_blend.comp skips, per batch, the column groups (4 columns × the subgroup's rows) that
+// splat_blend.comp skips, per batch, the column groups (SPLAT_BLEND_G = 8 columns × the subgroup's
+// rows; the test covers every 4th column boundary, so groups of 4 too) that
 // a Gaussian's α-cut ellipse cannot reach, and tests rows against the subgroup's block. Small
 // Gaussians centred 1.5 px outside every group and block boundary reach exactly one column
 // (row) across it: a group or block skipped wrongly loses that column (row), far more than

@@ -86,6 +86,7 @@ void cmd_render(const SplatRenderArgs& a) {
     opts.pixels = a.integer_pixels ? render::PixelConvention::Integer : render::PixelConvention::Centre;
     opts.background = parse_rgb(a.background);
     opts.sky = splat::parse_sky(a.sky);
+    opts.depth = a.depth;  // without --depth the blend leaves the depth outputs out
     const auto& traj = tf.passes[0];
     if (scn.has_objects() && traj.size() > scn.frames() && scn.frames() > 0)
       diag.warn(a.trajectory, "",

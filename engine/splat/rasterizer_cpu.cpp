@@ -302,6 +302,7 @@ SplatImage blend_cpu(const std::vector<shader::SplatProjected>& proj, const Tile
       img.depth[2 * p + 0] = T < 1.0f ? wz / (1.0f - T) : 0.0f;
       img.depth[2 * p + 1] = median;
     }
+  if (!opts.depth) img.depth.clear();
   return img;
 }
 

@@ -18,6 +18,11 @@ constexpr uint32_t kLocal = 64;  // non-cooperative kernels: any multiple of the
 constexpr uint64_t kBlendInvocationsPerTile = SPLAT_TILE_PIXELS / SPLAT_BLEND_PIXELS;  // splat_blend.comp
 
 gpu::SpecConstants local_size() { return gpu::SpecConstants{}.set(0, kLocal /* local_size_x */); }
+gpu::SpecConstants blend_spec(bool depth) {
+  return gpu::SpecConstants{}
+      .set(0, static_cast<uint32_t>(kBlendInvocationsPerTile) /* local_size_x: one tile per workgroup */)
+      .set(1, depth /* SPLAT_DEPTH */);
+}
 
 }  // namespace
 
@@ -46,10 +51,9 @@ SplatRendererGpu::SplatRendererGpu(gpu::Context& ctx, SplatGpuVariant variant)
       counts_(ctx.program("splat_sorted_counts", local_size())),
       duplicate_(ctx.program("splat_duplicate", local_size())),
       ranges_(ctx.program("splat_ranges", local_size())),
-      blend_(variant.tile_blend
-                 ? ctx.program("splat_blend", gpu::SpecConstants{}.set(0, static_cast<uint32_t>(kBlendInvocationsPerTile)
-                                                                           /* local_size_x: one tile per workgroup */))
-                 : ctx.program("splat_blend_rows", local_size())),
+      blend_(variant.tile_blend ? ctx.program("splat_blend", blend_spec(true))
+                                : ctx.program("splat_blend_rows", local_size())),
+      blend_color_(variant.tile_blend ? ctx.program("splat_blend", blend_spec(false)) : blend_),
       variant_(variant),
       counting_(variant.binning == TileBinning::Counting ||
                 (variant.binning == TileBinning::Auto && ctx.info().type == VK_PHYSICAL_DEVICE_TYPE_CPU)),
@@ -125,7 +129,9 @@ SplatImage SplatRendererGpu::render(const GpuGaussians& g, const render::Camera&
   gpu::ensure_capacity(ctx_, f.scan_scratch, kernels::PrefixScan::scratch_elements(n) * 4, "splat-scan-scratch");
   gpu::ensure_capacity(ctx_, f.ranges, uint64_t{tiles} * 8, "splat-ranges");
   gpu::ensure_capacity(ctx_, f.rgba, uint64_t{W} * H * 16, "splat-rgba");
-  gpu::ensure_capacity(ctx_, f.depth, uint64_t{W} * H * 8, "splat-depth");
+  // splat_blend_rows always writes depth; splat_blend only with opts.depth.
+  const bool depth_out = opts.depth || !variant_.tile_blend;
+  gpu::ensure_capacity(ctx_, f.depth, depth_out ? uint64_t{W} * H * 8 : 16, "splat-depth");
   if (opts.sky.kind == SkyKind::Equirect && f.sky_image != opts.sky.image) {
     const SkyImage& im = *opts.sky.image;
     if (im.rgba.size() > limit || im.rgba.size() / 4 > texel_limit)
@@ -269,12 +275,12 @@ SplatImage SplatRendererGpu::render(const GpuGaussians& g, const render::Camera&
                  : f.ranges.texel_binding(VK_FORMAT_R32_UINT, 0, 8),
         n > 0 ? f.records.texel_binding(VK_FORMAT_R32G32B32A32_UINT, 0, n * sizeof(shader::SplatBlendRecord))
               : f.rgba.texel_binding(VK_FORMAT_R32G32B32A32_UINT, 0, 16),
-        f.rgba.binding(0, uint64_t{W} * H * 16), f.depth.binding(0, uint64_t{W} * H * 8),
+        f.rgba.binding(0, uint64_t{W} * H * 16), f.depth.binding(0, depth_out ? uint64_t{W} * H * 8 : 16),
         opts.sky.kind == SkyKind::Equirect
             ? f.sky.texel_binding(VK_FORMAT_R32_UINT, 0, opts.sky.image->rgba.size() & ~size_t{3})
             : f.ranges.texel_binding(VK_FORMAT_R32_UINT, 0, 8)};
     if (tile_blend) blend_bindings.push_back(f.blend_status.binding(0, 4));
-    cmd.dispatch_raw(blend_, {uint64_t{tiles} * kBlendInvocationsPerTile}, &bp, sizeof bp, blend_bindings.data(),
+    cmd.dispatch_raw(opts.depth ? blend_ : blend_color_, {uint64_t{tiles} * kBlendInvocationsPerTile}, &bp, sizeof bp, blend_bindings.data(),
                      blend_bindings.size());
     f.t2->end(cmd, tb);
     if (tile_blend) {
@@ -315,7 +321,7 @@ SplatImage SplatRendererGpu::render(const GpuGaussians& g, const render::Camera&
   img.height = H;
   if (download) {
     img.rgba = gpu::download_vector<float>(ctx_, f.rgba, size_t{W} * H * 4);
-    img.depth = gpu::download_vector<float>(ctx_, f.depth, size_t{W} * H * 2);
+    if (opts.depth) img.depth = gpu::download_vector<float>(ctx_, f.depth, size_t{W} * H * 2);
   }
   if (debug) {
     debug->proj = gpu::download_vector<shader::SplatProjected>(ctx_, f.proj, n);

@@ -137,6 +137,7 @@ class SplatRendererGpu {
   gpu::Program& duplicate_;
   gpu::Program& ranges_;
   gpu::Program& blend_;
+  gpu::Program& blend_color_;  // splat_blend without the depth outputs (SplatOptions::depth = false)
   SplatGpuVariant variant_;
   bool counting_;  // the resolved TileBinning
   kernels::PrefixScan scan_;
