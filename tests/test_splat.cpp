@@ -315,12 +315,19 @@ TEST_CASE("splat gpu binning: the counting sort (splat_bin_chunks, splat_bin_off
     CHECK(splat::SplatRendererGpu(test::gpu_context(), SplatGpuVariant{true, true, TileBinning::Radix}).binning() ==
           TileBinning::Radix);
   }
-  {  // chunks_for: whole subgroups, at least kMinChunkGroups of them, at most kMaxInstancesPerChunk each
+  {  // chunks_for: whole subgroups, kChunkGroupsPerThread per device thread (at least kMinChunkGroups),
+     // at most kMaxInstancesPerChunk each
     const splat::TileBinningGpu b(test::gpu_context());
     const uint32_t sg = test::gpu_context().subgroup_size();
     using B = splat::TileBinningGpu;
-    CHECK(b.chunks_for(1, 3600) == B::kMinChunkGroups * sg);
-    CHECK(b.chunks_for(778680, 3600) == B::kMinChunkGroups * sg);
+    CHECK(B::chunk_groups(1) == 2);
+    CHECK(B::chunk_groups(2) == 4);
+    CHECK(B::chunk_groups(16) == 32);
+    CHECK(B::device_threads() >= 1);
+    const uint64_t least = B::chunk_groups(B::device_threads()) * sg;
+    CHECK(b.chunks_for(1, 3600) == least);
+    const uint64_t need = std::max<uint64_t>(least, (778680 + B::kMaxInstancesPerChunk - 1) / B::kMaxInstancesPerChunk);
+    CHECK(b.chunks_for(778680, 3600) == (need + sg - 1) / sg * sg);
     const uint32_t big = b.chunks_for(13776864, 8160);  // 1M Gaussians at 1080p
     CHECK(big % sg == 0);
     CHECK(uint64_t{big} * B::kMaxInstancesPerChunk >= 13776864);

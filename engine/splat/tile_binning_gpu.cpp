@@ -5,6 +5,9 @@
 #include "shared/splat_params.h"
 
 #include <algorithm>
+#include <cstdlib>
+#include <string>
+#include <thread>
 
 namespace icube::splat {
 
@@ -18,6 +21,21 @@ gpu::SpecConstants walk_spec(const gpu::Context& ctx, bool emit) {
 }
 }  // namespace
 
+uint64_t TileBinningGpu::device_threads() {
+  if (const char* e = std::getenv("LP_NUM_THREADS"); e && *e) {
+    try {
+      const unsigned long v = std::stoul(e);
+      if (v > 0) return v;
+    } catch (const std::exception&) {
+    }
+  }
+  return std::max(1u, std::thread::hardware_concurrency());
+}
+
+uint64_t TileBinningGpu::chunk_groups(uint64_t threads) {
+  return std::max<uint64_t>(kMinChunkGroups, kChunkGroupsPerThread * threads);
+}
+
 TileBinningGpu::TileBinningGpu(gpu::Context& ctx)
     : ctx_(ctx),
       count_(ctx.program("splat_bin_chunks", walk_spec(ctx, false))),
@@ -30,7 +48,7 @@ uint32_t TileBinningGpu::chunks_for(uint64_t instances, uint32_t tiles, uint32_t
   const uint64_t sg = std::max<uint32_t>(1, ctx_.subgroup_size());
   uint64_t c = requested;
   if (!c) {
-    c = std::max<uint64_t>(kMinChunkGroups * sg, (instances + kMaxInstancesPerChunk - 1) / kMaxInstancesPerChunk);
+    c = std::max<uint64_t>(chunk_groups(device_threads()) * sg, (instances + kMaxInstancesPerChunk - 1) / kMaxInstancesPerChunk);
     c = (c + sg - 1) / sg * sg;  // whole subgroups
   }
   const uint64_t max_counters = std::min<uint64_t>({ctx_.info().max_storage_buffer_range / 4,

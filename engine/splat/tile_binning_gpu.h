@@ -19,7 +19,11 @@
 // (its working set is one row of tiles·4 bytes, not the whole array).
 // Work is O(instances + tiles·C): tiles without instances cost only their C
 // counters. C (chunks_for) is a multiple of the subgroup size: at least
-// kMinChunkGroups subgroups (the device's threads share them) and enough that
+// kChunkGroupsPerThread subgroups per device thread (LP_NUM_THREADS, else the
+// host's hardware threads; at least kMinChunkGroups) so the threads share
+// them, and no more, since every chunk adds a counter per tile to zero, scan
+// and walk (100k Gaussians at 720p on 2 threads: 32 chunks 18–24 ms, 64
+// 19–25, 128 20–28 for the whole binning; bench/README.md), and enough that
 // no chunk exceeds kMaxInstancesPerChunk (lavapipe ends an invocation's loops
 // after 65,535 iterations in all); the counters stay within one storage
 // binding and one texel-buffer view. A walk that still got cut short reports it (incomplete != 0) and
@@ -40,10 +44,17 @@ namespace icube::splat {
 class TileBinningGpu {
  public:
   static constexpr uint64_t kMaxInstancesPerChunk = 32768;
-  static constexpr uint32_t kMinChunkGroups = 16;
+  static constexpr uint32_t kMinChunkGroups = 2;
+  static constexpr uint32_t kChunkGroupsPerThread = 2;
   static constexpr uint64_t kMaxChunks = 16384;  // splat_bin_offsets loops over the chunks of a tile
 
   explicit TileBinningGpu(gpu::Context& ctx);
+
+  // The threads a CPU device runs shaders on: lavapipe's LP_NUM_THREADS, else (its default)
+  // the host's hardware threads.
+  static uint64_t device_threads();
+  // Subgroups of chunks at least (the device's threads share them).
+  static uint64_t chunk_groups(uint64_t threads);
 
   // Chunks for `instances` over `tiles` tiles; `requested` > 0 forces that many (tests,
   // benchmarks). 0 when the counters would not fit one storage binding (use the radix path).
