@@ -61,6 +61,11 @@
 layout(local_size_x_id = 0) in;
 // false: leave out the expected and median depth (their state, updates and stores).
 layout(constant_id = 1) const bool SPLAT_DEPTH = true;
+// CPU devices (lavapipe): the subgroup size, and the kernel's ballots and votes OR the lanes'
+// words fetched by constant-index shuffles (one vpermd each on lavapipe, where subgroupBallot
+// and subgroupAny are scalar loops over the lanes with a store and a branch per lane). 0 (GPUs):
+// subgroupBallot / subgroupAny.
+layout(constant_id = 2) const uint SPLAT_LANES = 0;
 layout(push_constant) uniform Push { SplatBlendParams p; };
 layout(std430, binding = 0) readonly buffer Ranges { uvec2 ranges[]; };
 // Divergent (per-lane) loads go through texel buffers: on lavapipe a texel fetch is a
@@ -104,6 +109,27 @@ vec3 splat_sky(float px, float py) {
   const vec3 top = sky_texel(x0, y0) * (1.0 - ax) + sky_texel(x1, y0) * ax;
   const vec3 bot = sky_texel(x0, y1) * (1.0 - ax) + sky_texel(x1, y1) * ax;
   return top * (1.0 - ay) + bot * ay;
+}
+
+// OR of v over the subgroup's lanes (SPLAT_LANES > 0: all lanes active, one tile per workgroup).
+uint lanes_or(uint v) {
+  uint r = subgroupShuffle(v, 0u);
+  if (SPLAT_LANES > 1u) r |= subgroupShuffle(v, 1u);
+  if (SPLAT_LANES > 2u) r |= subgroupShuffle(v, 2u) | subgroupShuffle(v, 3u);
+  if (SPLAT_LANES > 4u)
+    r |= subgroupShuffle(v, 4u) | subgroupShuffle(v, 5u) | subgroupShuffle(v, 6u) | subgroupShuffle(v, 7u);
+  if (SPLAT_LANES > 8u)
+    r |= subgroupShuffle(v, 8u) | subgroupShuffle(v, 9u) | subgroupShuffle(v, 10u) | subgroupShuffle(v, 11u) |
+         subgroupShuffle(v, 12u) | subgroupShuffle(v, 13u) | subgroupShuffle(v, 14u) | subgroupShuffle(v, 15u);
+  return r;
+}
+uint lanes_ballot(bool c) {
+  if (SPLAT_LANES == 0u) return subgroupBallot(c).x;
+  return lanes_or(c ? 1u << gl_SubgroupInvocationID : 0u);
+}
+bool lanes_any(bool c) {
+  if (SPLAT_LANES == 0u) return subgroupAny(c);
+  return lanes_or(c ? 1u : 0u) != 0u;
 }
 
 // Pixels of one column group (a uniform skip unit): the invocation's P pixels are
@@ -226,7 +252,7 @@ const float kNoEntry = -1.0e30;  // log2 o of "no entry": q <= -1e30 fails q >= 
       SPLAT_BLEND_UNROLLED(GRP)                                                                  \
       float live = T[GRP * SPLAT_BLEND_G];                                                       \
       for (int jj = 1; jj < SPLAT_BLEND_G; ++jj) live = max(live, T[GRP * SPLAT_BLEND_G + jj]);  \
-      more = subgroupAny(live > 0.0);                                                            \
+      more = lanes_any(live > 0.0);                                                              \
     } while (mask != 0u && more);                                                                \
   }
 
@@ -299,7 +325,7 @@ void main() {
       for (int g = 0; g < SPLAT_BLEND_GROUPS; ++g) {
         const float gx0 = bxs + float(SPLAT_BLEND_G * g) - 1.0;
         const float gx1 = bxs + float(SPLAT_BLEND_G * g + SPLAT_BLEND_G);
-        const uint bits = subgroupBallot(need && !(xr < gx0 || xl > gx1)).x;
+        const uint bits = lanes_ballot(need && !(xr < gx0 || xl > gx1));
         gmask[g] |= uint(s) < slots ? bits << (uint(s) << lane_bits) : 0u;
       }
     }
@@ -314,7 +340,7 @@ void main() {
     base += slots << lane_bits;
     float live = T[0];
     for (int j = 1; j < SPLAT_BLEND_PIXELS; ++j) live = max(live, T[j]);
-    more = subgroupAny(live > 0.0);
+    more = lanes_any(live > 0.0);
   } while (base < range.y && more);
   if (p.loop_budget != 0u && iters >= p.loop_budget && subgroupElect()) atomicAdd(status, 1u);
   if (v >= p.height) return;
