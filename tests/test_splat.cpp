@@ -234,7 +234,7 @@ TEST_CASE("splat cpu: exact tile culling drops only tiles that no pixel needs (i
   }
 }
 
-TEST_CASE("splat gpu vs cpu, stage by stage (splat_preprocess, splat_sorted_counts, splat_duplicate + sort, splat_ranges, splat_blend; splat_blend_rows in the variants): random scenes") {
+TEST_CASE("splat gpu vs cpu, stage by stage (splat_preprocess, splat_sorted_counts, splat_duplicate + sort, splat_ranges, splat_blend; splat_blend_rows in the variants): random scenes" * doctest::test_suite("subgroup-sensitive")) {
   Renderer R;
   struct Case {
     uint32_t seed, degree;
@@ -275,7 +275,7 @@ TEST_CASE("splat gpu vs cpu, stage by stage (splat_preprocess, splat_sorted_coun
 
 // SplatOptions::depth = false: splat_blend's pipeline without the depth outputs (SPLAT_DEPTH = 0)
 // blends the same colours and alpha bit for bit and returns no depth; so does the CPU reference.
-TEST_CASE("splat gpu: colour-only frames (SplatOptions::depth = false, splat_blend without depth) equal the full blend") {
+TEST_CASE("splat gpu: colour-only frames (SplatOptions::depth = false, splat_blend without depth) equal the full blend" * doctest::test_suite("subgroup-sensitive")) {
   Renderer R;
   const auto cloud = test::random_cloud(21, 4000, 3, {0.0, 0.0, 0.0}, 2.0);
   const auto cam = test::look_at_camera({1.0, -6.0, 2.0}, {0.0, 0.0, 0.0}, 157, 93, 140.0, 3.5, -1.0);
@@ -552,7 +552,7 @@ TEST_CASE("splat gpu: a tile over the blend's loop budget is an error, not a cut
 // (row) across it: a group or block skipped wrongly loses that column (row), far more than
 // the threshold-flip band. Odd image size (partial tiles), both pixel conventions, plus
 // thin rotated Gaussians.
-TEST_CASE("splat gpu: blend column-group and row-block skipping, Gaussians reaching one column or row of a block") {
+TEST_CASE("splat gpu: blend column-group and row-block skipping, Gaussians reaching one column or row of a block" * doctest::test_suite("subgroup-sensitive")) {
   Renderer R;
   const uint32_t W = 77, H = 45;  // 5 × 3 tiles, the last ones partial
   const double f = 100.0, z = 5.0;
