@@ -5,7 +5,7 @@
 // engine/splat/tile_binning_gpu.h). Instance k of the depth-ordered list is
 // tile number k − excl[j] (row-major over the rect, with p.cull only the rect
 // tiles its α-cut ellipse reaches: exact tile culling, common/splat_tiles.glsl,
-// from the blend record's mean, conic and log_cut; else the whole rect) of
+// from the depth-ordered bin record's mean, conic and log_cut; else the whole rect) of
 // Gaussian i = order[j] (order = Gaussian indices stably sorted by view depth),
 // where offsets[j] = incl[j] is the inclusive scan of the depth-ordered tile
 // counts (splat_sorted_counts.comp) and excl[j] = incl[j] − count. The list
@@ -38,11 +38,12 @@ layout(push_constant) uniform Push { SplatBinParams p; };
 // (exact).
 layout(binding = 0) uniform usamplerBuffer order;    // R32_UINT
 layout(binding = 1) uniform usamplerBuffer offsets;  // R32_UINT: inclusive scan of the depth-ordered counts
-layout(binding = 2) uniform usamplerBuffer rects;    // R32G32B32A32_UINT (zero when culled)
-layout(binding = 3) uniform usamplerBuffer records;  // R32G32B32A32_UINT: 3 texels per SplatBlendRecord
-layout(std430, binding = 4) buffer Counters { uint counters[]; };
-layout(std430, binding = 5) writeonly buffer Values { uint values[]; };
-layout(std430, binding = 6) buffer Incomplete { uint incomplete; };
+// R32G32B32A32_UINT: 2 texels per SplatBinRecord, in depth order (splat_sorted_counts), so a
+// walk streams through them.
+layout(binding = 2) uniform usamplerBuffer bin_records;
+layout(std430, binding = 3) buffer Counters { uint counters[]; };
+layout(std430, binding = 4) writeonly buffer Values { uint values[]; };
+layout(std430, binding = 5) buffer Incomplete { uint incomplete; };
 
 #include "common/splat_tiles.glsl"
 
@@ -51,9 +52,10 @@ uint incl(uint j) { return texelFetch(offsets, int(j)).x; }
 // The Gaussian at depth position j: index, rect, mean/conic/cut.
 void load_gaussian(uint j, out uint i, out uvec4 r, out vec4 g0, out vec4 g1) {
   i = texelFetch(order, int(j)).x;
-  r = texelFetch(rects, int(i));
-  g0 = uintBitsToFloat(texelFetch(records, int(3u * i)));
-  g1 = uintBitsToFloat(texelFetch(records, int(3u * i + 1u)));
+  g0 = uintBitsToFloat(texelFetch(bin_records, int(2u * j)));
+  const uvec4 b1 = texelFetch(bin_records, int(2u * j + 1u));
+  g1 = vec4(uintBitsToFloat(b1.xy), 0.0, 0.0);
+  r = uvec4(b1.z & 0xFFFFu, b1.w & 0xFFFFu, b1.z >> 16, b1.w >> 16);
 }
 
 // [x0, x1) of rect row y (empty for an empty or culled rect: its record is unused).

@@ -3,8 +3,8 @@
 // splat_duplicate: one invocation per depth-sorted position j (order[] =
 // Gaussian indices stably sorted by view depth); writes one (key, value) per
 // tile of Gaussian order[j]'s rect (with p.cull only those its α-cut ellipse
-// reaches: exact tile culling, common/splat_tiles.glsl, from the blend
-// record's mean, conic and log_cut), row-major over the rect, at offsets from
+// reaches: exact tile culling, common/splat_tiles.glsl, from the depth-ordered
+// bin record's mean, conic and log_cut), row-major over the rect, at offsets from
 // the inclusive scan of the depth-ordered tile counts (splat_sorted_counts).
 // key = tile id (uint32), value = Gaussian index. The instances are thus in
 // (depth, Gaussian index) order, and the host's stable radix sort by the
@@ -20,12 +20,12 @@ layout(push_constant) uniform Push { SplatDuplicateParams p; };
 // (a gather on lavapipe; a per-lane loop as storage-buffer loads); records are
 // fetched as R32G32B32A32_UINT and bit-cast (exact).
 layout(std430, binding = 0) readonly buffer Order { uint order[]; };
-layout(binding = 1) uniform usamplerBuffer rects;  // R32G32B32A32_UINT
+// R32G32B32A32_UINT: 2 texels per SplatBinRecord, in depth order (splat_sorted_counts).
+layout(binding = 1) uniform usamplerBuffer bin_records;
 layout(std430, binding = 2) readonly buffer Counts { uint counts[]; };
 layout(std430, binding = 3) readonly buffer Offsets { uint offsets_incl[]; };
 layout(std430, binding = 4) writeonly buffer Keys { uint keys[]; };
 layout(std430, binding = 5) writeonly buffer Values { uint values[]; };
-layout(binding = 6) uniform usamplerBuffer records;  // R32G32B32A32_UINT: 3 texels per SplatBlendRecord
 
 #include "common/splat_tiles.glsl"
 
@@ -36,9 +36,10 @@ void main() {
   if (count == 0u) return;
   const uint i = order[j];
   uint o = offsets_incl[j] - count;
-  const uvec4 r = texelFetch(rects, int(i));
-  const vec4 g0 = uintBitsToFloat(texelFetch(records, int(3u * i)));
-  const vec4 g1 = uintBitsToFloat(texelFetch(records, int(3u * i + 1u)));
+  const vec4 g0 = uintBitsToFloat(texelFetch(bin_records, int(2u * j)));
+  const uvec4 b1 = texelFetch(bin_records, int(2u * j + 1u));
+  const vec4 g1 = vec4(uintBitsToFloat(b1.xy), 0.0, 0.0);
+  const uvec4 r = uvec4(b1.z & 0xFFFFu, b1.w & 0xFFFFu, b1.z >> 16, b1.w >> 16);
   for (uint y = r.y; y < r.w; ++y) {
     const uvec2 span = p.cull != 0u ? splat_tile_row(g0.x, g0.y, g0.z, g0.w, g1.x, g1.y, r, y) : r.xz;
     for (uint x = span.x; x < span.y; ++x) {

@@ -7,7 +7,10 @@
 // from the blend record's mean, conic and log_cut; rasterizer_cpu.h
 // tile_count), else touched[i] (the whole rect; 0 when culled). Its inclusive
 // scan places each Gaussian's tile instances in depth order, so a stable sort
-// of the instances by tile id alone gives the (tile, depth) order.
+// of the instances by tile id alone gives the (tile, depth) order. It also
+// writes bin_records[j] (SplatBinRecord: mean, conic, log_cut and the tile
+// rect of Gaussian order[j]) for the binning kernels, which then read in depth
+// order instead of gathering by Gaussian index.
 // Host module: engine/splat/rasterizer_gpu.cpp; test: tests/test_splat.cpp.
 #include "shared/splat_params.h"
 #include "common/dispatch.glsl"
@@ -22,6 +25,7 @@ layout(binding = 1) uniform usamplerBuffer touched;  // R32_UINT
 layout(std430, binding = 2) writeonly buffer Counts { uint counts[]; };
 layout(binding = 3) uniform usamplerBuffer rects;    // R32G32B32A32_UINT
 layout(binding = 4) uniform usamplerBuffer records;  // R32G32B32A32_UINT: 3 texels per SplatBlendRecord
+layout(std430, binding = 5) writeonly buffer BinRecords { SplatBinRecord bin_records[]; };
 
 #include "common/splat_tiles.glsl"
 
@@ -30,13 +34,23 @@ void main() {
   if (j >= p.n) return;
   const uint i = order[j];
   const uint t = texelFetch(touched, int(i)).x;
+  const uvec4 r = texelFetch(rects, int(i));  // zero when culled
+  const vec4 g0 = uintBitsToFloat(texelFetch(records, int(3u * i)));
+  const vec4 g1 = uintBitsToFloat(texelFetch(records, int(3u * i + 1u)));
+  SplatBinRecord b;
+  b.mean_x = g0.x;
+  b.mean_y = g0.y;
+  b.conic_x = g0.z;
+  b.conic_y = g0.w;
+  b.conic_z = g1.x;
+  b.log_cut = g1.y;
+  b.rect_x = r.x | (r.z << 16);  // tile coordinates < 65,536 (checked on the host)
+  b.rect_y = r.y | (r.w << 16);
+  bin_records[j] = b;
   if (p.cull == 0u || t == 0u) {
     counts[j] = t;
     return;
   }
-  const uvec4 r = texelFetch(rects, int(i));
-  const vec4 g0 = uintBitsToFloat(texelFetch(records, int(3u * i)));
-  const vec4 g1 = uintBitsToFloat(texelFetch(records, int(3u * i + 1u)));
   uint count = 0u;
   for (uint y = r.y; y < r.w; ++y) {
     const uvec2 span = splat_tile_row(g0.x, g0.y, g0.z, g0.w, g1.x, g1.y, r, y);

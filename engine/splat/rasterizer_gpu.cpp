@@ -32,7 +32,7 @@ gpu::SpecConstants blend_spec(const gpu::Context& ctx, bool depth) {
 }  // namespace
 
 struct SplatRendererGpu::Frame {
-  gpu::Buffer proj, records, rects, touched, depth_keys, order, counts, offsets, scan_scratch, keys, values, ranges, rgba,
+  gpu::Buffer proj, records, rects, bin_records, touched, depth_keys, order, counts, offsets, scan_scratch, keys, values, ranges, rgba,
       depth, total, sky, incomplete, blend_status;
   std::shared_ptr<const SkyImage> sky_image;  // the image currently in `sky`
   std::unique_ptr<kernels::RadixSortScratch> sort_scratch;
@@ -40,7 +40,7 @@ struct SplatRendererGpu::Frame {
   uint64_t binning_bytes = 0;  // TileBinningGpu's counters (counting path)
   uint64_t bytes() const {
     uint64_t s = 0;
-    for (const gpu::Buffer* b : {&proj, &records, &rects, &touched, &depth_keys, &order, &counts, &offsets, &scan_scratch, &keys,
+    for (const gpu::Buffer* b : {&proj, &records, &rects, &bin_records, &touched, &depth_keys, &order, &counts, &offsets, &scan_scratch, &keys,
                                  &values, &ranges, &rgba, &depth, &sky})
       s += b->valid() ? b->size() : 0;
     if (sort_scratch)
@@ -123,9 +123,13 @@ SplatImage SplatRendererGpu::render(const GpuGaussians& g, const render::Camera&
   if (uint64_t{W} * H * 16 > limit)
     throw std::invalid_argument("splat: a " + std::to_string(W) + "x" + std::to_string(H) +
                                 " image exceeds one storage binding");
+  if (frame.grid_x > 0xFFFFu || frame.grid_y > 0xFFFFu)  // SplatBinRecord packs tile coordinates in 16 bits
+    throw std::invalid_argument("splat: a " + std::to_string(W) + "x" + std::to_string(H) +
+                                " image has more than 65,535 tile columns or rows");
   gpu::ensure_capacity(ctx_, f.proj, n * sizeof(shader::SplatProjected), "splat-proj");
   gpu::ensure_capacity(ctx_, f.records, n * sizeof(shader::SplatBlendRecord), "splat-blend-records");
   gpu::ensure_capacity(ctx_, f.rects, n * 16, "splat-rects");
+  gpu::ensure_capacity(ctx_, f.bin_records, n * sizeof(shader::SplatBinRecord), "splat-bin-records");
   gpu::ensure_capacity(ctx_, f.touched, n * 4, "splat-touched");
   gpu::ensure_capacity(ctx_, f.depth_keys, n * 4, "splat-depth-keys");
   gpu::ensure_capacity(ctx_, f.order, n * 4, "splat-order");
@@ -190,7 +194,8 @@ SplatImage SplatRendererGpu::render(const GpuGaussians& g, const render::Camera&
       cmd.dispatch(counts_, {n}, shader::SplatDuplicateParams{static_cast<uint32_t>(n), frame.grid_x, cull, 0},
                    {f.order.binding(0, n * 4), f.touched.texel_binding(VK_FORMAT_R32_UINT, 0, n * 4),
                     f.counts.binding(0, n * 4), f.rects.texel_binding(VK_FORMAT_R32G32B32A32_UINT, 0, n * 16),
-                    f.records.texel_binding(VK_FORMAT_R32G32B32A32_UINT, 0, n * sizeof(shader::SplatBlendRecord))});
+                    f.records.texel_binding(VK_FORMAT_R32G32B32A32_UINT, 0, n * sizeof(shader::SplatBlendRecord)),
+                    f.bin_records.binding(0, n * sizeof(shader::SplatBinRecord))});
       cmd.barrier(gpu::deps::kComputeToCompute);  // the scan reads counts[]
       scan_.record(cmd, f.counts, f.offsets, n, kernels::ScanKind::Inclusive, &f.scan_scratch);
       cmd.barrier(gpu::deps::kComputeToTransfer);  // the copy reads the last offset
@@ -258,15 +263,15 @@ SplatImage SplatRendererGpu::render(const GpuGaussians& g, const render::Camera&
     const int ts = f.t2->begin(cmd, "sort");
     if (counting) {
       binning_.record(cmd,
-                      TileBinningGpu::Frame{f.order, f.offsets, f.rects, f.records, n, inst, frame.grid_x, tiles,
+                      TileBinningGpu::Frame{f.order, f.offsets, f.bin_records, n, inst, frame.grid_x, tiles,
                                             variant_.exact_cull, chunks},
                       f.values, f.ranges, f.incomplete);
     } else if (inst > 0) {
       cmd.dispatch(duplicate_, {n}, shader::SplatDuplicateParams{static_cast<uint32_t>(n), frame.grid_x, cull, 0},
-                   {f.order.binding(0, n * 4), f.rects.texel_binding(VK_FORMAT_R32G32B32A32_UINT, 0, n * 16),
+                   {f.order.binding(0, n * 4),
+                    f.bin_records.texel_binding(VK_FORMAT_R32G32B32A32_UINT, 0, n * sizeof(shader::SplatBinRecord)),
                     f.counts.binding(0, n * 4), f.offsets.binding(0, n * 4), f.keys.binding(0, inst * 4),
-                    f.values.binding(0, inst * 4),
-                    f.records.texel_binding(VK_FORMAT_R32G32B32A32_UINT, 0, n * sizeof(shader::SplatBlendRecord))});
+                    f.values.binding(0, inst * 4)});
       cmd.barrier(gpu::deps::kComputeToCompute);  // the sort reads the keys and values
       sort_.record(cmd, f.keys, f.values, inst, *f.sort_scratch, tile_bits);
     }

@@ -77,8 +77,7 @@ void TileBinningGpu::record(gpu::CommandList& cmd, const Frame& f, const gpu::Bu
   auto walk = [&](gpu::Program& prog, const gpu::Buffer& counters, const gpu::BufferBinding& out) {
     cmd.dispatch(prog, {f.chunks}, p,
                  {f.order.texel_binding(VK_FORMAT_R32_UINT, 0, n * 4), f.offsets.texel_binding(VK_FORMAT_R32_UINT, 0, n * 4),
-                  f.rects.texel_binding(VK_FORMAT_R32G32B32A32_UINT, 0, n * 16),
-                  f.records.texel_binding(VK_FORMAT_R32G32B32A32_UINT, 0, n * sizeof(shader::SplatBlendRecord)),
+                  f.bin_records.texel_binding(VK_FORMAT_R32G32B32A32_UINT, 0, n * sizeof(shader::SplatBinRecord)),
                   counters.binding(0, tc * 4), out, incomplete.binding(0, 4)});
   };
   auto offsets = [&](gpu::Program& prog) {

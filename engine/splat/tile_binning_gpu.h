@@ -63,8 +63,7 @@ class TileBinningGpu {
   struct Frame {
     const gpu::Buffer& order;    // n depth-sorted Gaussian indices
     const gpu::Buffer& offsets;  // n: inclusive scan of the depth-ordered tile counts
-    const gpu::Buffer& rects;    // n uvec4 tile rects (zero when culled)
-    const gpu::Buffer& records;  // n SplatBlendRecord
+    const gpu::Buffer& bin_records;  // n SplatBinRecord in depth order (splat_sorted_counts)
     uint64_t n, instances;       // instances = offsets[n - 1] > 0
     uint32_t grid_x, tiles;
     bool cull;        // exact tile culling, else whole rects

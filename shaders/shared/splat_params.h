@@ -60,6 +60,17 @@ struct SplatBlendRecord {
   float r, g, b, pad;
 };
 
+// Depth-ordered binning record, 32 bytes (two uvec4): splat_sorted_counts writes one per
+// depth position j (of Gaussian order[j]); the binning walks (splat_bin_chunks) and
+// splat_duplicate read them in j order, so their per-Gaussian reads stream instead of
+// gathering records by Gaussian index (cache misses: the walks took ~40 % longer).
+struct SplatBinRecord {
+  float mean_x, mean_y, conic_x, conic_y;  // as SplatBlendRecord
+  float conic_z, log_cut;
+  uint rect_x;  // tile rect columns x0 | x1 << 16 (zero when culled)
+  uint rect_y;  // tile rect rows y0 | y1 << 16
+};
+
 struct SplatPreprocessParams {
   uint n;          // Gaussians in this window
   uint first;      // index of the window's first Gaussian
@@ -135,6 +146,10 @@ ICUBE_CHECK_LAYOUT(SplatProjected, r, 32);
 ICUBE_CHECK_SIZE(SplatBlendRecord, 48);
 ICUBE_CHECK_LAYOUT(SplatBlendRecord, conic_z, 16);
 ICUBE_CHECK_LAYOUT(SplatBlendRecord, r, 32);
+ICUBE_CHECK_SIZE(SplatBinRecord, 32);
+ICUBE_CHECK_LAYOUT(SplatBinRecord, conic_z, 16);
+ICUBE_CHECK_LAYOUT(SplatBinRecord, rect_x, 24);
+ICUBE_CHECK_LAYOUT(SplatBinRecord, rect_y, 28);
 ICUBE_CHECK_SIZE(SplatPreprocessParams, 128);
 ICUBE_CHECK_LAYOUT(SplatPreprocessParams, r00, 16);
 ICUBE_CHECK_LAYOUT(SplatPreprocessParams, cam_x, 52);
