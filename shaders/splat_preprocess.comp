@@ -7,8 +7,8 @@
 // (Σ12 Σ22, 0, 0), i.e. SplatGaussian (48 B, read as three vec4); the SH
 // window holds sh_stride floats per Gaussian starting at Gaussian `first`.
 // Outputs (global index): proj[3i..3i+2] (SplatProjected), rects[i] (tile rect,
-// zero when culled), touched[i] = tiles in the rect (0 when culled; the exact
-// tile culling happens in splat_sorted_counts.comp), and the
+// zero when culled; the exact tile culling happens in
+// splat_sorted_counts.comp), and the
 // depth-sort input depth_keys[i] = float bits of view z (0 when culled; z > 0,
 // so the bits order like the depths), depth_values[i] = i, and the blend
 // record records[3i..3i+2] (SplatBlendRecord; unused when culled).
@@ -26,10 +26,9 @@ layout(binding = 1) uniform usamplerBuffer sh_coeffs;  // R32_UINT: the SH windo
 float splat_sh_coeff(uint o) { return uintBitsToFloat(texelFetch(sh_coeffs, int(o)).x); }
 layout(std430, binding = 2) writeonly buffer Proj { vec4 proj[]; };
 layout(std430, binding = 3) writeonly buffer Rects { uvec4 rects[]; };
-layout(std430, binding = 4) writeonly buffer Touched { uint touched[]; };
-layout(std430, binding = 5) writeonly buffer DepthKeys { uint depth_keys[]; };
-layout(std430, binding = 6) writeonly buffer DepthValues { uint depth_values[]; };
-layout(std430, binding = 7) writeonly buffer Records { vec4 records[]; };
+layout(std430, binding = 4) writeonly buffer DepthKeys { uint depth_keys[]; };
+layout(std430, binding = 5) writeonly buffer DepthValues { uint depth_values[]; };
+layout(std430, binding = 6) writeonly buffer Records { vec4 records[]; };
 
 #include "common/splat_project.glsl"
 
@@ -56,7 +55,6 @@ void main() {
   proj[3u * i + 2u] = o2;
   rects[i] = rect;
   const float log_cut = vis ? log(0.9 / (255.0 * o0.w)) : 0.0;
-  touched[i] = vis ? (rect.z - rect.x) * (rect.w - rect.y) : 0u;
   depth_keys[i] = floatBitsToUint(o0.z);
   depth_values[i] = i;
   records[3u * i] = vec4(o0.xy, o1.xy);

@@ -5,7 +5,7 @@
 // instances of Gaussian i = order[j]: with p.cull (exact tile culling) the
 // tiles of its rect that its α-cut ellipse reaches (common/splat_tiles.glsl,
 // from the blend record's mean, conic and log_cut; rasterizer_cpu.h
-// tile_count), else touched[i] (the whole rect; 0 when culled). Its inclusive
+// tile_count), else the rect's area (= preprocess's touched[i]; 0 when culled). Its inclusive
 // scan places each Gaussian's tile instances in depth order, so a stable sort
 // of the instances by tile id alone gives the (tile, depth) order. It also
 // writes bin_records[j] (SplatBinRecord: mean, conic, log_cut and the tile
@@ -21,11 +21,10 @@ layout(push_constant) uniform Push { SplatDuplicateParams p; };
 // (a gather on lavapipe; a per-lane loop as storage-buffer loads); records are
 // fetched as R32G32B32A32_UINT and bit-cast (exact).
 layout(std430, binding = 0) readonly buffer Order { uint order[]; };
-layout(binding = 1) uniform usamplerBuffer touched;  // R32_UINT
-layout(std430, binding = 2) writeonly buffer Counts { uint counts[]; };
-layout(binding = 3) uniform usamplerBuffer rects;    // R32G32B32A32_UINT
-layout(binding = 4) uniform usamplerBuffer records;  // R32G32B32A32_UINT: 3 texels per SplatBlendRecord
-layout(std430, binding = 5) writeonly buffer BinRecords { SplatBinRecord bin_records[]; };
+layout(std430, binding = 1) writeonly buffer Counts { uint counts[]; };
+layout(binding = 2) uniform usamplerBuffer rects;    // R32G32B32A32_UINT (zero when culled)
+layout(binding = 3) uniform usamplerBuffer records;  // R32G32B32A32_UINT: 3 texels per SplatBlendRecord
+layout(std430, binding = 4) writeonly buffer BinRecords { SplatBinRecord bin_records[]; };
 
 #include "common/splat_tiles.glsl"
 
@@ -33,8 +32,8 @@ void main() {
   const uint j = ICUBE_THREAD_LINEAR();
   if (j >= p.n) return;
   const uint i = order[j];
-  const uint t = texelFetch(touched, int(i)).x;
   const uvec4 r = texelFetch(rects, int(i));  // zero when culled
+  const uint t = (r.z - r.x) * (r.w - r.y);    // = touched[i], the whole rect (0 when culled)
   const vec4 g0 = uintBitsToFloat(texelFetch(records, int(3u * i)));
   const vec4 g1 = uintBitsToFloat(texelFetch(records, int(3u * i + 1u)));
   SplatBinRecord b;

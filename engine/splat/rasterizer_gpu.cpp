@@ -32,7 +32,7 @@ gpu::SpecConstants blend_spec(const gpu::Context& ctx, bool depth) {
 }  // namespace
 
 struct SplatRendererGpu::Frame {
-  gpu::Buffer proj, records, rects, bin_records, touched, depth_keys, order, counts, offsets, scan_scratch, keys, values, ranges, rgba,
+  gpu::Buffer proj, records, rects, bin_records, depth_keys, order, counts, offsets, scan_scratch, keys, values, ranges, rgba,
       depth, total, sky, incomplete, blend_status;
   std::shared_ptr<const SkyImage> sky_image;  // the image currently in `sky`
   std::unique_ptr<kernels::RadixSortScratch> sort_scratch;
@@ -40,7 +40,7 @@ struct SplatRendererGpu::Frame {
   uint64_t binning_bytes = 0;  // TileBinningGpu's counters (counting path)
   uint64_t bytes() const {
     uint64_t s = 0;
-    for (const gpu::Buffer* b : {&proj, &records, &rects, &bin_records, &touched, &depth_keys, &order, &counts, &offsets, &scan_scratch, &keys,
+    for (const gpu::Buffer* b : {&proj, &records, &rects, &bin_records, &depth_keys, &order, &counts, &offsets, &scan_scratch, &keys,
                                  &values, &ranges, &rgba, &depth, &sky})
       s += b->valid() ? b->size() : 0;
     if (sort_scratch)
@@ -130,7 +130,6 @@ SplatImage SplatRendererGpu::render(const GpuGaussians& g, const render::Camera&
   gpu::ensure_capacity(ctx_, f.records, n * sizeof(shader::SplatBlendRecord), "splat-blend-records");
   gpu::ensure_capacity(ctx_, f.rects, n * 16, "splat-rects");
   gpu::ensure_capacity(ctx_, f.bin_records, n * sizeof(shader::SplatBinRecord), "splat-bin-records");
-  gpu::ensure_capacity(ctx_, f.touched, n * 4, "splat-touched");
   gpu::ensure_capacity(ctx_, f.depth_keys, n * 4, "splat-depth-keys");
   gpu::ensure_capacity(ctx_, f.order, n * 4, "splat-order");
   gpu::ensure_capacity(ctx_, f.counts, n * 4, "splat-counts");
@@ -183,7 +182,7 @@ SplatImage SplatRendererGpu::render(const GpuGaussians& g, const render::Camera&
                      {g.gaussians.texel_binding(VK_FORMAT_R32G32B32A32_UINT, 0, n * sizeof(shader::SplatGaussian)),
                       g.sh.texel_binding(VK_FORMAT_R32_UINT, w.first * sh_bytes, w.count * sh_bytes),
                       f.proj.binding(0, n * sizeof(shader::SplatProjected)), f.rects.binding(0, n * 16),
-                      f.touched.binding(0, n * 4), f.depth_keys.binding(0, n * 4), f.order.binding(0, n * 4),
+                      f.depth_keys.binding(0, n * 4), f.order.binding(0, n * 4),
                       f.records.binding(0, n * sizeof(shader::SplatBlendRecord))});
       }
       f.t1->end(cmd, ti);
@@ -192,8 +191,7 @@ SplatImage SplatRendererGpu::render(const GpuGaussians& g, const render::Camera&
       sort_.record(cmd, f.depth_keys, f.order, n, *f.sort_scratch, 32);
       cmd.barrier(gpu::deps::kComputeToCompute);  // counts read the order
       cmd.dispatch(counts_, {n}, shader::SplatDuplicateParams{static_cast<uint32_t>(n), frame.grid_x, cull, 0},
-                   {f.order.binding(0, n * 4), f.touched.texel_binding(VK_FORMAT_R32_UINT, 0, n * 4),
-                    f.counts.binding(0, n * 4), f.rects.texel_binding(VK_FORMAT_R32G32B32A32_UINT, 0, n * 16),
+                   {f.order.binding(0, n * 4), f.counts.binding(0, n * 4), f.rects.texel_binding(VK_FORMAT_R32G32B32A32_UINT, 0, n * 16),
                     f.records.texel_binding(VK_FORMAT_R32G32B32A32_UINT, 0, n * sizeof(shader::SplatBlendRecord)),
                     f.bin_records.binding(0, n * sizeof(shader::SplatBinRecord))});
       cmd.barrier(gpu::deps::kComputeToCompute);  // the scan reads counts[]

@@ -30,7 +30,8 @@
 //   with the record shuffled from its lane (splat_blend.comp). Loads at per-lane (divergent or strided)
 //   addresses are texel fetches (uniform texel buffers, R32_UINT /
 //   R32G32B32A32_UINT, bit-cast in the shader: exact): the Gaussians and SH
-//   windows in preprocess, touched/rects/records in splat_sorted_counts and
+//   windows in preprocess, rects/records in splat_sorted_counts (the depth-ordered SplatBinRecords in
+//   the binning) and
 //   splat_duplicate, values/records/sky in the blends. On lavapipe a texel
 //   fetch is a gather where a storage-buffer load at a divergent address is a
 //   per-lane loop; on NVIDIA/AMD both are ordinary loads. The sky model
