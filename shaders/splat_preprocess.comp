@@ -5,7 +5,9 @@
 // (common/splat_project.glsl; rules in engine/splat/rasterizer_cpu.h).
 // Inputs: gaussians[3i..3i+2] = (pos - origin, opacity), (Σ00 Σ01 Σ02 Σ11),
 // (Σ12 Σ22, 0, 0), i.e. SplatGaussian (48 B, read as three vec4); the SH
-// window holds sh_stride floats per Gaussian starting at Gaussian `first`.
+// window holds sh_stride floats (a multiple of 4) per Gaussian starting at
+// Gaussian `first`, of which SPLAT_SH_DEGREE's bands are read as whole vec4
+// texels (12 fetches for degree 3 instead of 48).
 // Outputs (global index): proj[3i..3i+2] (SplatProjected), rects[i] (tile rect,
 // zero when culled; the exact tile culling happens in
 // splat_sorted_counts.comp), and the
@@ -17,13 +19,19 @@
 #include "common/dispatch.glsl"
 
 layout(local_size_x_id = 0) in;
+// The scene's SH degree (0-3; a pipeline per degree): the SH row is read in whole texels and
+// the unused bands' code is left out.
+layout(constant_id = 1) const uint SPLAT_SH_DEGREE = 3;
 layout(push_constant) uniform Push { SplatPreprocessParams p; };
 // The per-Gaussian reads are strided (48 B, sh_stride floats): texel fetches (a gather on
 // lavapipe, a per-lane loop as storage-buffer loads), bit-cast from uint (exact).
 layout(binding = 0) uniform usamplerBuffer gaussians;  // R32G32B32A32_UINT: 3 texels per SplatGaussian
-layout(binding = 1) uniform usamplerBuffer sh_coeffs;  // R32_UINT: the SH window
+layout(binding = 1) uniform usamplerBuffer sh_coeffs;  // R32G32B32A32_UINT: the SH window, sh_stride / 4 texels per Gaussian
 
-float splat_sh_coeff(uint o) { return uintBitsToFloat(texelFetch(sh_coeffs, int(o)).x); }
+// The Gaussian's SH row (3·(degree + 1)² floats, rounded up to whole texels), fetched once.
+#define SPLAT_SH_TEXELS ((3u * (SPLAT_SH_DEGREE + 1u) * (SPLAT_SH_DEGREE + 1u) + 3u) / 4u)
+float sh_row[48];
+float splat_sh_coeff(uint o) { return sh_row[o]; }
 layout(std430, binding = 2) writeonly buffer Proj { vec4 proj[]; };
 layout(std430, binding = 3) writeonly buffer Rects { uvec4 rects[]; };
 layout(std430, binding = 4) writeonly buffer DepthKeys { uint depth_keys[]; };
@@ -49,7 +57,15 @@ void main() {
   vec4 o0, o1, o2;
   uvec4 rect;
   const vec3 d = g0.xyz - vec3(p.cam_x, p.cam_y, p.cam_z);
-  const bool vis = splat_project(d, g0.w, cov, li * p.sh_stride, o0, o1, o2, rect);
+  const uint sh_texel = li * (p.sh_stride / 4u);
+  for (uint t = 0u; t < SPLAT_SH_TEXELS; ++t) {
+    const vec4 v = uintBitsToFloat(texelFetch(sh_coeffs, int(sh_texel + t)));
+    sh_row[4u * t] = v.x;
+    sh_row[4u * t + 1u] = v.y;
+    sh_row[4u * t + 2u] = v.z;
+    sh_row[4u * t + 3u] = v.w;
+  }
+  const bool vis = splat_project(d, g0.w, cov, 0u, o0, o1, o2, rect);
   proj[3u * i] = o0;
   proj[3u * i + 1u] = o1;
   proj[3u * i + 2u] = o2;

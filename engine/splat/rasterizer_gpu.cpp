@@ -52,7 +52,6 @@ struct SplatRendererGpu::Frame {
 
 SplatRendererGpu::SplatRendererGpu(gpu::Context& ctx, SplatGpuVariant variant)
     : ctx_(ctx),
-      preprocess_(ctx.program("splat_preprocess", local_size())),
       counts_(ctx.program("splat_sorted_counts", local_size())),
       duplicate_(ctx.program("splat_duplicate", local_size())),
       ranges_(ctx.program("splat_ranges", local_size())),
@@ -163,12 +162,15 @@ SplatImage SplatRendererGpu::render(const GpuGaussians& g, const render::Camera&
   double pre_ms = 0.0, depth_sort_ms = 0.0;
   if (n > 0) {
     ensure_sort_scratch(n);
-    // SH windows: each a storage-sized range that one R32_UINT texel view can hold, starting at
-    // a texel-offset-aligned byte offset.
+    // SH windows: each a storage-sized range that one R32G32B32A32_UINT texel view can hold,
+    // starting at a texel-offset-aligned byte offset (sh_stride is a multiple of 4).
     const uint64_t sh_bytes = uint64_t{g.sh_stride} * 4;
     const uint64_t texel_align = std::max<uint64_t>(1, ctx_.info().min_texel_buffer_offset_alignment);
     const auto windows = gpu::storage_windows(ctx_.info(), n, g.sh_stride * 4, texel_align / std::gcd(texel_align, sh_bytes),
-                                              std::min(limit, texel_limit * 4));
+                                              std::min(limit, texel_limit * 16));
+    // A preprocess pipeline per SH degree (splat_preprocess's SPLAT_SH_DEGREE), made on first use.
+    gpu::Program& preprocess =
+        ctx_.program("splat_preprocess", gpu::SpecConstants{}.set(0, kLocal /* local_size_x */).set(1, g.sh_degree /* SPLAT_SH_DEGREE */));
     ctx_.submit_and_wait([&](gpu::CommandList& cmd) {
       f.t1->reset(cmd);
       const int ti = f.t1->begin(cmd, "preprocess");
@@ -178,9 +180,9 @@ SplatImage SplatRendererGpu::render(const GpuGaussians& g, const render::Camera&
         p.first = static_cast<uint32_t>(w.first);
         p.sh_stride = g.sh_stride;
         p.sh_degree = g.sh_degree;
-        cmd.dispatch(preprocess_, {w.count}, p,
+        cmd.dispatch(preprocess, {w.count}, p,
                      {g.gaussians.texel_binding(VK_FORMAT_R32G32B32A32_UINT, 0, n * sizeof(shader::SplatGaussian)),
-                      g.sh.texel_binding(VK_FORMAT_R32_UINT, w.first * sh_bytes, w.count * sh_bytes),
+                      g.sh.texel_binding(VK_FORMAT_R32G32B32A32_UINT, w.first * sh_bytes, w.count * sh_bytes),
                       f.proj.binding(0, n * sizeof(shader::SplatProjected)), f.rects.binding(0, n * 16),
                       f.depth_keys.binding(0, n * 4), f.order.binding(0, n * 4),
                       f.records.binding(0, n * sizeof(shader::SplatBlendRecord))});

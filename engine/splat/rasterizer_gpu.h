@@ -133,7 +133,6 @@ class SplatRendererGpu {
  private:
   struct Frame;
   gpu::Context& ctx_;
-  gpu::Program& preprocess_;
   gpu::Program& counts_;
   gpu::Program& duplicate_;
   gpu::Program& ranges_;

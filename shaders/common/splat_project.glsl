@@ -2,8 +2,9 @@
 // tile rect, SH colour). Mirrors engine/splat/rasterizer_cpu.cpp
 // project_gaussian() operation by operation; conventions in
 // engine/splat/rasterizer_cpu.h. Included by shaders/splat_preprocess.comp,
-// which declares the push constants `p` (SplatPreprocessParams) and
-// `float splat_sh_coeff(uint o)` (coefficient o of the SH window).
+// which declares the push constants `p` (SplatPreprocessParams),
+// `float splat_sh_coeff(uint o)` (coefficient o of the Gaussian's SH row at
+// sh_base) and the constant SPLAT_SH_DEGREE (the bands evaluated).
 #ifndef ICUBE_SPLAT_PROJECT_GLSL
 #define ICUBE_SPLAT_PROJECT_GLSL
 
@@ -94,7 +95,7 @@ bool splat_project(vec3 d, float opacity, float cov[6], uint sh_base, out vec4 o
   const vec3 dir = len > 0.0 ? d / len : vec3(0.0, 0.0, 1.0);
   out0 = vec4(mx, my, tz, op);
   out1 = vec4(c * det_inv, -b * det_inv, a * det_inv, radius);
-  out2 = vec4(splat_sh_color(sh_base, p.sh_degree, dir), 0.0);
+  out2 = vec4(splat_sh_color(sh_base, SPLAT_SH_DEGREE, dir), 0.0);
   rect = uvec4(lo, hi);
   return true;
 }
