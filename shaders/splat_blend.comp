@@ -21,9 +21,12 @@
 // Batches: each lane loads SPLAT_BLEND_SLOTS blend records (slot s: instance
 // base + s·stride + lane; independent loads, so their cache misses overlap)
 // and tests each one's α-cut ellipse (dᵀ·conic·d <= −2·log_cut, log_cut =
-// ln(0.9/(255·o)), the 10 % margin) against the subgroup's rows grown by 1 px
+// ln(0.9/(255·o)), the 10 % margin) against the subgroup's rows grown by 1/4 px
 // (the slab test of common/splat_tiles.glsl), then against each column group
-// grown by 1 px with the chord's extreme x over those rows. One ballot word per
+// grown by 1/4 px with the chord's extreme x over those rows (the 10 % α margin
+// alone is ≥ 0.017 px at the cut for the narrowest Gaussian the 0.3 px²
+// dilation allows, far above the chord's float error of ~1e-4 px; the 1/4 px
+// is spare). One ballot word per
 // group holds the batch's needed entries (bit s·stride + lane: bit order is
 // depth order). Then, group by group, a loop over the group's bits evaluates
 // SPLAT_BLEND_UNROLL needed Gaussians per iteration on the group's G pixels of
@@ -264,9 +267,9 @@ void main() {
   const uint v = (tile / p.grid_x) * SPLAT_TILE + (local & 7u) + 8u * ((local >> 3) / SPLAT_BLEND_SEGS);
   const float py = float(v) + p.pixel_offset;
   const float px0 = float(u0) + p.pixel_offset;  // sample x of the segment's first pixel
-  // The subgroup's pixel block (sample coordinates), grown by 1 px: uniform.
+  // The subgroup's pixel block (sample coordinates), grown by 1/4 px: uniform.
   const float bxs = subgroupMin(px0);
-  const float by0 = subgroupMin(py) - 1.0, by1 = subgroupMax(py) + 1.0;
+  const float by0 = subgroupMin(py) - 0.25, by1 = subgroupMax(py) + 0.25;
   const uint lanes = subgroupBallotBitCount(subgroupBallot(true));  // active lanes: 0 .. lanes-1
   const uint lane = gl_SubgroupInvocationID;
   // Batch lanes: the largest power of two <= lanes (lanes <= 16: one tile per workgroup).
@@ -321,10 +324,10 @@ void main() {
         d1[s] = vec4(-0.5 * kLog2e * c, log2(b1.z), b1.w, 0.0);
         d2[s] = b2.xyz;
       }
-      // Column group g spans samples bxs + G·g + [0, G−1], grown by 1 px. NaN: needed.
+      // Column group g spans samples bxs + G·g + [0, G−1], grown by 1/4 px. NaN: needed.
       for (int g = 0; g < SPLAT_BLEND_GROUPS; ++g) {
-        const float gx0 = bxs + float(SPLAT_BLEND_G * g) - 1.0;
-        const float gx1 = bxs + float(SPLAT_BLEND_G * g + SPLAT_BLEND_G);
+        const float gx0 = bxs + float(SPLAT_BLEND_G * g) - 0.25;
+        const float gx1 = bxs + float(SPLAT_BLEND_G * g + SPLAT_BLEND_G - 1) + 0.25;
         const uint bits = lanes_ballot(need && !(xr < gx0 || xl > gx1));
         gmask[g] |= uint(s) < slots ? bits << (uint(s) << lane_bits) : 0u;
       }
