@@ -26,8 +26,7 @@
 // grown by 1/4 px with the chord's extreme x over those rows (the 10 % α margin
 // alone is ≥ 0.017 px at the cut for the narrowest Gaussian the 0.3 px²
 // dilation allows, far above the chord's float error of ~1e-4 px; the 1/4 px
-// is spare). One ballot word per
-// group holds the batch's needed entries (bit s·stride + lane: bit order is
+// is spare). One ballot word per group holds the batch's needed entries (bit s·stride + lane: bit order is
 // depth order). Then, group by group, a loop over the group's bits evaluates
 // SPLAT_BLEND_UNROLL needed Gaussians per iteration on the group's G pixels of
 // every lane, the derived values selected from the entry's slot and shuffled
@@ -40,9 +39,13 @@
 // more, masked, when it ends, so every loop here is a do-while whose condition
 // (more entries and, by a subgroup vote, a live pixel) is its last statement,
 // and the U Gaussians of an iteration share its vote, loop control and masked
-// state writes (their selects and exp2s overlap). No shared memory or barriers
-// (slow on lavapipe). The spec constant SPLAT_DEPTH = false leaves the depth
-// outputs out (SplatOptions::depth).
+// state writes (their selects and exp2s overlap). On CPU devices (spec
+// constant SPLAT_LANES = the subgroup size) the ballots and votes OR the lanes'
+// words fetched by constant-index shuffles (lanes_or: one vpermd each), since
+// lavapipe's subgroupBallot / subgroupAny are scalar loops over the lanes; GPUs
+// (SPLAT_LANES = 0) use the intrinsics. No shared memory or barriers (slow on
+// lavapipe). The spec constant SPLAT_DEPTH = false leaves the depth outputs
+// out (SplatOptions::depth).
 // Numerics: per Gaussian (once per batch entry and lane) A = −½·a·log2e,
 // B = −b·log2e, C = −½·c·log2e and log2 o; per pixel q = dx·(A·dx + B·dy) +
 // C·dy² + log2 o (= log2(o·e^power); the dy terms once per Gaussian and lane),

@@ -4,10 +4,13 @@
 // foundation PrefixScan and 32-bit RadixSort from kernels/). Same rules and outputs as the CPU reference rasterizer_cpu.h.
 //
 // Frame = two submissions (one CPU sync, as in the reference rasterizer):
-//   1. preprocess (one invocation per Gaussian, SH bound in windows of at most
-//      maxStorageBufferRange; also writes the depth keys) -> 32-bit RadixSort
-//      of the Gaussians by depth (N keys, 4 passes) -> tiles touched in depth
-//      order (splat_sorted_counts) -> inclusive PrefixScan -> total to the host;
+//   1. preprocess (one invocation per Gaussian, a pipeline per SH degree, the
+//      SH row read as vec4 texels from windows of at most maxStorageBufferRange;
+//      also writes the depth keys) -> 32-bit RadixSort of the Gaussians by
+//      depth (N keys, 4 passes) -> tiles touched in depth order
+//      (splat_sorted_counts, which also writes a depth-ordered SplatBinRecord
+//      per Gaussian so that the binning streams instead of gathering by
+//      Gaussian index) -> inclusive PrefixScan -> total to the host;
 //   Exact tile culling: splat_sorted_counts counts (and splat_duplicate emits)
 //   only the rect tiles that the α-cut ellipse reaches (common/splat_tiles.glsl,
 //   rasterizer_cpu.h tile_row_span), which roughly halves the instances.
@@ -25,17 +28,20 @@
 //   (SplatBlendRecord: the first two vec4 decide whether a Gaussian can touch
 //   a pixel row segment); the blend runs one tile per workgroup: each subgroup
 //   loads a batch of 4 records per lane (independent loads), tests each
-//   Gaussian's α-cut ellipse against its pixel block's 4-column groups, and
-//   per group evaluates only the ballot's needed Gaussians, in depth order,
-//   with the record shuffled from its lane (splat_blend.comp). Loads at per-lane (divergent or strided)
+//   Gaussian's α-cut ellipse against its pixel block's 8-column groups, and
+//   per group evaluates only the ballot's needed Gaussians, 4 per loop
+//   iteration, in depth order, with the record shuffled from its lane
+//   (splat_blend.comp; on CPU devices its ballots and votes are constant-index
+//   shuffles). SplatOptions::depth = false selects a blend pipeline without
+//   the expected/median depth. Loads at per-lane (divergent or strided)
 //   addresses are texel fetches (uniform texel buffers, R32_UINT /
 //   R32G32B32A32_UINT, bit-cast in the shader: exact): the Gaussians and SH
-//   windows in preprocess, rects/records in splat_sorted_counts (the depth-ordered SplatBinRecords in
-//   the binning) and
-//   splat_duplicate, values/records/sky in the blends. On lavapipe a texel
-//   fetch is a gather where a storage-buffer load at a divergent address is a
-//   per-lane loop; on NVIDIA/AMD both are ordinary loads. The sky model
-//   (SplatOptions::sky, sky.h) is applied in the blend: C + T·sky(d).
+//   windows in preprocess, rects/records in splat_sorted_counts, the bin
+//   records in the binning walks and splat_duplicate, values/records/sky in the
+//   blends. On lavapipe a texel fetch is a gather where a storage-buffer load at
+//   a divergent address is a per-lane loop; on NVIDIA/AMD both are ordinary
+//   loads. The sky model (SplatOptions::sky, sky.h) is applied in the blend:
+//   C + T·sky(d).
 //   The result is the reference's (tile, depth, Gaussian index) order of the
 //   64-bit keys tile << 32 | depth bits, with 4 + 2 passes over N + instances
 //   instead of 6 passes of 64-bit keys over the instances.
@@ -45,7 +51,9 @@
 // Limits: Gaussians, their projections and the instance keys each fit one
 // storage binding (lavapipe: 2.7 M Gaussians, 33.5 M instances) and one
 // texel-buffer view (maxTexelBufferElements: 3 texels per blend record, one
-// per instance); larger frames fail with a clear message.
+// per instance); larger frames, and images of more than 65,535 tile columns or
+// rows (SplatBinRecord packs tile coordinates in 16 bits), fail with a clear
+// message.
 // Tests: tests/test_splat.cpp; benchmark: bench/bench_splat.cpp.
 #pragma once
 
