@@ -15,6 +15,15 @@ using gpu::CommandList;
 namespace {
 constexpr uint32_t kRadixSize = 256;
 uint32_t key_bytes(KeyWidth w) { return w == KeyWidth::Bits64 ? 8u : 4u; }
+
+// CPU devices (lavapipe): digit matches by constant-index shuffles instead of eight ballots,
+// which gallivm runs as scalar loops over the lanes (radix_common.glsl RADIX_LANES).
+gpu::SpecConstants radix_spec(const gpu::Context& ctx) {
+  gpu::SpecConstants s = subgroup_tile_spec(ctx);
+  const bool cpu = ctx.info().type == VK_PHYSICAL_DEVICE_TYPE_CPU;
+  s.set(kSpecRadixLanes, cpu && ctx.subgroup_size() <= 32 ? ctx.subgroup_size() : 0u);
+  return s;
+}
 }  // namespace
 
 RadixSortScratch::RadixSortScratch(gpu::Context& ctx, uint64_t cap, KeyWidth key_width)
@@ -29,8 +38,8 @@ RadixSortScratch::RadixSortScratch(gpu::Context& ctx, uint64_t cap, KeyWidth key
 RadixSort::RadixSort(gpu::Context& ctx, KeyWidth width)
     : ctx_(ctx),
       width_(width),
-      count_(ctx.program(width == KeyWidth::Bits64 ? "radix_count64" : "radix_count32", subgroup_tile_spec(ctx))),
-      scatter_(ctx.program(width == KeyWidth::Bits64 ? "radix_scatter64" : "radix_scatter32", subgroup_tile_spec(ctx))),
+      count_(ctx.program(width == KeyWidth::Bits64 ? "radix_count64" : "radix_count32", radix_spec(ctx))),
+      scatter_(ctx.program(width == KeyWidth::Bits64 ? "radix_scatter64" : "radix_scatter32", radix_spec(ctx))),
       scan_(ctx) {
   if (ctx.subgroup_size() > 128 || kTileElements % ctx.subgroup_size())
     throw std::runtime_error("radix sort needs a subgroup size that divides " + std::to_string(kTileElements) +
