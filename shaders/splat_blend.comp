@@ -57,7 +57,10 @@
 // (the degenerate-Gaussians test: 31 instead of 22 of 4800 pixels beyond
 // 1e-3; the other tests 0), for ~8 % of the blend time against α = o·2^(q −
 // log2 o). T > 0 marks a live pixel, T < 0 a stopped one with transmittance
-// −T (pixels outside the image start stopped).
+// −T (pixels outside the image start stopped). Median depth: each Gaussian
+// blended while T > 0.5 overwrites it, and a pixel whose transmittance stays
+// above 0.5 reports 0, which is the reference's "the Gaussian that takes T to
+// ≤ 0.5" with one compare less per pixel and Gaussian.
 #include "shared/splat_params.h"
 #include "common/dispatch.glsl"
 
@@ -210,7 +213,7 @@ const float kNoEntry = -1.0e30;  // log2 o of "no entry": q <= -1e30 fails q >= 
       C[j] += RGB * w;                                                       \
       if (SPLAT_DEPTH) {                                                     \
         wz[j] += H1.z * w;                                                   \
-        median[j] = use && T[j] > 0.5 && test_t <= 0.5 ? H1.z : median[j];   \
+        median[j] = use && T[j] > 0.5 ? H1.z : median[j];                    \
       }                                                                      \
       T[j] = stop ? -T[j] : (use ? test_t : T[j]);                           \
     }                                                                        \
@@ -356,6 +359,8 @@ void main() {
     const uint pix = v * p.width + u;
     const float t = abs(T[j]);
     rgba[pix] = vec4(C[j] + t * splat_sky(float(u) + p.pixel_offset, py), 1.0 - t);
-    if (SPLAT_DEPTH) depth[pix] = vec2(t < 1.0 ? wz[j] / (1.0 - t) : 0.0, median[j]);
+    // median[j] holds the depth of the last Gaussian blended while T > 0.5: the one whose blend
+    // took T to <= 0.5 (the reference's median), or, when T never got there, one to discard.
+    if (SPLAT_DEPTH) depth[pix] = vec2(t < 1.0 ? wz[j] / (1.0 - t) : 0.0, t > 0.5 ? 0.0 : median[j]);
   }
 }
