@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <numeric>
 #include <stdexcept>
+#include <string>
 
 namespace icube::kernels {
 
@@ -16,12 +17,16 @@ namespace {
 constexpr uint32_t kRadixSize = 256;
 uint32_t key_bytes(KeyWidth w) { return w == KeyWidth::Bits64 ? 8u : 4u; }
 
-// CPU devices (lavapipe): digit matches by constant-index shuffles instead of eight ballots,
-// which gallivm runs as scalar loops over the lanes (radix_common.glsl RADIX_LANES).
-gpu::SpecConstants radix_spec(const gpu::Context& ctx) {
+// Digit matches by constant-index shuffles (radix_common.glsl RADIX_LANES = the subgroup size)
+// or by eight ballots (0); see DigitMatch.
+gpu::SpecConstants radix_spec(const gpu::Context& ctx, DigitMatch match) {
   gpu::SpecConstants s = subgroup_tile_spec(ctx);
   const bool cpu = ctx.info().type == VK_PHYSICAL_DEVICE_TYPE_CPU;
-  s.set(kSpecRadixLanes, cpu && ctx.subgroup_size() <= 32 ? ctx.subgroup_size() : 0u);
+  const bool shuffles = match == DigitMatch::Shuffles || (match == DigitMatch::Auto && cpu);
+  if (shuffles && ctx.subgroup_size() > 32)
+    throw std::runtime_error("radix sort: digit matches by shuffles need a subgroup of at most 32 lanes; device has " +
+                             std::to_string(ctx.subgroup_size()));
+  s.set(kSpecRadixLanes, shuffles ? ctx.subgroup_size() : 0u);
   return s;
 }
 }  // namespace
@@ -35,11 +40,11 @@ RadixSortScratch::RadixSortScratch(gpu::Context& ctx, uint64_t cap, KeyWidth key
       scan_scratch(ctx, std::max<uint64_t>(PrefixScan::scratch_elements(kRadixSize * tiles_for(capacity)), 1) * 4,
                    gpu::MemoryUsage::DeviceLocal, "radix-scan-scratch") {}
 
-RadixSort::RadixSort(gpu::Context& ctx, KeyWidth width)
+RadixSort::RadixSort(gpu::Context& ctx, KeyWidth width, DigitMatch match)
     : ctx_(ctx),
       width_(width),
-      count_(ctx.program(width == KeyWidth::Bits64 ? "radix_count64" : "radix_count32", radix_spec(ctx))),
-      scatter_(ctx.program(width == KeyWidth::Bits64 ? "radix_scatter64" : "radix_scatter32", radix_spec(ctx))),
+      count_(ctx.program(width == KeyWidth::Bits64 ? "radix_count64" : "radix_count32", radix_spec(ctx, match))),
+      scatter_(ctx.program(width == KeyWidth::Bits64 ? "radix_scatter64" : "radix_scatter32", radix_spec(ctx, match))),
       scan_(ctx) {
   if (ctx.subgroup_size() > 128 || kTileElements % ctx.subgroup_size())
     throw std::runtime_error("radix sort needs a subgroup size that divides " + std::to_string(kTileElements) +

@@ -20,13 +20,14 @@ using kernels::KeyWidth;
 namespace {
 
 template <class K>
-void check_sort(gpu::Context& ctx, std::vector<K> keys, uint32_t key_bits = 0) {
+void check_sort(gpu::Context& ctx, std::vector<K> keys, uint32_t key_bits = 0,
+                kernels::DigitMatch match = kernels::DigitMatch::Auto) {
   constexpr KeyWidth width = sizeof(K) == 8 ? KeyWidth::Bits64 : KeyWidth::Bits32;
   std::vector<uint32_t> values(keys.size());
   std::iota(values.begin(), values.end(), 0u);  // original positions reveal any instability
   gpu::Buffer k = gpu::upload_vector(ctx, keys, "sort-keys");
   gpu::Buffer v = gpu::upload_vector(ctx, values, "sort-values");
-  kernels::RadixSort(ctx, width).run(k, v, keys.size(), key_bits);
+  kernels::RadixSort(ctx, width, match).run(k, v, keys.size(), key_bits);
   kernels::radix_sort_cpu(keys, values, key_bits ? key_bits : sizeof(K) * 8);
   CHECK(test::equal_report(gpu::download_vector<K>(ctx, k, keys.size()), keys, "keys"));
   CHECK(test::equal_report(gpu::download_vector<uint32_t>(ctx, v, values.size()), values, "values"));
@@ -70,6 +71,22 @@ TEST_SUITE("subgroup-sensitive") {
     std::reverse(sorted.begin(), sorted.end());
     check_sort(ctx, sorted);
     check_sort(ctx, std::vector<uint32_t>(30011, 0xabcdef01u));  // all equal
+  }
+
+  // Auto picks one digit-match path per device (shuffles on lavapipe, ballots on GPUs); both
+  // are run here on whatever device the tests have.
+  TEST_CASE("radix sort digit matches by ballots and by shuffles give the same stable sort") {
+    gpu::Context& ctx = test::gpu_context();
+    for (const auto match : {kernels::DigitMatch::Ballots, kernels::DigitMatch::Shuffles}) {
+      CAPTURE(static_cast<int>(match));
+      if (match == kernels::DigitMatch::Shuffles && ctx.subgroup_size() > 32) continue;
+      for (uint64_t n : {uint64_t{1}, uint64_t{13}, uint64_t{4097}, uint64_t{100003}}) {
+        CAPTURE(n);
+        check_sort(ctx, random_keys32(n, static_cast<uint32_t>(n) + 7), 0, match);
+        check_sort(ctx, random_keys32(n, static_cast<uint32_t>(n) + 8, 5), 0, match);  // heavy ties: stability
+        check_sort(ctx, splat_keys(n, static_cast<uint32_t>(n) + 9, 3600), 44, match);
+      }
+    }
   }
 
   TEST_CASE("radix sort 32-bit extreme keys and partial key bits") {

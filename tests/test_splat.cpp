@@ -271,6 +271,25 @@ TEST_CASE("splat gpu vs cpu, stage by stage (splat_preprocess, splat_sorted_coun
       report(std::string("variant cull ") + (cull ? "on" : "off") + ", " + (tile_blend ? "tile" : "row") + " blend",
              compare(v, cloud, cam, o, 0.01, cull ? splat::TileRule::Ellipse : splat::TileRule::Rect));
     }
+  // splat_blend's two vote paths (subgroup intrinsics on GPUs, constant-index shuffles on CPU
+  // devices), each forced on this device: the same images.
+  using Votes = splat::SplatGpuVariant::Votes;
+  std::vector<splat::SplatImage> images;
+  for (const Votes votes : {Votes::Subgroup, Votes::Shuffles}) {
+    CAPTURE(static_cast<int>(votes));
+    const uint32_t sg = test::gpu_context().subgroup_size();
+    if (votes == Votes::Shuffles && (sg > 16 || 16 % sg != 0)) continue;
+    splat::SplatGpuVariant vv;
+    vv.votes = votes;
+    splat::SplatRendererGpu v(test::gpu_context(), vv);
+    report(votes == Votes::Subgroup ? "blend votes by subgroup intrinsics" : "blend votes by shuffles",
+           compare(v, cloud, cam, o));
+    images.push_back(v.render(v.upload(cloud), cam, o));
+  }
+  if (images.size() == 2) {
+    CHECK(images[0].rgba == images[1].rgba);
+    CHECK(images[0].depth == images[1].depth);
+  }
 }
 
 // SplatOptions::depth = false: splat_blend's pipeline without the depth outputs (SPLAT_DEPTH = 0)
@@ -600,6 +619,23 @@ TEST_CASE("splat gpu: blend column-group and row-block skipping, Gaussians reach
     report(conv == render::PixelConvention::Centre ? "skip boundaries, centre samples" : "skip boundaries, integer samples",
            r);
   }
+}
+
+// SplatBinRecord packs tile coordinates in 16 bits: an image of more than 65,535 tile columns
+// (here 1,048,576 × 1 px, within one storage binding) is refused with a clear message.
+TEST_CASE("splat gpu: an image of more than 65,535 tile columns is an error") {
+  Renderer R;
+  splat::GaussianCloud c;
+  c.sh_degree = 0;
+  const float dc[3] = {1, 1, 1};
+  c.add({0.0, 0.0, 5.0}, glm::vec3(0.1f), glm::vec4(1, 0, 0, 0), 0.9f, dc);
+  render::Camera cam;
+  cam.K = {100.0, 100.0, 524288.0, 0.5, 1048576, 1};
+  CHECK_THROWS_WITH_AS(R.r.render(R.r.upload(c), cam, SplatOptions{}), doctest::Contains("65,535 tile columns"),
+                       std::invalid_argument);
+  cam.K = {100.0, 100.0, 500.0, 0.5, 1000, 1};  // a wide strip within the limit renders
+  const auto img = R.r.render(R.r.upload(c), cam, SplatOptions{});
+  CHECK(img.rgba.size() == 4000);
 }
 
 TEST_CASE("splat gpu: empty scene and Gaussians all culled give the background (both binning paths)") {

@@ -10,6 +10,7 @@
 #include <cstring>
 #include <numeric>
 #include <stdexcept>
+#include <string>
 
 namespace icube::splat {
 
@@ -18,11 +19,16 @@ constexpr uint32_t kLocal = 64;  // non-cooperative kernels: any multiple of the
 constexpr uint64_t kBlendInvocationsPerTile = SPLAT_TILE_PIXELS / SPLAT_BLEND_PIXELS;  // splat_blend.comp
 
 gpu::SpecConstants local_size() { return gpu::SpecConstants{}.set(0, kLocal /* local_size_x */); }
-gpu::SpecConstants blend_spec(const gpu::Context& ctx, bool depth) {
-  // CPU devices: ballots and votes by constant-index shuffles over the (full) subgroup.
+gpu::SpecConstants blend_spec(const gpu::Context& ctx, SplatGpuVariant::Votes votes, bool depth) {
+  // Ballots and votes by constant-index shuffles over the (full) subgroup: CPU devices, or forced.
   const bool cpu = ctx.info().type == VK_PHYSICAL_DEVICE_TYPE_CPU;
   const uint32_t sg = ctx.subgroup_size();
-  const bool by_shuffles = cpu && sg <= 16 && kBlendInvocationsPerTile % sg == 0;
+  const bool fits = sg <= 16 && kBlendInvocationsPerTile % sg == 0;
+  if (votes == SplatGpuVariant::Votes::Shuffles && !fits)
+    throw std::runtime_error("splat: blend votes by shuffles need a subgroup of at most 16 lanes dividing 16; device has " +
+                             std::to_string(sg));
+  const bool by_shuffles =
+      votes == SplatGpuVariant::Votes::Shuffles || (votes == SplatGpuVariant::Votes::Auto && cpu && fits);
   return gpu::SpecConstants{}
       .set(0, static_cast<uint32_t>(kBlendInvocationsPerTile) /* local_size_x: one tile per workgroup */)
       .set(1, depth /* SPLAT_DEPTH */)
@@ -55,9 +61,9 @@ SplatRendererGpu::SplatRendererGpu(gpu::Context& ctx, SplatGpuVariant variant)
       counts_(ctx.program("splat_sorted_counts", local_size())),
       duplicate_(ctx.program("splat_duplicate", local_size())),
       ranges_(ctx.program("splat_ranges", local_size())),
-      blend_(variant.tile_blend ? ctx.program("splat_blend", blend_spec(ctx, true))
+      blend_(variant.tile_blend ? ctx.program("splat_blend", blend_spec(ctx, variant.votes, true))
                                 : ctx.program("splat_blend_rows", local_size())),
-      blend_color_(variant.tile_blend ? ctx.program("splat_blend", blend_spec(ctx, false)) : blend_),
+      blend_color_(variant.tile_blend ? ctx.program("splat_blend", blend_spec(ctx, variant.votes, false)) : blend_),
       variant_(variant),
       counting_(variant.binning == TileBinning::Counting ||
                 (variant.binning == TileBinning::Auto && ctx.info().type == VK_PHYSICAL_DEVICE_TYPE_CPU)),
