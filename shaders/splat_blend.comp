@@ -161,14 +161,11 @@ const float kLog2e = 1.4426950408889634;
 const float kQMin = -7.9943534368588579;  // log2(1/255)
 const float kNoEntry = -1.0e30;  // log2 o of "no entry": q <= -1e30 fails q >= kQMin
 
-// Gaussians per group-loop iteration (1, 2 or 4): their record selects and exp2s are
-// independent, so they overlap, and the iteration's fixed cost (vote, loop control, the
-// masked writes of the group's pixel state) is paid once for U Gaussians.
+// Gaussians per group-loop iteration: their record selects and exp2s are independent, so
+// they overlap, and the iteration's fixed cost (vote, loop control, the masked writes of the
+// group's pixel state) is paid once for U Gaussians.
 #ifndef SPLAT_BLEND_UNROLL
 #define SPLAT_BLEND_UNROLL 4
-#endif
-#if SPLAT_BLEND_UNROLL != 1 && SPLAT_BLEND_UNROLL != 2 && SPLAT_BLEND_UNROLL != 4
-#error "SPLAT_BLEND_GROUP expands SPLAT_BLEND_TAKE for 1, 2 or 4 Gaussians"
 #endif
 
 // The next needed Gaussian of `mask` (its lowest bit; depth order) into H0 = (mx, my, A, B),
@@ -219,50 +216,33 @@ const float kNoEntry = -1.0e30;  // log2 o of "no entry": q <= -1e30 fails q >= 
     }                                                                        \
   }
 
-// The needed Gaussians of column group GRP (bits of gmask[GRP], depth order), U per
-// iteration. A do-while: gallivm tests a loop's exit at the end of its body, so a while
-// loop (or a break) runs the rest of the body once more, masked, when it ends; a do-while
-// whose condition is its last statement ends without that. It runs once with no needed
-// Gaussian (entries blend nothing). It stops when no pixel of the group is live.
-#if SPLAT_BLEND_UNROLL == 1
-#define SPLAT_BLEND_UNROLLED(GRP)  \
-  vec4 ha0, ha1;                   \
-  vec3 hac;                        \
-  SPLAT_BLEND_TAKE(ha0, ha1, hac)  \
-  SPLAT_BLEND_APPLY(GRP, ha0, ha1, hac)
-#elif SPLAT_BLEND_UNROLL == 2
-#define SPLAT_BLEND_UNROLLED(GRP)  \
-  vec4 ha0, ha1, hb0, hb1;         \
-  vec3 hac, hbc;                   \
-  SPLAT_BLEND_TAKE(ha0, ha1, hac)  \
-  SPLAT_BLEND_TAKE(hb0, hb1, hbc)  \
-  SPLAT_BLEND_APPLY(GRP, ha0, ha1, hac) \
-  SPLAT_BLEND_APPLY(GRP, hb0, hb1, hbc)
-#else
-#define SPLAT_BLEND_UNROLLED(GRP)  \
-  vec4 ha0, ha1, hb0, hb1, hc0, hc1, hd0, hd1; \
-  vec3 hac, hbc, hcc, hdc;         \
-  SPLAT_BLEND_TAKE(ha0, ha1, hac)  \
-  SPLAT_BLEND_TAKE(hb0, hb1, hbc)  \
-  SPLAT_BLEND_TAKE(hc0, hc1, hcc)  \
-  SPLAT_BLEND_TAKE(hd0, hd1, hdc)  \
-  SPLAT_BLEND_APPLY(GRP, ha0, ha1, hac) \
-  SPLAT_BLEND_APPLY(GRP, hb0, hb1, hbc) \
-  SPLAT_BLEND_APPLY(GRP, hc0, hc1, hcc) \
-  SPLAT_BLEND_APPLY(GRP, hd0, hd1, hdc)
-#endif
+// Whether any lane has a live pixel among pixels [FIRST, FIRST + COUNT) (a subgroup vote).
+#define SPLAT_BLEND_ANY_LIVE(FIRST, COUNT, OUT)                           \
+  {                                                                       \
+    float live = T[FIRST];                                                \
+    for (int jj = 1; jj < COUNT; ++jj) live = max(live, T[FIRST + jj]);   \
+    OUT = lanes_any(live > 0.0);                                          \
+  }
 
-#define SPLAT_BLEND_GROUP(GRP)                                                                   \
-  {                                                                                              \
-    uint mask = gmask[GRP];                                                                      \
-    bool more;                                                                                   \
-    do {                                                                                         \
-      ++iters;                                                                                   \
-      SPLAT_BLEND_UNROLLED(GRP)                                                                  \
-      float live = T[GRP * SPLAT_BLEND_G];                                                       \
-      for (int jj = 1; jj < SPLAT_BLEND_G; ++jj) live = max(live, T[GRP * SPLAT_BLEND_G + jj]);  \
-      more = lanes_any(live > 0.0);                                                              \
-    } while (mask != 0u && more);                                                                \
+// The needed Gaussians of column group GRP (bits of gmask[GRP], depth order), U per
+// iteration: all U taken first, then applied in depth order (Gaussian by Gaussian over the
+// group's pixels, whose T chains then overlap). A do-while: gallivm tests a loop's exit at
+// the end of its body, so a while loop (or a break) runs the rest of the body once more,
+// masked, when it ends; a do-while whose condition is its last statement ends without that.
+// It runs once with no needed Gaussian (entries blend nothing). It stops when no pixel of
+// the group is live.
+#define SPLAT_BLEND_GROUP(GRP)                                                          \
+  {                                                                                     \
+    uint mask = gmask[GRP];                                                             \
+    bool more;                                                                          \
+    do {                                                                                \
+      ++iters;                                                                          \
+      vec4 h0[SPLAT_BLEND_UNROLL], h1[SPLAT_BLEND_UNROLL];                              \
+      vec3 hc[SPLAT_BLEND_UNROLL];                                                      \
+      for (int u = 0; u < SPLAT_BLEND_UNROLL; ++u) SPLAT_BLEND_TAKE(h0[u], h1[u], hc[u]) \
+      for (int u = 0; u < SPLAT_BLEND_UNROLL; ++u) SPLAT_BLEND_APPLY(GRP, h0[u], h1[u], hc[u]) \
+      SPLAT_BLEND_ANY_LIVE(GRP * SPLAT_BLEND_G, SPLAT_BLEND_G, more)                     \
+    } while (mask != 0u && more);                                                       \
   }
 
 void main() {
@@ -347,9 +327,7 @@ void main() {
     SPLAT_BLEND_GROUP(3)
 #endif
     base += slots << lane_bits;
-    float live = T[0];
-    for (int j = 1; j < SPLAT_BLEND_PIXELS; ++j) live = max(live, T[j]);
-    more = lanes_any(live > 0.0);
+    SPLAT_BLEND_ANY_LIVE(0, SPLAT_BLEND_PIXELS, more)
   } while (base < range.y && more);
   if (p.loop_budget != 0u && iters >= p.loop_budget && subgroupElect()) atomicAdd(status, 1u);
   if (v >= p.height) return;
