@@ -18,15 +18,10 @@ constexpr uint32_t kRadixSize = 256;
 uint32_t key_bytes(KeyWidth w) { return w == KeyWidth::Bits64 ? 8u : 4u; }
 
 // Digit matches by constant-index shuffles (radix_common.glsl RADIX_LANES = the subgroup size)
-// or by eight ballots (0); see DigitMatch.
-gpu::SpecConstants radix_spec(const gpu::Context& ctx, DigitMatch match) {
+// or by eight ballots (0).
+gpu::SpecConstants radix_spec(const gpu::Context& ctx, SubgroupOps ops) {
   gpu::SpecConstants s = subgroup_tile_spec(ctx);
-  const bool cpu = ctx.info().type == VK_PHYSICAL_DEVICE_TYPE_CPU;
-  const bool shuffles = match == DigitMatch::Shuffles || (match == DigitMatch::Auto && cpu);
-  if (shuffles && ctx.subgroup_size() > 32)
-    throw std::runtime_error("radix sort: digit matches by shuffles need a subgroup of at most 32 lanes; device has " +
-                             std::to_string(ctx.subgroup_size()));
-  s.set(kSpecRadixLanes, shuffles ? ctx.subgroup_size() : 0u);
+  s.set(kSpecRadixLanes, shuffle_lanes(ctx, ops, ctx.subgroup_size() <= 32, "radix sort"));
   return s;
 }
 }  // namespace
@@ -40,11 +35,11 @@ RadixSortScratch::RadixSortScratch(gpu::Context& ctx, uint64_t cap, KeyWidth key
       scan_scratch(ctx, std::max<uint64_t>(PrefixScan::scratch_elements(kRadixSize * tiles_for(capacity)), 1) * 4,
                    gpu::MemoryUsage::DeviceLocal, "radix-scan-scratch") {}
 
-RadixSort::RadixSort(gpu::Context& ctx, KeyWidth width, DigitMatch match)
+RadixSort::RadixSort(gpu::Context& ctx, KeyWidth width, SubgroupOps ops)
     : ctx_(ctx),
       width_(width),
-      count_(ctx.program(width == KeyWidth::Bits64 ? "radix_count64" : "radix_count32", radix_spec(ctx, match))),
-      scatter_(ctx.program(width == KeyWidth::Bits64 ? "radix_scatter64" : "radix_scatter32", radix_spec(ctx, match))),
+      count_(ctx.program(width == KeyWidth::Bits64 ? "radix_count64" : "radix_count32", radix_spec(ctx, ops))),
+      scatter_(ctx.program(width == KeyWidth::Bits64 ? "radix_scatter64" : "radix_scatter32", radix_spec(ctx, ops))),
       scan_(ctx) {
   if (ctx.subgroup_size() > 128 || kTileElements % ctx.subgroup_size())
     throw std::runtime_error("radix sort needs a subgroup size that divides " + std::to_string(kTileElements) +

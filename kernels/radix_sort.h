@@ -22,6 +22,7 @@
 #include "gpu/buffer.h"
 #include "gpu/commands.h"
 #include "prefix_scan.h"
+#include "subgroup_ops.h"
 
 #include <cstdint>
 #include <vector>
@@ -41,15 +42,12 @@ struct RadixSortScratch {
   gpu::Buffer scan_scratch;
 };
 
-// How a batch finds the lanes holding its digit (radix_common.glsl): eight subgroup ballots,
-// or constant-index shuffles of the lanes' digits (subgroups of at most 32 lanes). Auto:
-// shuffles on CPU devices (lavapipe runs a ballot as a scalar loop over the lanes), ballots
-// on GPUs. Both give the same sort; tests run both on any device.
-enum class DigitMatch { Auto, Ballots, Shuffles };
-
 class RadixSort {
  public:
-  RadixSort(gpu::Context& ctx, KeyWidth width, DigitMatch match = DigitMatch::Auto);
+  // `ops`: how a batch finds the lanes holding its digit (radix_common.glsl): eight subgroup
+  // ballots, or constant-index shuffles of the lanes' digits (subgroups of at most 32 lanes);
+  // both give the same sort.
+  RadixSort(gpu::Context& ctx, KeyWidth width, SubgroupOps ops = SubgroupOps::Auto);
 
   KeyWidth width() const { return width_; }
   // Largest n one sort accepts on this device.

@@ -41,7 +41,7 @@
 // and the U Gaussians of an iteration share its vote, loop control and masked
 // state writes (their selects and exp2s overlap). On CPU devices (spec
 // constant SPLAT_LANES = the subgroup size) the ballots and votes OR the lanes'
-// words fetched by constant-index shuffles (lanes_or: one vpermd each), since
+// words fetched by constant-index shuffles (common/lane_shuffles.glsl: one vpermd each), since
 // lavapipe's subgroupBallot / subgroupAny are scalar loops over the lanes; GPUs
 // (SPLAT_LANES = 0) use the intrinsics. No shared memory or barriers (slow on
 // lavapipe). The spec constant SPLAT_DEPTH = false leaves the depth outputs
@@ -63,6 +63,7 @@
 // ≤ 0.5" with one compare less per pixel and Gaussian.
 #include "shared/splat_params.h"
 #include "common/dispatch.glsl"
+#include "common/lane_shuffles.glsl"
 
 #define SPLAT_BLEND_SEGS (SPLAT_TILE / SPLAT_BLEND_PIXELS)  // segments per tile row
 #define SPLAT_BLEND_PER_TILE (SPLAT_TILE * SPLAT_BLEND_SEGS)  // invocations per tile
@@ -120,25 +121,13 @@ vec3 splat_sky(float px, float py) {
   return top * (1.0 - ay) + bot * ay;
 }
 
-// OR of v over the subgroup's lanes (SPLAT_LANES > 0: all lanes active, one tile per workgroup).
-uint lanes_or(uint v) {
-  uint r = subgroupShuffle(v, 0u);
-  if (SPLAT_LANES > 1u) r |= subgroupShuffle(v, 1u);
-  if (SPLAT_LANES > 2u) r |= subgroupShuffle(v, 2u) | subgroupShuffle(v, 3u);
-  if (SPLAT_LANES > 4u)
-    r |= subgroupShuffle(v, 4u) | subgroupShuffle(v, 5u) | subgroupShuffle(v, 6u) | subgroupShuffle(v, 7u);
-  if (SPLAT_LANES > 8u)
-    r |= subgroupShuffle(v, 8u) | subgroupShuffle(v, 9u) | subgroupShuffle(v, 10u) | subgroupShuffle(v, 11u) |
-         subgroupShuffle(v, 12u) | subgroupShuffle(v, 13u) | subgroupShuffle(v, 14u) | subgroupShuffle(v, 15u);
-  return r;
-}
 uint lanes_ballot(bool c) {
   if (SPLAT_LANES == 0u) return subgroupBallot(c).x;
-  return lanes_or(c ? 1u << gl_SubgroupInvocationID : 0u);
+  return lanes_shuffle_or(c ? 1u << gl_SubgroupInvocationID : 0u, SPLAT_LANES);
 }
 bool lanes_any(bool c) {
   if (SPLAT_LANES == 0u) return subgroupAny(c);
-  return lanes_or(c ? 1u : 0u) != 0u;
+  return lanes_shuffle_or(c ? 1u : 0u, SPLAT_LANES) != 0u;
 }
 
 // Pixels of one column group (a uniform skip unit): the invocation's P pixels are

@@ -21,7 +21,7 @@ namespace {
 
 template <class K>
 void check_sort(gpu::Context& ctx, std::vector<K> keys, uint32_t key_bits = 0,
-                kernels::DigitMatch match = kernels::DigitMatch::Auto) {
+                kernels::SubgroupOps match = kernels::SubgroupOps::Auto) {
   constexpr KeyWidth width = sizeof(K) == 8 ? KeyWidth::Bits64 : KeyWidth::Bits32;
   std::vector<uint32_t> values(keys.size());
   std::iota(values.begin(), values.end(), 0u);  // original positions reveal any instability
@@ -77,9 +77,9 @@ TEST_SUITE("subgroup-sensitive") {
   // are run here on whatever device the tests have.
   TEST_CASE("radix sort digit matches by ballots and by shuffles give the same stable sort") {
     gpu::Context& ctx = test::gpu_context();
-    for (const auto match : {kernels::DigitMatch::Ballots, kernels::DigitMatch::Shuffles}) {
+    for (const auto match : {kernels::SubgroupOps::Intrinsics, kernels::SubgroupOps::Shuffles}) {
       CAPTURE(static_cast<int>(match));
-      if (match == kernels::DigitMatch::Shuffles && ctx.subgroup_size() > 32) continue;
+      if (match == kernels::SubgroupOps::Shuffles && ctx.subgroup_size() > 32) continue;
       for (uint64_t n : {uint64_t{1}, uint64_t{13}, uint64_t{4097}, uint64_t{100003}}) {
         CAPTURE(n);
         check_sort(ctx, random_keys32(n, static_cast<uint32_t>(n) + 7), 0, match);

@@ -273,16 +273,16 @@ TEST_CASE("splat gpu vs cpu, stage by stage (splat_preprocess, splat_sorted_coun
     }
   // splat_blend's two vote paths (subgroup intrinsics on GPUs, constant-index shuffles on CPU
   // devices), each forced on this device: the same images.
-  using Votes = splat::SplatGpuVariant::Votes;
+  using Votes = kernels::SubgroupOps;
   std::vector<splat::SplatImage> images;
-  for (const Votes votes : {Votes::Subgroup, Votes::Shuffles}) {
+  for (const Votes votes : {Votes::Intrinsics, Votes::Shuffles}) {
     CAPTURE(static_cast<int>(votes));
     const uint32_t sg = test::gpu_context().subgroup_size();
     if (votes == Votes::Shuffles && (sg > 16 || 16 % sg != 0)) continue;
     splat::SplatGpuVariant vv;
     vv.votes = votes;
     splat::SplatRendererGpu v(test::gpu_context(), vv);
-    report(votes == Votes::Subgroup ? "blend votes by subgroup intrinsics" : "blend votes by shuffles",
+    report(votes == Votes::Intrinsics ? "blend votes by subgroup intrinsics" : "blend votes by shuffles",
            compare(v, cloud, cam, o));
     images.push_back(v.render(v.upload(cloud), cam, o));
   }

@@ -19,20 +19,15 @@ constexpr uint32_t kLocal = 64;  // non-cooperative kernels: any multiple of the
 constexpr uint64_t kBlendInvocationsPerTile = SPLAT_TILE_PIXELS / SPLAT_BLEND_PIXELS;  // splat_blend.comp
 
 gpu::SpecConstants local_size() { return gpu::SpecConstants{}.set(0, kLocal /* local_size_x */); }
-gpu::SpecConstants blend_spec(const gpu::Context& ctx, SplatGpuVariant::Votes votes, bool depth) {
-  // Ballots and votes by constant-index shuffles over the (full) subgroup: CPU devices, or forced.
-  const bool cpu = ctx.info().type == VK_PHYSICAL_DEVICE_TYPE_CPU;
+gpu::SpecConstants blend_spec(const gpu::Context& ctx, kernels::SubgroupOps votes, bool depth) {
+  // Ballots and votes by constant-index shuffles need the whole (at most 16-lane) subgroup
+  // inside the tile's workgroup.
   const uint32_t sg = ctx.subgroup_size();
   const bool fits = sg <= 16 && kBlendInvocationsPerTile % sg == 0;
-  if (votes == SplatGpuVariant::Votes::Shuffles && !fits)
-    throw std::runtime_error("splat: blend votes by shuffles need a subgroup of at most 16 lanes dividing 16; device has " +
-                             std::to_string(sg));
-  const bool by_shuffles =
-      votes == SplatGpuVariant::Votes::Shuffles || (votes == SplatGpuVariant::Votes::Auto && cpu && fits);
   return gpu::SpecConstants{}
       .set(0, static_cast<uint32_t>(kBlendInvocationsPerTile) /* local_size_x: one tile per workgroup */)
       .set(1, depth /* SPLAT_DEPTH */)
-      .set(2, by_shuffles ? sg : 0u /* SPLAT_LANES */);
+      .set(2, kernels::shuffle_lanes(ctx, votes, fits, "splat blend") /* SPLAT_LANES */);
 }
 
 }  // namespace

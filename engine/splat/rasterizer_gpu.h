@@ -121,11 +121,10 @@ struct SplatGpuVariant {
   // CPU devices (lavapipe's loop limit), none on GPUs; tests force a small one. A frame in
   // which a tile reached it throws std::runtime_error instead of returning a cut-short blend.
   int64_t blend_loop_budget = -1;
-  // splat_blend's ballots and votes: Auto = constant-index shuffles on CPU devices (lavapipe
-  // runs subgroupBallot / subgroupAny as scalar loops over the lanes), the subgroup intrinsics
-  // on GPUs; tests force each (Shuffles needs a subgroup of at most 16 lanes that divides the
-  // blend's 16 invocations per tile).
-  enum class Votes { Auto, Subgroup, Shuffles } votes = Votes::Auto;
+  // splat_blend's ballots and votes (kernels/subgroup_ops.h): Auto = constant-index shuffles
+  // on CPU devices, the subgroup intrinsics on GPUs; tests force each (Shuffles needs a
+  // subgroup of at most 16 lanes that divides the blend's 16 invocations per tile).
+  kernels::SubgroupOps votes = kernels::SubgroupOps::Auto;
 };
 
 class SplatRendererGpu {

@@ -5,6 +5,7 @@
 #extension GL_KHR_shader_subgroup_basic : require
 #extension GL_KHR_shader_subgroup_ballot : require
 #extension GL_KHR_shader_subgroup_shuffle : require
+#include "common/lane_shuffles.glsl"
 
 #define RADIX_BITS 8u
 #define RADIX_SIZE 256u
@@ -24,31 +25,14 @@ uint key_digit(uint k, uint shift) { return (k >> shift) & 0xffu; }
 // subgroupBallot is a scalar loop over the lanes). 0 (GPUs): eight ballots.
 layout(constant_id = 2) const uint RADIX_LANES = 0;
 
-// Bit l set where lane l's word equals v (lanes 0 .. RADIX_LANES-1, all active).
-uint lanes_equal(uint v) {
-  uint m = subgroupShuffle(v, 0u) == v ? 1u : 0u;
-  if (RADIX_LANES > 1u) m |= subgroupShuffle(v, 1u) == v ? 2u : 0u;
-  if (RADIX_LANES > 2u) {
-    m |= subgroupShuffle(v, 2u) == v ? 4u : 0u;
-    m |= subgroupShuffle(v, 3u) == v ? 8u : 0u;
-  }
-  if (RADIX_LANES > 4u)
-    for (uint l = 4u; l < 8u; ++l) m |= subgroupShuffle(v, l) == v ? 1u << l : 0u;
-  if (RADIX_LANES > 8u)
-    for (uint l = 8u; l < 16u; ++l) m |= subgroupShuffle(v, l) == v ? 1u << l : 0u;
-  if (RADIX_LANES > 16u)
-    for (uint l = 16u; l < 32u; ++l) m |= subgroupShuffle(v, l) == v ? 1u << l : 0u;
-  return m;
-}
-
 // Ballot of the lanes whose digit equals this lane's digit (among valid lanes).
 // GPUs: eight ballots, one per digit bit; ~ballot is masked by the valid ballot so
 // bits past the subgroup never leak in. Works for any subgroup size <= 128.
-// CPU devices (RADIX_LANES > 0): lanes_equal of the digit, invalid lanes carrying
+// CPU devices (RADIX_LANES > 0): lanes_shuffle_equal of the digit, invalid lanes carrying
 // a value no digit has.
 uvec4 match_digit(uint d, bool valid) {
   if (RADIX_LANES > 0u) {
-    const uint m = lanes_equal(valid ? d : 0xFFFFFFFFu);
+    const uint m = lanes_shuffle_equal(valid ? d : 0xFFFFFFFFu, RADIX_LANES);
     return uvec4(valid ? m : 0u, 0u, 0u, 0u);
   }
   uvec4 m = subgroupBallot(valid);
