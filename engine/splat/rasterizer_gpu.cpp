@@ -180,7 +180,6 @@ SplatImage SplatRendererGpu::render(const GpuGaussians& g, const render::Camera&
         p.n = static_cast<uint32_t>(w.count);
         p.first = static_cast<uint32_t>(w.first);
         p.sh_stride = g.sh_stride;
-        p.sh_degree = g.sh_degree;
         cmd.dispatch(preprocess, {w.count}, p,
                      {g.gaussians.texel_binding(VK_FORMAT_R32G32B32A32_UINT, 0, n * sizeof(shader::SplatGaussian)),
                       g.sh.texel_binding(VK_FORMAT_R32G32B32A32_UINT, w.first * sh_bytes, w.count * sh_bytes),

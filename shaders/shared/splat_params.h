@@ -75,7 +75,7 @@ struct SplatPreprocessParams {
   uint n;          // Gaussians in this window
   uint first;      // index of the window's first Gaussian
   uint sh_stride;  // floats per Gaussian in the SH binding
-  uint sh_degree;
+  uint pad_sh;     // unused: the SH degree is splat_preprocess's spec constant SPLAT_SH_DEGREE
   float r00, r01, r02, r10, r11, r12, r20, r21, r22;  // world-to-camera rotation (row-major)
   float cam_x, cam_y, cam_z;                          // camera position relative to the scene origin
   float fx, fy, cx, cy;
