@@ -96,19 +96,6 @@ struct Variant {
   bool depth = true;  // SplatOptions::depth
 };
 
-Variant parse_pipeline(const std::string& s);
-
-Variant parse_variant(const std::string& s) {
-  const std::string suffix = "-color";
-  if (s.size() > suffix.size() && s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0) {
-    Variant v = parse_pipeline(s.substr(0, s.size() - suffix.size()));
-    v.name = s;
-    v.depth = false;
-    return v;
-  }
-  return parse_pipeline(s);
-}
-
 Variant parse_pipeline(const std::string& s) {
   if (s == "rect-rows") return {s, {false, false}};
   if (s == "cull-rows") return {s, {true, false}};
@@ -121,6 +108,18 @@ Variant parse_pipeline(const std::string& s) {
   throw std::invalid_argument("--variants: unknown variant '" + s +
                               "' (rect-rows, cull-rows, rect-tile, cull-tile, cull-tile-radix, cull-tile-counting[-CHUNKS], each with an "
                               "optional -color suffix)");
+}
+
+// A pipeline name with an optional "-color" suffix (no depth outputs).
+Variant parse_variant(const std::string& s) {
+  const std::string suffix = "-color";
+  if (s.size() > suffix.size() && s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0) {
+    Variant v = parse_pipeline(s.substr(0, s.size() - suffix.size()));
+    v.name = s;
+    v.depth = false;
+    return v;
+  }
+  return parse_pipeline(s);
 }
 
 double max_diff(const splat::SplatImage& a, const splat::SplatImage& b) {

@@ -52,10 +52,7 @@ uint incl(uint j) { return texelFetch(offsets, int(j)).x; }
 // The Gaussian at depth position j: index, rect, mean/conic/cut.
 void load_gaussian(uint j, out uint i, out uvec4 r, out vec4 g0, out vec4 g1) {
   i = texelFetch(order, int(j)).x;
-  g0 = uintBitsToFloat(texelFetch(bin_records, int(2u * j)));
-  const uvec4 b1 = texelFetch(bin_records, int(2u * j + 1u));
-  g1 = vec4(uintBitsToFloat(b1.xy), 0.0, 0.0);
-  r = uvec4(b1.z & 0xFFFFu, b1.w & 0xFFFFu, b1.z >> 16, b1.w >> 16);
+  splat_read_bin_record(bin_records, j, g0, g1, r);
 }
 
 // [x0, x1) of rect row y (empty for an empty or culled rect: its record is unused).

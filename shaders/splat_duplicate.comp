@@ -36,10 +36,9 @@ void main() {
   if (count == 0u) return;
   const uint i = order[j];
   uint o = offsets_incl[j] - count;
-  const vec4 g0 = uintBitsToFloat(texelFetch(bin_records, int(2u * j)));
-  const uvec4 b1 = texelFetch(bin_records, int(2u * j + 1u));
-  const vec4 g1 = vec4(uintBitsToFloat(b1.xy), 0.0, 0.0);
-  const uvec4 r = uvec4(b1.z & 0xFFFFu, b1.w & 0xFFFFu, b1.z >> 16, b1.w >> 16);
+  vec4 g0, g1;
+  uvec4 r;
+  splat_read_bin_record(bin_records, j, g0, g1, r);
   for (uint y = r.y; y < r.w; ++y) {
     const uvec2 span = p.cull != 0u ? splat_tile_row(g0.x, g0.y, g0.z, g0.w, g1.x, g1.y, r, y) : r.xz;
     for (uint x = span.x; x < span.y; ++x) {

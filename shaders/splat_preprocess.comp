@@ -65,7 +65,7 @@ void main() {
     sh_row[4u * t + 2u] = v.z;
     sh_row[4u * t + 3u] = v.w;
   }
-  const bool vis = splat_project(d, g0.w, cov, 0u, o0, o1, o2, rect);
+  const bool vis = splat_project(d, g0.w, cov, o0, o1, o2, rect);
   proj[3u * i] = o0;
   proj[3u * i + 1u] = o1;
   proj[3u * i + 2u] = o2;

@@ -36,16 +36,7 @@ void main() {
   const uint t = (r.z - r.x) * (r.w - r.y);    // = touched[i], the whole rect (0 when culled)
   const vec4 g0 = uintBitsToFloat(texelFetch(records, int(3u * i)));
   const vec4 g1 = uintBitsToFloat(texelFetch(records, int(3u * i + 1u)));
-  SplatBinRecord b;
-  b.mean_x = g0.x;
-  b.mean_y = g0.y;
-  b.conic_x = g0.z;
-  b.conic_y = g0.w;
-  b.conic_z = g1.x;
-  b.log_cut = g1.y;
-  b.rect_x = r.x | (r.z << 16);  // tile coordinates < 65,536 (checked on the host)
-  b.rect_y = r.y | (r.w << 16);
-  bin_records[j] = b;
+  bin_records[j] = splat_pack_bin_record(g0, g1, r);
   if (p.cull == 0u || t == 0u) {
     counts[j] = t;
     return;

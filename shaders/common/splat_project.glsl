@@ -3,8 +3,8 @@
 // project_gaussian() operation by operation; conventions in
 // engine/splat/rasterizer_cpu.h. Included by shaders/splat_preprocess.comp,
 // which declares the push constants `p` (SplatPreprocessParams),
-// `float splat_sh_coeff(uint o)` (coefficient o of the Gaussian's SH row at
-// sh_base) and the constant SPLAT_SH_DEGREE (the bands evaluated).
+// `float splat_sh_coeff(uint o)` (coefficient o of the Gaussian's SH row) and
+// the constant SPLAT_SH_DEGREE (the bands evaluated).
 #ifndef ICUBE_SPLAT_PROJECT_GLSL
 #define ICUBE_SPLAT_PROJECT_GLSL
 
@@ -16,27 +16,27 @@ const float SH_C3_0 = -0.5900435899266435, SH_C3_1 = 2.890611442640554, SH_C3_2 
             SH_C3_3 = 0.3731763325901154, SH_C3_4 = -0.4570457994644658, SH_C3_5 = 1.445305721320277,
             SH_C3_6 = -0.5900435899266435;
 
-vec3 splat_sh(uint base, int k) {
-  const uint o = base + uint(3 * k);
+vec3 splat_sh(int k) {
+  const uint o = uint(3 * k);
   return vec3(splat_sh_coeff(o), splat_sh_coeff(o + 1u), splat_sh_coeff(o + 2u));
 }
 
-vec3 splat_sh_color(uint base, uint degree, vec3 dir) {
-  vec3 c = SH_C0 * splat_sh(base, 0);
+vec3 splat_sh_color(uint degree, vec3 dir) {
+  vec3 c = SH_C0 * splat_sh(0);
   if (degree > 0u) {
     const float x = dir.x, y = dir.y, z = dir.z;
-    c = c - SH_C1 * y * splat_sh(base, 1) + SH_C1 * z * splat_sh(base, 2) - SH_C1 * x * splat_sh(base, 3);
+    c = c - SH_C1 * y * splat_sh(1) + SH_C1 * z * splat_sh(2) - SH_C1 * x * splat_sh(3);
     if (degree > 1u) {
       const float xx = x * x, yy = y * y, zz = z * z, xy = x * y, yz = y * z, xz = x * z;
-      c = c + SH_C2_0 * xy * splat_sh(base, 4) + SH_C2_1 * yz * splat_sh(base, 5) +
-          SH_C2_2 * (2.0 * zz - xx - yy) * splat_sh(base, 6) + SH_C2_3 * xz * splat_sh(base, 7) +
-          SH_C2_4 * (xx - yy) * splat_sh(base, 8);
+      c = c + SH_C2_0 * xy * splat_sh(4) + SH_C2_1 * yz * splat_sh(5) +
+          SH_C2_2 * (2.0 * zz - xx - yy) * splat_sh(6) + SH_C2_3 * xz * splat_sh(7) +
+          SH_C2_4 * (xx - yy) * splat_sh(8);
       if (degree > 2u) {
-        c = c + SH_C3_0 * y * (3.0 * xx - yy) * splat_sh(base, 9) + SH_C3_1 * xy * z * splat_sh(base, 10) +
-            SH_C3_2 * y * (4.0 * zz - xx - yy) * splat_sh(base, 11) +
-            SH_C3_3 * z * (2.0 * zz - 3.0 * xx - 3.0 * yy) * splat_sh(base, 12) +
-            SH_C3_4 * x * (4.0 * zz - xx - yy) * splat_sh(base, 13) + SH_C3_5 * z * (xx - yy) * splat_sh(base, 14) +
-            SH_C3_6 * x * (xx - 3.0 * yy) * splat_sh(base, 15);
+        c = c + SH_C3_0 * y * (3.0 * xx - yy) * splat_sh(9) + SH_C3_1 * xy * z * splat_sh(10) +
+            SH_C3_2 * y * (4.0 * zz - xx - yy) * splat_sh(11) +
+            SH_C3_3 * z * (2.0 * zz - 3.0 * xx - 3.0 * yy) * splat_sh(12) +
+            SH_C3_4 * x * (4.0 * zz - xx - yy) * splat_sh(13) + SH_C3_5 * z * (xx - yy) * splat_sh(14) +
+            SH_C3_6 * x * (xx - 3.0 * yy) * splat_sh(15);
       }
     }
   }
@@ -47,7 +47,7 @@ bool splat_finite(float v) { return !isnan(v) && !isinf(v); }
 
 // out0 = (mean_x, mean_y, depth, opacity), out1 = (conic, radius), out2 = (rgb, 0),
 // rect = tile rect [x0, x1) × [y0, y1). Returns false (culled) with everything zero.
-bool splat_project(vec3 d, float opacity, float cov[6], uint sh_base, out vec4 out0, out vec4 out1, out vec4 out2,
+bool splat_project(vec3 d, float opacity, float cov[6], out vec4 out0, out vec4 out1, out vec4 out2,
                    out uvec4 rect) {
   out0 = vec4(0.0);
   out1 = vec4(0.0);
@@ -95,7 +95,7 @@ bool splat_project(vec3 d, float opacity, float cov[6], uint sh_base, out vec4 o
   const vec3 dir = len > 0.0 ? d / len : vec3(0.0, 0.0, 1.0);
   out0 = vec4(mx, my, tz, op);
   out1 = vec4(c * det_inv, -b * det_inv, a * det_inv, radius);
-  out2 = vec4(splat_sh_color(sh_base, SPLAT_SH_DEGREE, dir), 0.0);
+  out2 = vec4(splat_sh_color(SPLAT_SH_DEGREE, dir), 0.0);
   rect = uvec4(lo, hi);
   return true;
 }

@@ -40,4 +40,28 @@ uvec2 splat_tile_row(float mx, float my, float a, float b, float c, float log_cu
   return uvec2(x0, x1);
 }
 
+// SplatBinRecord (shared/splat_params.h): the inputs of splat_tile_row for one Gaussian in
+// depth order, packed by splat_sorted_counts and read back (as two R32G32B32A32_UINT texels)
+// by the binning kernels. Tile coordinates fit 16 bits (checked on the host).
+SplatBinRecord splat_pack_bin_record(vec4 g0, vec4 g1, uvec4 rect) {
+  SplatBinRecord b;
+  b.mean_x = g0.x;
+  b.mean_y = g0.y;
+  b.conic_x = g0.z;
+  b.conic_y = g0.w;
+  b.conic_z = g1.x;
+  b.log_cut = g1.y;
+  b.rect_x = rect.x | (rect.z << 16);
+  b.rect_y = rect.y | (rect.w << 16);
+  return b;
+}
+
+// g0 = (mean, conic a', b'), g1 = (conic c', log_cut, 0, 0), rect, of depth position j.
+void splat_read_bin_record(usamplerBuffer records, uint j, out vec4 g0, out vec4 g1, out uvec4 rect) {
+  g0 = uintBitsToFloat(texelFetch(records, int(2u * j)));
+  const uvec4 t1 = texelFetch(records, int(2u * j + 1u));
+  g1 = vec4(uintBitsToFloat(t1.xy), 0.0, 0.0);
+  rect = uvec4(t1.z & 0xFFFFu, t1.w & 0xFFFFu, t1.z >> 16, t1.w >> 16);
+}
+
 #endif

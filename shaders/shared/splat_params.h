@@ -63,7 +63,9 @@ struct SplatBlendRecord {
 // Depth-ordered binning record, 32 bytes (two uvec4): splat_sorted_counts writes one per
 // depth position j (of Gaussian order[j]); the binning walks (splat_bin_chunks) and
 // splat_duplicate read them in j order, so their per-Gaussian reads stream instead of
-// gathering records by Gaussian index (cache misses: the walks took ~40 % longer).
+// gathering records by Gaussian index (whose cache misses made the counting binning take
+// twice as long: 22.7 against 11.0 ms at 100k / 720p). Packed and read by
+// common/splat_tiles.glsl.
 struct SplatBinRecord {
   float mean_x, mean_y, conic_x, conic_y;  // as SplatBlendRecord
   float conic_z, log_cut;
