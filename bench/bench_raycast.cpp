@@ -1,4 +1,4 @@
-// icube-bench-raycast: the GPU voxel ray caster (shaders/raycast.comp: 32³
+// icube-bench-raycast: the GPU voxel ray caster (shaders/raycast/cast.comp: 32³
 // super-brick and 8³ brick skipping via occupancy masks, then an exact voxel
 // DDA) against the CPU reference (engine/render/raycast_cpu.h, brute-force
 // double DDA on --cpu-threads std::threads) and, when the build found it,

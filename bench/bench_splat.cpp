@@ -13,7 +13,7 @@
 // min / median of --runs after --warmup; fps from the median wall time of a
 // whole frame (both submissions, one CPU sync, no image readback).
 // Pipeline variants side by side (--variants, SplatGpuVariant): "rect-rows"
-// (whole getRect rects + the previous row blend, splat_blend_rows.comp),
+// (whole getRect rects + the previous row blend, splat/blend_rows.comp),
 // "cull-rows", "rect-tile" and "cull-tile" (exact tile culling + one tile per
 // workgroup, the default); all four bin with the device's default
 // (SplatGpuVariant::binning Auto: the counting sort of tile_binning_gpu.h on

@@ -3,8 +3,9 @@
 # Compiles every compute shader to SPIR-V with glslangValidator (Vulkan 1.3
 # target, #include dependencies tracked through --depfile) and embeds the words
 # as uint32_t arrays in a static library <target>. engine/gpu/shader_registry.h
-# looks them up by file stem ("radix_scatter" for shaders/radix_scatter.comp),
-# so nothing at run time depends on the working directory.
+# looks them up by their folder-qualified name under shaders/ ("splat/blend"
+# for shaders/splat/blend.comp), so two modules may each have a kernel of the
+# same file name, and nothing at run time depends on the working directory.
 option(ICUBE_SHADER_DEBUG "Compile shaders with debug info (-gVS)" OFF)
 
 function(icube_embed_shaders target)
@@ -12,8 +13,14 @@ function(icube_embed_shaders target)
   file(MAKE_DIRECTORY ${out_dir})
   set(headers)
   set(names)
+  set(idents)
   foreach(src IN LISTS ARGN)
-    get_filename_component(name ${src} NAME_WE)
+    file(RELATIVE_PATH rel ${CMAKE_SOURCE_DIR}/shaders ${src})
+    string(REGEX REPLACE "\\.comp$" "" name ${rel})          # splat/blend
+    string(REPLACE "/" "__" ident ${name})
+    string(MAKE_C_IDENTIFIER ${ident} ident)                  # splat__blend
+    get_filename_component(sub ${name} DIRECTORY)
+    file(MAKE_DIRECTORY ${out_dir}/${sub})
     set(hdr ${out_dir}/${name}.spv.h)
     set(flags -V --target-env vulkan1.3 -I${CMAKE_SOURCE_DIR}/shaders --quiet)
     if(ICUBE_SHADER_DEBUG)
@@ -22,13 +29,14 @@ function(icube_embed_shaders target)
     add_custom_command(
       OUTPUT ${hdr}
       COMMAND ${GLSLANG_VALIDATOR} ${flags} --depfile ${out_dir}/${name}.d
-              --vn icube_spv_${name} -o ${hdr} ${src}
+              --vn icube_spv_${ident} -o ${hdr} ${src}
       DEPENDS ${src}
       DEPFILE ${out_dir}/${name}.d
-      COMMENT "GLSL -> SPIR-V ${name}.comp"
+      COMMENT "GLSL -> SPIR-V ${rel}"
       VERBATIM)
     list(APPEND headers ${hdr})
     list(APPEND names ${name})
+    list(APPEND idents ${ident})
   endforeach()
 
   # One translation unit that includes every generated header and builds the table.
@@ -38,8 +46,8 @@ function(icube_embed_shaders target)
     string(APPEND body "#include \"${name}.spv.h\"\n")
   endforeach()
   string(APPEND body "namespace icube::gpu {\nconst EmbeddedShader kEmbeddedShaders[] = {\n")
-  foreach(name IN LISTS names)
-    string(APPEND body "  {\"${name}\", icube_spv_${name}, sizeof(icube_spv_${name}) / sizeof(uint32_t)},\n")
+  foreach(name ident IN ZIP_LISTS names idents)
+    string(APPEND body "  {\"${name}\", icube_spv_${ident}, sizeof(icube_spv_${ident}) / sizeof(uint32_t)},\n")
   endforeach()
   string(APPEND body "};\nconst size_t kEmbeddedShaderCount = sizeof(kEmbeddedShaders) / sizeof(kEmbeddedShaders[0]);\n}\n")
   file(GENERATE OUTPUT ${table} CONTENT "${body}")

@@ -6,7 +6,7 @@
 
 namespace icube::kernels {
 
-Iota::Iota(gpu::Context& ctx) : program_(ctx.program("iota")) {}
+Iota::Iota(gpu::Context& ctx) : program_(ctx.program("primitives/iota")) {}
 
 void Iota::record(gpu::CommandList& cmd, const gpu::Buffer& out, uint64_t n, uint32_t start, uint32_t step) {
   if (n == 0) return;

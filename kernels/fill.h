@@ -1,7 +1,7 @@
 // Fill helpers: iota on the GPU (payload indices for key-value sorts).
 // Constant fills and copies use CommandList::fill_buffer / copy_buffer.
 //
-// Shader: shaders/iota.comp. Tests: tests/test_fill.cpp.
+// Shader: shaders/primitives/iota.comp. Tests: tests/primitives/test_fill.cpp.
 #pragma once
 
 #include "gpu/buffer.h"

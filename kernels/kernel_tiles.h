@@ -17,7 +17,7 @@ inline constexpr uint32_t kTileElements = 4096;
 // Spec constant ids used by these kernels.
 inline constexpr uint32_t kSpecLocalSizeX = 0;
 inline constexpr uint32_t kSpecTile = 1;
-inline constexpr uint32_t kSpecRadixLanes = 2;  // radix_common.glsl RADIX_LANES
+inline constexpr uint32_t kSpecRadixLanes = 2;  // primitives/radix_common.glsl RADIX_LANES
 
 inline uint64_t tiles_for(uint64_t n) { return (n + kTileElements - 1) / kTileElements; }
 

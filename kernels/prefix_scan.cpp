@@ -18,8 +18,8 @@ uint64_t align_up(uint64_t v, uint64_t a) { return (v + a - 1) / a * a; }
 
 PrefixScan::PrefixScan(gpu::Context& ctx)
     : ctx_(ctx),
-      tile_sums_(ctx.program("scan_tile_sums", subgroup_tile_spec(ctx))),
-      tiles_(ctx.program("scan_tiles", subgroup_tile_spec(ctx))) {}
+      tile_sums_(ctx.program("primitives/scan_tile_sums", subgroup_tile_spec(ctx))),
+      tiles_(ctx.program("primitives/scan_tiles", subgroup_tile_spec(ctx))) {}
 
 uint64_t PrefixScan::scratch_elements(uint64_t n) {
   uint64_t total = 0;

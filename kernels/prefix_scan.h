@@ -7,8 +7,8 @@
 // only by the buffer size. Sums wrap modulo 2^32, like std::inclusive_scan on
 // uint32_t.
 //
-// Shaders: shaders/scan_tile_sums.comp, shaders/scan_tiles.comp.
-// Tests: tests/test_prefix_scan.cpp. Benchmark: bench/bench_primitives.cpp.
+// Shaders: shaders/primitives/scan_tile_sums.comp, shaders/primitives/scan_tiles.comp.
+// Tests: tests/primitives/test_prefix_scan.cpp. Benchmark: bench/bench_primitives.cpp.
 #pragma once
 
 #include "gpu/buffer.h"

@@ -17,7 +17,7 @@ namespace {
 constexpr uint32_t kRadixSize = 256;
 uint32_t key_bytes(KeyWidth w) { return w == KeyWidth::Bits64 ? 8u : 4u; }
 
-// Digit matches by constant-index shuffles (radix_common.glsl RADIX_LANES = the subgroup size)
+// Digit matches by constant-index shuffles (primitives/radix_common.glsl RADIX_LANES = the subgroup size)
 // or by eight ballots (0).
 gpu::SpecConstants radix_spec(const gpu::Context& ctx, SubgroupOps ops) {
   gpu::SpecConstants s = subgroup_tile_spec(ctx);
@@ -38,8 +38,8 @@ RadixSortScratch::RadixSortScratch(gpu::Context& ctx, uint64_t cap, KeyWidth key
 RadixSort::RadixSort(gpu::Context& ctx, KeyWidth width, SubgroupOps ops)
     : ctx_(ctx),
       width_(width),
-      count_(ctx.program(width == KeyWidth::Bits64 ? "radix_count64" : "radix_count32", radix_spec(ctx, ops))),
-      scatter_(ctx.program(width == KeyWidth::Bits64 ? "radix_scatter64" : "radix_scatter32", radix_spec(ctx, ops))),
+      count_(ctx.program(width == KeyWidth::Bits64 ? "primitives/radix_count64" : "primitives/radix_count32", radix_spec(ctx, ops))),
+      scatter_(ctx.program(width == KeyWidth::Bits64 ? "primitives/radix_scatter64" : "primitives/radix_scatter32", radix_spec(ctx, ops))),
       scan_(ctx) {
   if (ctx.subgroup_size() > 128 || kTileElements % ctx.subgroup_size())
     throw std::runtime_error("radix sort needs a subgroup size that divides " + std::to_string(kTileElements) +

@@ -16,7 +16,7 @@
 // with a clear message.
 //
 // Shaders: shaders/radix_count{32,64}.comp, shaders/radix_scatter{32,64}.comp.
-// Tests: tests/test_radix_sort.cpp. Benchmark: bench/bench_primitives.cpp.
+// Tests: tests/primitives/test_radix_sort.cpp. Benchmark: bench/bench_primitives.cpp.
 #pragma once
 
 #include "gpu/buffer.h"
@@ -44,7 +44,7 @@ struct RadixSortScratch {
 
 class RadixSort {
  public:
-  // `ops`: how a batch finds the lanes holding its digit (radix_common.glsl): eight subgroup
+  // `ops`: how a batch finds the lanes holding its digit (primitives/radix_common.glsl): eight subgroup
   // ballots, or constant-index shuffles of the lanes' digits (subgroups of at most 32 lanes);
   // both give the same sort.
   RadixSort(gpu::Context& ctx, KeyWidth width, SubgroupOps ops = SubgroupOps::Auto);

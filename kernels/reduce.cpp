@@ -26,7 +26,7 @@ gpu::SpecConstants reduce_spec(const gpu::Context& ctx, ReduceOp op, ElementType
 }  // namespace
 
 Reduce::Reduce(gpu::Context& ctx, ReduceOp op, ElementType type)
-    : ctx_(ctx), program_(ctx.program("reduce", reduce_spec(ctx, op, type))) {}
+    : ctx_(ctx), program_(ctx.program("primitives/reduce", reduce_spec(ctx, op, type))) {}
 
 uint64_t Reduce::scratch_elements(uint64_t n) {
   // Partials of level 1 at 0, level 2 after them, ... down to one value.

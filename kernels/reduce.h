@@ -5,7 +5,7 @@
 // binding are processed as windows. uint32/int32 sums wrap modulo 2^32;
 // float32 sums accumulate in fp32 (compare with a tolerance).
 //
-// Shader: shaders/reduce.comp. Tests: tests/test_reduce.cpp.
+// Shader: shaders/primitives/reduce.comp. Tests: tests/primitives/test_reduce.cpp.
 #pragma once
 
 #include "gpu/buffer.h"

@@ -14,7 +14,7 @@
 // but misses the last key; we pass through every key.)
 // Files: .npy float32 [P,N,4,4] (multi_pass_camera_poses.npy) and one JSON
 // per pass ({"format": "icube-trajectory", "version": 1, "poses", "camera"}).
-// Tests: tests/test_viewer.cpp.
+// Tests: tests/viewer/test_viewer.cpp.
 #pragma once
 
 #include "render/camera.h"

@@ -17,7 +17,7 @@
 // uploads the hash table once), so no frame stalls for a whole world's upload;
 // the new tiles appear nearest first. The slices' main-thread times are
 // recorded. R = 0: the whole world once.
-// Tests: tests/test_viewer_residency.cpp, tests/test_viewer_resident_world.cpp.
+// Tests: tests/viewer/test_viewer_residency.cpp, tests/viewer/test_viewer_resident_world.cpp.
 #pragma once
 
 #include "resident_world.h"

@@ -22,7 +22,7 @@
 // unless that voxel is a static car's cell; class CAR, the car's instance),
 // overlay records + table uploaded. More car bricks than overlay slots: the
 // buffer is reallocated with twice the overlay slots (one full re-upload).
-// Test: tests/test_viewer_resident_world.cpp (probes equal to a world built
+// Test: tests/viewer/test_viewer_resident_world.cpp (probes equal to a world built
 // from scratch after removals, additions and overlays).
 #pragma once
 

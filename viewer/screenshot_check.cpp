@@ -17,7 +17,7 @@ int palette_entry(const uint8_t* p) {
   return 10;
 }
 
-// view_shade.comp's sky: mix(kSkyLow, kSkyHigh, s) for s in [0, 1].
+// view/shade.comp's sky: mix(kSkyLow, kSkyHigh, s) for s in [0, 1].
 constexpr double kSkyLow[3] = {0.78, 0.85, 0.93}, kSkyHigh[3] = {0.33, 0.53, 0.82};
 
 bool on_sky_gradient(const uint8_t* p) {

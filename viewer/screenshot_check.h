@@ -1,12 +1,12 @@
 // Checks that the viewer's pictures show the world they should (CPU only;
 // library icube_viewer_core; used by icube-view's screenshots, its
-// --compare-semantic mode and tests/test_viewer_checks.cpp).
+// --compare-semantic mode and tests/viewer/test_viewer_checks.cpp).
 //
 // Histograms have 11 bins: the 10 guidance palette entries (world/semantics.h)
 // and "other".
 //  - semantic_histogram: exact palette colours (the semantic mode's pixels).
 //  - shaded_histogram: the shaded mode's pixels. A pixel on the sky gradient
-//    (view_shade.comp's two end colours, within 3/255 of the segment between
+//    (view/shade.comp's two end colours, within 3/255 of the segment between
 //    them) is sky (entry 8); else the palette entry whose RGB direction is
 //    nearest (largest cosine) to the pixel's, since sun and ambient light
 //    scale a class colour; black pixels are "other".

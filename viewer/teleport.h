@@ -11,7 +11,7 @@
 // other ground). The heading is the target's (ego start, lanes: the centre
 // line's direction there), else the direction of the nearest lane centre line
 // within `lane_radius` metres, else the car's current heading.
-// Tests: tests/test_viewer_teleport.cpp.
+// Tests: tests/viewer/test_viewer_teleport.cpp.
 #pragma once
 
 #include "scene/scene.h"

@@ -11,7 +11,7 @@
 // z and pitch; "always zero height" (InfiniCube's option) pins z instead.
 // Cameras: the recorded camera is the scene's front camera (camera_to_ego,
 // FLU) on the car; the view can be that dash camera or a chase camera behind.
-// Tests: tests/test_viewer.cpp.
+// Tests: tests/viewer/test_viewer.cpp.
 #pragma once
 
 #include "scene/scene.h"

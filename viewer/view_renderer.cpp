@@ -11,8 +11,8 @@ namespace icube::viewer {
 ViewRenderer::ViewRenderer(gpu::Context& ctx)
     : ctx_(ctx),
       raycaster_(ctx),
-      shade_(ctx.program("view_shade", gpu::SpecConstants{}.set(0, ctx.subgroup_size() /* local_size_x */))),
-      rays_(ctx.program("view_rays", gpu::SpecConstants{}.set(0, ctx.subgroup_size()))) {
+      shade_(ctx.program("view/shade", gpu::SpecConstants{}.set(0, ctx.subgroup_size() /* local_size_x */))),
+      rays_(ctx.program("view/rays", gpu::SpecConstants{}.set(0, ctx.subgroup_size()))) {
   std::vector<uint32_t> pal(world::kNumSemanticClasses);
   for (int c = 0; c < world::kNumSemanticClasses; ++c) {
     const auto rgb = world::class_color(static_cast<uint8_t>(c));

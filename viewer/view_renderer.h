@@ -1,11 +1,11 @@
 // The viewer's main view on the GPU: the voxel ray caster (camera mode,
-// engine/render/raycast_gpu.h) into a hit buffer, then shaders/view_shade.comp
+// engine/render/raycast_gpu.h) into a hit buffer, then shaders/view/shade.comp
 // into packed RGBA8 (mode, sun, fog: shared/view_params.h). The presenter
 // copies the RGBA buffer to an image and blits it to the swapchain.
 // Shaded mode with shadows / ambient occlusion: extra ray passes through the
 // ray caster's ray-list mode, one per kind and sample (sun ray: t_max
 // shadow_distance; AO rays: t_max ao_radius), generated from the camera hits
-// and summed into a per-pixel visibility word by shaders/view_rays.comp; the
+// and summed into a per-pixel visibility word by shaders/view/rays.comp; the
 // other modes never run them, so they stay exactly the camera hits' picture.
 #pragma once
 
@@ -42,7 +42,7 @@ struct ShadeSettings {
   double ao_strength = 0.6;             // ambient · (1 - strength · blocked / samples)
 };
 
-// The AO ray direction of view_rays.comp (same hash, pattern and basis) in
+// The AO ray direction of view/rays.comp (same hash, pattern and basis) in
 // double, for CPU references: pixel (x, y), sample s of k, entry-face normal
 // ±(axis + 1).
 glm::dvec3 ao_direction(uint32_t x, uint32_t y, uint32_t s, uint32_t k, int normal);

@@ -1,7 +1,7 @@
 // icube-view: the interactive viewer. Drive a car (or fly) through a semantic
 // voxel world rendered by the compute ray caster, record camera trajectories
 // for Stage 2, replay them. GLFW + Vulkan swapchain + Dear ImGui (presenter.h);
-// the view is shaders/raycast.comp + shaders/view_shade.comp (view_renderer.h);
+// the view is shaders/raycast/cast.comp + shaders/view/shade.comp (view_renderer.h);
 // the application state and its jobs: app.h; the car, recorder, teleport,
 // scripts and checks are CPU code in icube_viewer_core.
 //

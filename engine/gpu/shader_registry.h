@@ -1,4 +1,4 @@
-// SPIR-V of every shaders/*.comp, compiled at build time and embedded
+// SPIR-V of every shaders/<module>/*.comp, compiled at build time and embedded
 // (cmake/IcubeShaders.cmake generates the table).
 #pragma once
 
@@ -9,7 +9,7 @@
 namespace icube::gpu {
 
 struct EmbeddedShader {
-  const char* name;  // file stem: "scan_reduce" for shaders/scan_reduce.comp
+  const char* name;  // folder-qualified name: "splat/blend" for shaders/splat/blend.comp
   const uint32_t* words;
   size_t word_count;
 };

@@ -21,8 +21,8 @@
 // voxel = the voxel containing the entry point, with the entry axis fixed by
 // the slab that was entered and the other axes corrected so the entry point
 // lies in [entry plane, exit plane) in t.
-// The GPU kernel (shaders/raycast.comp) follows the same rules in float.
-// Tests: tests/test_raycast.cpp.
+// The GPU kernel (shaders/raycast/cast.comp) follows the same rules in float.
+// Tests: tests/render/test_raycast.cpp.
 #pragma once
 
 #include "render/camera.h"

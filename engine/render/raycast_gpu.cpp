@@ -1,4 +1,4 @@
-// GPU host module for shaders/raycast.comp; see raycast_gpu.h.
+// GPU host module for shaders/raycast/cast.comp; see raycast_gpu.h.
 #include "render/raycast_gpu.h"
 
 #include "shared/raycast_f64_params.h"
@@ -115,7 +115,7 @@ static uint32_t workgroup_lanes(const gpu::Context& ctx) { return std::max<uint3
 
 RaycasterGpu::RaycasterGpu(gpu::Context& ctx, bool skip_empty_bricks)
     : ctx_(ctx),
-      occupancy_program_(ctx.program("raycast_occupancy")),
+      occupancy_program_(ctx.program("raycast/occupancy")),
       tile_w_(tile_width_for(ctx.subgroup_size())),
       wg_w_(tile_width_for(workgroup_lanes(ctx))),
       wg_lanes_(workgroup_lanes(ctx)),
@@ -138,7 +138,7 @@ gpu::Program& RaycasterGpu::cast_program(bool tiled, bool occupancy, bool exact)
       .set(2, tiled ? tile_w_ : 0u /* RAYCAST_TILE_W: 0 = rows */)
       .set(5, occupancy /* RAYCAST_OCCUPANCY */);
   if (tiled) spec.set(3, ctx_.subgroup_size() /* RAYCAST_SUB_LANES */).set(4, wg_w_ /* RAYCAST_WG_W */);
-  return ctx_.program(exact ? "raycast_exact" : "raycast", spec);
+  return ctx_.program(exact ? "raycast/exact" : "raycast/cast", spec);
 }
 
 shader::RaycastParams RaycasterGpu::camera_params(const RaycastWorld& w, const Camera& cam,

@@ -1,5 +1,5 @@
-// GPU host module for the voxel ray caster, shaders/raycast.comp (traversal in
-// shaders/common/raycast_traverse.glsl; params and the per-ray RaycastHit in
+// GPU host module for the voxel ray caster, shaders/raycast/cast.comp (traversal in
+// shaders/raycast/traverse.glsl; params and the per-ray RaycastHit in
 // shaders/shared/raycast_params.h). Same rules and outputs as the CPU
 // reference engine/render/raycast_cpu.h, in float, relative to a reference
 // voxel: the camera's voxel (camera mode) or the first ray's origin voxel (ray
@@ -7,7 +7,7 @@
 // camera 100 km from the grid origin renders the same image as at the origin.
 // Traversal is limited to RAYCAST_MAX_REL voxels (±839 km at 0.2 m) around
 // the reference voxel and to the world's brick bounds.
-// Test: tests/test_raycast.cpp; benchmark: bench/bench_raycast.cpp.
+// Test: tests/render/test_raycast.cpp; benchmark: bench/bench_raycast.cpp.
 #pragma once
 
 #include "gpu/buffer.h"
@@ -57,7 +57,7 @@ class RaycasterGpu {
   // shared/raycast_params.h): a (block, 32 x 32 column height) pair per 32³ super
   // brick of the bounds, per occupied super brick a block of 64 (brick record + 4³
   // octant bits, 8 x 8 column height) pairs, and a copy of every record's mask,
-  // built from the brick table (raycast_occupancy.comp: a fill and three passes);
+  // built from the brick table (raycast/occupancy.comp: a fill and three passes);
   // the kernel skips column tops, empty super bricks, bricks and octants and finds
   // a voxel's cell in three fetches without hashing. A record
   // rebuilds it unless the last build was for the same world (RaycastWorld id != 0,
@@ -78,7 +78,7 @@ class RaycasterGpu {
   bool tiled() const { return tiled_; }
   // Camera casts with near-threshold semantic chords decided in double: the float pass lists the
   // rays whose decision met a chord within float rounding of eps_sem and a second pass
-  // (shaders/raycast_exact.comp) casts only those again; on by default where the device has
+  // (shaders/raycast/exact.comp) casts only those again; on by default where the device has
   // shaderFloat64; off: the float kernel alone.
   void set_exact(bool on);
   bool exact() const { return exact_; }

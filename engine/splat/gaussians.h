@@ -15,7 +15,7 @@
 // and the vertex (scene::InputError). The writer emits Inria's layout
 // (binary_little_endian, all float: x y z nx ny nz f_dc_0..2 f_rest_* opacity
 // scale_0..2 rot_0..3), which SuperSplat and the reference viewers open.
-// Tests: tests/test_splat_io.cpp.
+// Tests: tests/splat/test_splat_io.cpp.
 #pragma once
 
 #include <glm/glm.hpp>

@@ -39,7 +39,7 @@
 // matter (no Gaussian with opacity < 1/255 ever contributes). The peak point
 // o + t*·d lies within r_cut of μ, hence t* >= |m| − r_cut: the GPU kernel
 // sorts by that bound (lidar_gaussians_gpu.h).
-// Tests: tests/test_lidar_gaussians.cpp.
+// Tests: tests/splat/test_lidar_gaussians.cpp.
 #pragma once
 
 #include "render/lidar/lidar_model.h"

@@ -1,6 +1,6 @@
-// LiDAR on Gaussians, GPU host module (shaders/splat_lidar_bin.comp,
-// splat_lidar_duplicate.comp, splat_lidar_cast.comp, the tile-range kernel
-// splat_ranges.comp shared with the rasterizer, and the foundation PrefixScan and
+// LiDAR on Gaussians, GPU host module (shaders/splat/lidar_bin.comp,
+// splat/lidar_duplicate.comp, splat/lidar_cast.comp, the tile-range kernel
+// splat/ranges.comp shared with the rasterizer, and the foundation PrefixScan and
 // 64-bit RadixSort of kernels/). Same rays, maths and outputs as the CPU
 // reference lidar_gaussians_cpu.h, in float.
 //
@@ -30,7 +30,7 @@
 // Limits: Gaussians, their records and the tile instances each fit one
 // storage binding (lavapipe 128 MiB: 2 M Gaussians, 16 M instances); larger
 // sweeps fail with a clear message.
-// Tests: tests/test_lidar_gaussians.cpp; benchmark: bench/bench_lidar_gaussians.cpp.
+// Tests: tests/splat/test_lidar_gaussians.cpp; benchmark: bench/bench_lidar_gaussians.cpp.
 #pragma once
 
 #include "gpu/buffer.h"

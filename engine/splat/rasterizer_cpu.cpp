@@ -1,7 +1,7 @@
 // CPU reference of the Gaussian splatting rasterizer; see rasterizer_cpu.h.
-// The float arithmetic follows shaders/common/splat_project.glsl operation by
+// The float arithmetic follows shaders/splat/project.glsl operation by
 // operation; the per-pixel α is the reference's o·exp(power), which
-// shaders/splat_blend.comp evaluates as 2^q with the conic folded with log2 e
+// shaders/splat/blend.comp evaluates as 2^q with the conic folded with log2 e
 // and log2 o (rounding-level differences; see that kernel's top comment).
 #include "splat/rasterizer_cpu.h"
 

@@ -1,7 +1,7 @@
 // CPU reference of the tile-based Gaussian splatting rasterizer, exactly per
 // ../shared/reference/splatting.md §1–3 (Inria's pipeline with the principal
 // point honoured as in gsplat). The GPU path (rasterizer_gpu.h) reproduces it
-// stage by stage; tests/test_splat.cpp compares the two.
+// stage by stage; tests/splat/test_splat.cpp compares the two.
 //
 // Conventions:
 // - Camera: OpenCV pinhole (fx, fy, cx, cy, W, H) and a camera-to-world pose
@@ -80,7 +80,7 @@ TileRect tile_rect(float mean_x, float mean_y, float radius, uint32_t grid_x, ui
 float splat_log_cut(float opacity);
 // Exact tile culling: [x0, x1) of the tiles in row `ty` of rect `r` that the α-cut ellipse of
 // `g` (conic, mean, log_cut = splat_log_cut(opacity)) reaches; x0 == x1 when none. Same float
-// operations as shaders/common/splat_tiles.glsl, so GPU and CPU tile lists agree.
+// operations as shaders/splat/tiles.glsl, so GPU and CPU tile lists agree.
 void tile_row_span(const shader::SplatProjected& g, float log_cut, const TileRect& r, uint32_t ty, uint32_t& x0,
                    uint32_t& x1);
 // Tile instances of a projected Gaussian under `rule` (0 when culled).

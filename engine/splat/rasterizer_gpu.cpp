@@ -16,7 +16,7 @@ namespace icube::splat {
 
 namespace {
 constexpr uint32_t kLocal = 64;  // non-cooperative kernels: any multiple of the subgroup size
-constexpr uint64_t kBlendInvocationsPerTile = SPLAT_TILE_PIXELS / SPLAT_BLEND_PIXELS;  // splat_blend.comp
+constexpr uint64_t kBlendInvocationsPerTile = SPLAT_TILE_PIXELS / SPLAT_BLEND_PIXELS;  // splat/blend.comp
 
 gpu::SpecConstants local_size() { return gpu::SpecConstants{}.set(0, kLocal /* local_size_x */); }
 gpu::SpecConstants blend_spec(const gpu::Context& ctx, kernels::SubgroupOps votes, bool depth) {
@@ -53,12 +53,12 @@ struct SplatRendererGpu::Frame {
 
 SplatRendererGpu::SplatRendererGpu(gpu::Context& ctx, SplatGpuVariant variant)
     : ctx_(ctx),
-      counts_(ctx.program("splat_sorted_counts", local_size())),
-      duplicate_(ctx.program("splat_duplicate", local_size())),
-      ranges_(ctx.program("splat_ranges", local_size())),
-      blend_(variant.tile_blend ? ctx.program("splat_blend", blend_spec(ctx, variant.votes, true))
-                                : ctx.program("splat_blend_rows", local_size())),
-      blend_color_(variant.tile_blend ? ctx.program("splat_blend", blend_spec(ctx, variant.votes, false)) : blend_),
+      counts_(ctx.program("splat/sorted_counts", local_size())),
+      duplicate_(ctx.program("splat/duplicate", local_size())),
+      ranges_(ctx.program("splat/ranges", local_size())),
+      blend_(variant.tile_blend ? ctx.program("splat/blend", blend_spec(ctx, variant.votes, true))
+                                : ctx.program("splat/blend_rows", local_size())),
+      blend_color_(variant.tile_blend ? ctx.program("splat/blend", blend_spec(ctx, variant.votes, false)) : blend_),
       variant_(variant),
       counting_(variant.binning == TileBinning::Counting ||
                 (variant.binning == TileBinning::Auto && ctx.info().type == VK_PHYSICAL_DEVICE_TYPE_CPU)),
@@ -171,7 +171,7 @@ SplatImage SplatRendererGpu::render(const GpuGaussians& g, const render::Camera&
                                               std::min(limit, texel_limit * 16));
     // A preprocess pipeline per SH degree (splat_preprocess's SPLAT_SH_DEGREE), made on first use.
     gpu::Program& preprocess =
-        ctx_.program("splat_preprocess", gpu::SpecConstants{}.set(0, kLocal /* local_size_x */).set(1, g.sh_degree /* SPLAT_SH_DEGREE */));
+        ctx_.program("splat/preprocess", gpu::SpecConstants{}.set(0, kLocal /* local_size_x */).set(1, g.sh_degree /* SPLAT_SH_DEGREE */));
     ctx_.submit_and_wait([&](gpu::CommandList& cmd) {
       f.t1->reset(cmd);
       const int ti = f.t1->begin(cmd, "preprocess");

@@ -1,6 +1,6 @@
 // GPU host module of the tile-based Gaussian splatting rasterizer
-// (shaders/splat_preprocess.comp, splat_sorted_counts.comp,
-// splat_duplicate.comp, splat_ranges.comp, splat_blend.comp; TileBinningGpu; the
+// (shaders/splat/preprocess.comp, splat/sorted_counts.comp,
+// splat/duplicate.comp, splat/ranges.comp, splat/blend.comp; TileBinningGpu; the
 // foundation PrefixScan and 32-bit RadixSort from kernels/). Same rules and outputs as the CPU reference rasterizer_cpu.h.
 //
 // Frame = two submissions (one CPU sync, as in the reference rasterizer):
@@ -12,7 +12,7 @@
 //      per Gaussian so that the binning streams instead of gathering by
 //      Gaussian index) -> inclusive PrefixScan -> total to the host;
 //   Exact tile culling: splat_sorted_counts counts (and splat_duplicate emits)
-//   only the rect tiles that the α-cut ellipse reaches (common/splat_tiles.glsl,
+//   only the rect tiles that the α-cut ellipse reaches (splat/tiles.glsl,
 //   rasterizer_cpu.h tile_row_span), which roughly halves the instances.
 //   2. duplicate tile ids in depth order at the scan offsets -> stable 32-bit
 //      RadixSort of the bits(#tiles) low bits (2 passes up to 65,536 tiles)
@@ -31,7 +31,7 @@
 //   Gaussian's α-cut ellipse against its pixel block's 8-column groups, and
 //   per group evaluates only the ballot's needed Gaussians, 4 per loop
 //   iteration, in depth order, with the record shuffled from its lane
-//   (splat_blend.comp; on CPU devices its ballots and votes are constant-index
+//   (splat/blend.comp; on CPU devices its ballots and votes are constant-index
 //   shuffles). SplatOptions::depth = false selects a blend pipeline without
 //   the expected/median depth. Loads at per-lane (divergent or strided)
 //   addresses are texel fetches (uniform texel buffers, R32_UINT /
@@ -54,7 +54,7 @@
 // per instance); larger frames, and images of more than 65,535 tile columns or
 // rows (SplatBinRecord packs tile coordinates in 16 bits), fail with a clear
 // message.
-// Tests: tests/test_splat.cpp; benchmark: bench/bench_splat.cpp.
+// Tests: tests/splat/test_splat.cpp; benchmark: bench/bench_splat.cpp.
 #pragma once
 
 #include "gpu/buffer.h"
@@ -109,7 +109,7 @@ enum class TileBinning { Auto, Radix, Counting };
 
 // Pipeline variants (for side-by-side benchmarks and tests; the defaults are the fast ones, and
 // every variant gives the same images). exact_cull = false bins whole getRect rects
-// (TileRule::Rect, more instances); tile_blend = false uses splat_blend_rows.comp (the
+// (TileRule::Rect, more instances); tile_blend = false uses splat/blend_rows.comp (the
 // previous blend: 4 tiles per workgroup, per-lane skip loops); bin_chunks > 0 forces the
 // counting sort's chunk count (TileBinningGpu::chunks_for; tests).
 struct SplatGpuVariant {

@@ -1,5 +1,5 @@
 // Sky models of the splatting rasterizer; see sky.h. The float arithmetic
-// follows shaders/splat_blend.comp (splat_sky) operation by operation.
+// follows shaders/splat/blend.comp (splat_sky) operation by operation.
 #include "splat/sky.h"
 
 #include "scene/png_read.h"

@@ -1,6 +1,6 @@
 // Sky models for the Gaussian splatting rasterizer: the colour seen where a
 // pixel's ray passes through the Gaussians, composited as C + T·sky(d) with
-// T the pixel's final transmittance (rasterizer_cpu.h; GPU: splat_blend.comp).
+// T the pixel's final transmittance (rasterizer_cpu.h; GPU: splat/blend.comp).
 //
 // d is the unit world-space direction of the pixel's ray,
 //   d = normalize(M · (u + o, v + o, 1)),  M = R_c2w · K⁻¹ (render::camera_ray_matrix, in float).
@@ -16,7 +16,7 @@
 //   turning clockwise seen from above (a panorama photo, not mirrored).
 //   Bilinear between texel centres (x = s − 0.5, y = t − 0.5), wrapping in
 //   longitude, clamped at the poles.
-// Tests: tests/test_splat.cpp ("splat sky ...").
+// Tests: tests/splat/test_splat.cpp ("splat sky ...").
 #pragma once
 
 #include "render/camera.h"
@@ -64,7 +64,7 @@ void validate_sky(const SkyModel& sky);
 // M = R_c2w · K⁻¹ in double, rounded to float, row-major.
 void sky_ray_matrix(const render::Camera& cam, float m[9]);
 // World ray direction of the pixel sample (px, py) = (u + o, v + o), in float:
-// m = M row-major (9 floats). Same operations as splat_blend.comp.
+// m = M row-major (9 floats). Same operations as splat/blend.comp.
 glm::vec3 sky_ray_dir(const float m[9], float px, float py);
 // Sky colour for unit world direction `d` (`background` for SkyKind::Background).
 glm::vec3 sky_color(const SkyModel& sky, const glm::vec3& background, const glm::vec3& d);

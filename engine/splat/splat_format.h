@@ -19,7 +19,7 @@
 // (scene::InputError): a size that is not a multiple of 32 bytes (truncated or
 // not a .splat file), NaN/Inf positions or scales, scales <= 0, and rotation
 // bytes that decode to the zero quaternion (all four 128).
-// Tests: tests/test_splat_io.cpp.
+// Tests: tests/splat/test_splat_io.cpp.
 #pragma once
 
 #include "splat/gaussians.h"

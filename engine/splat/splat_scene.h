@@ -42,7 +42,7 @@
 // for every direction d (per-degree real-SH rotation matrices in the
 // renderer's basis, solved in double from sampled directions; exact because
 // each degree's span is closed under rotation).
-// Tests: tests/test_splat_scene.cpp.
+// Tests: tests/splat/test_splat_scene.cpp.
 #pragma once
 
 #include "splat/gaussians.h"

@@ -38,10 +38,10 @@ uint64_t TileBinningGpu::chunk_groups(uint64_t threads) {
 
 TileBinningGpu::TileBinningGpu(gpu::Context& ctx)
     : ctx_(ctx),
-      count_(ctx.program("splat_bin_chunks", walk_spec(ctx, false))),
-      emit_(ctx.program("splat_bin_chunks", walk_spec(ctx, true))),
-      totals_(ctx.program("splat_bin_offsets", gpu::SpecConstants{}.set(0, kLocal /* local_size_x */).set(1, 0u /* STAGE */))),
-      offsets_(ctx.program("splat_bin_offsets", gpu::SpecConstants{}.set(0, kLocal /* local_size_x */).set(1, 1u /* STAGE */))),
+      count_(ctx.program("splat/bin_chunks", walk_spec(ctx, false))),
+      emit_(ctx.program("splat/bin_chunks", walk_spec(ctx, true))),
+      totals_(ctx.program("splat/bin_offsets", gpu::SpecConstants{}.set(0, kLocal /* local_size_x */).set(1, 0u /* STAGE */))),
+      offsets_(ctx.program("splat/bin_offsets", gpu::SpecConstants{}.set(0, kLocal /* local_size_x */).set(1, 1u /* STAGE */))),
       scan_(ctx) {}
 
 uint32_t TileBinningGpu::chunks_for(uint64_t instances, uint32_t tiles, uint32_t requested) const {

@@ -1,5 +1,5 @@
 // Counting-sort tile binning of the Gaussian splatting rasterizer
-// (shaders/splat_bin_chunks.comp, splat_bin_offsets.comp; the foundation
+// (shaders/splat/bin_chunks.comp, splat/bin_offsets.comp; the foundation
 // PrefixScan), the path SplatRendererGpu takes on CPU devices (lavapipe). It
 // builds the same stable (tile, depth, Gaussian index) instance list and
 // per-tile ranges as the radix path (splat_duplicate + RadixSort by tile +
@@ -31,7 +31,7 @@
 // the caller re-bins the frame with the radix path. Sequential walks suit a
 // CPU device with few threads; a GPU would idle most of its lanes, so GPUs
 // keep the radix path.
-// Tests: tests/test_splat.cpp; benchmark: bench/bench_splat.cpp (cull-tile vs cull-tile-radix).
+// Tests: tests/splat/test_splat.cpp; benchmark: bench/bench_splat.cpp (cull-tile vs cull-tile-radix).
 #pragma once
 
 #include "gpu/buffer.h"

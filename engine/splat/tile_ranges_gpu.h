@@ -1,5 +1,5 @@
 // The per-tile range stage shared by the splatting rasterizer's radix binning and the
-// Gaussian LiDAR's binning: zero-fill the ranges, then shaders/splat_ranges.comp over the
+// Gaussian LiDAR's binning: zero-fill the ranges, then shaders/splat/ranges.comp over the
 // sorted keys (key_words = 1: 32-bit tile ids; 2: 64-bit keys with the tile id in the high
 // word) writes ranges[t] = [first, end) of tile t's instances.
 #pragma once

@@ -5,7 +5,7 @@
 // (faces of A clipped to B) ∪ (faces of B clipped to A). Each face polygon is
 // clipped independently against the other solid's 6 half-spaces with
 // Sutherland–Hodgman (a quad gains at most one vertex per plane, so ≤ 10
-// vertices — the same fixed-size scheme runs in shaders/cond_boxes.comp), and
+// vertices — the same fixed-size scheme runs in shaders/world/cond_boxes.comp), and
 // vol(P) = 1/3 Σ_faces A_f · (x_f − o) by the divergence theorem, where A_f is
 // the polygon's outward area vector and o the cube centre. No cap polygons
 // are needed because every face of P lies on a face of A or B.

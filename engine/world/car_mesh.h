@@ -6,7 +6,7 @@
 // exactly two triangles, once in each direction). Units metres, x = length
 // (front at +x), y = width (left at +y), z = up, wheels touching z = 0;
 // about 4.5 x 1.8 x 1.45 m. assets/car_simple.obj is this mesh written by
-// mesh_to_obj() with car_mesh_obj_header() (tests/test_mesh_voxelize.cpp
+// mesh_to_obj() with car_mesh_obj_header() (tests/world/test_mesh_voxelize.cpp
 // keeps it current; ICUBE_UPDATE_ASSETS=1 rewrites it).
 #pragma once
 

@@ -41,7 +41,7 @@ std::vector<float> pack_boxes(const std::vector<ChunkBox>& boxes) {
 }
 
 ConditionVolumeGpu::ConditionVolumeGpu(gpu::Context& ctx)
-    : ctx_(ctx), points_(subgroup_program(ctx, "cond_points")), boxes_(subgroup_program(ctx, "cond_boxes")) {}
+    : ctx_(ctx), points_(subgroup_program(ctx, "world/cond_points")), boxes_(subgroup_program(ctx, "world/cond_boxes")) {}
 
 ConditionBuffers ConditionVolumeGpu::upload_inputs(const ConditionInputs& in) {
   ConditionBuffers b;

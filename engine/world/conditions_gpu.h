@@ -1,7 +1,7 @@
 // GPU host module for the Stage-1 condition volume (conventions §7).
 //
-// Kernels: shaders/cond_boxes.comp (one invocation per latent voxel: position
-// channels and box channels, float clipping) and shaders/cond_points.comp
+// Kernels: shaders/world/cond_boxes.comp (one invocation per latent voxel: position
+// channels and box channels, float clipping) and shaders/world/cond_points.comp
 // (scatter of map grid points into road_edge / road_line / road_surface).
 // Inputs come from gather_condition_inputs() (engine/world/conditions.h):
 // chunk-frame data computed in double on the host, uploaded as float; the
@@ -9,7 +9,7 @@
 // the kernel only scatters points and knows nothing of the fit.
 // Lives in engine/world/ rather than kernels/ because kernels/CMakeLists.txt
 // lists its files explicitly. CPU reference: build_conditions_cpu().
-// Test: tests/test_conditions.cpp.
+// Test: tests/world/test_conditions.cpp.
 #pragma once
 
 #include "gpu/buffer.h"
@@ -21,7 +21,7 @@
 
 namespace icube::world {
 
-// Tolerances of the float coplanar-face test in cond_boxes.comp.
+// Tolerances of the float coplanar-face test in world/cond_boxes.comp.
 inline constexpr float kGpuCoplanarCos = 1e-6f;
 inline constexpr float kGpuCoplanarDist = 1e-5f;
 
@@ -32,7 +32,7 @@ struct ConditionBuffers {
   uint32_t edge_count = 0, line_count = 0, surface_count = 0, box_count = 0;
 };
 
-// The float box records cond_boxes.comp reads (7 vec4s per box).
+// The float box records world/cond_boxes.comp reads (7 vec4s per box).
 std::vector<float> pack_boxes(const std::vector<ChunkBox>& boxes);
 
 class ConditionVolumeGpu {

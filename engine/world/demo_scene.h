@@ -23,7 +23,7 @@
 // (waymo_front_camera, 832x480). Every coordinate is rounded to a fixed grid
 // (1 mm, heading 1e-6 rad, rotation entries 1e-12) so the JSON is short and
 // last-bit differences between maths libraries do not reach the file
-// (tests/test_demo_scene.cpp checks assets/demo_scene.json byte for byte).
+// (tests/world/test_demo_scene.cpp checks assets/demo_scene.json byte for byte).
 #pragma once
 
 #include "scene/scene.h"

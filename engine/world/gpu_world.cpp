@@ -137,7 +137,7 @@ std::vector<Voxel> probe_gpu_world(gpu::Context& ctx, const GpuWorld& world, con
   for (const glm::ivec3& v : queries) q.emplace_back(v, 0);
   gpu::Buffer qbuf = gpu::upload_vector(ctx, q, "world-probe-queries");
   gpu::Buffer rbuf(ctx, queries.size() * 8, gpu::MemoryUsage::DeviceLocal, "world-probe-results");
-  gpu::Program& prog = ctx.program("world_probe");
+  gpu::Program& prog = ctx.program("world/probe");
   const shader::WorldProbeParams params{static_cast<uint32_t>(queries.size()), world.table_mask, 0, 0};
   ctx.submit_and_wait([&](gpu::CommandList& cmd) {
     cmd.dispatch(prog, {queries.size()}, params,

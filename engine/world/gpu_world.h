@@ -1,5 +1,5 @@
 // The VoxelGrid on the GPU (layout in shaders/shared/world_layout.h, GLSL
-// lookups in shaders/common/world_lookup.glsl): an open-addressing hash table
+// lookups in shaders/world/lookup.glsl): an open-addressing hash table
 // from packed brick coordinate to brick index (power-of-two capacity, load
 // <= 0.5, linear probing) and one WorldBrickRecord per brick (mask, classes
 // 4 per uint, instances 2 per uint). Bricks are laid out in brick_key order,
@@ -7,7 +7,7 @@
 //
 // Each buffer is bound whole, so brick_data is limited to one storage binding
 // (maxStorageBufferRange: 128 MiB = ~83,000 bricks on lavapipe, 4 GiB on NVIDIA).
-// Test: tests/test_world_gpu.cpp (world_probe.comp against VoxelGrid::get).
+// Test: tests/world/test_world_gpu.cpp (world/probe.comp against VoxelGrid::get).
 #pragma once
 
 #include "gpu/buffer.h"
@@ -33,7 +33,7 @@ GpuWorldHost build_gpu_world_host(const VoxelGrid& grid);
 // One brick's WorldBrickRecord as build_gpu_world_host writes it (rec: WORLD_BRICK_UINTS uints, overwritten),
 // for worlds updated brick by brick (viewer/resident_world.h).
 void write_brick_record(const Brick& b, uint32_t* rec);
-// The CPU mirror of world_voxel() in world_lookup.glsl.
+// The CPU mirror of world_voxel() in world/lookup.glsl.
 Voxel lookup_gpu_world_host(const GpuWorldHost& host, const glm::ivec3& ijk);
 
 // Pieces of the layout for code that edits the buffers in place (render/buffers/overlay_world,
@@ -59,7 +59,7 @@ struct GpuWorld {
 
 GpuWorld upload_gpu_world(gpu::Context& ctx, const VoxelGrid& grid);
 
-// Runs world_probe.comp: (class, instance) for every query ijk.
+// Runs world/probe.comp: (class, instance) for every query ijk.
 std::vector<Voxel> probe_gpu_world(gpu::Context& ctx, const GpuWorld& world, const std::vector<glm::ivec3>& queries);
 
 }  // namespace icube::world

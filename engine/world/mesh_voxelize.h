@@ -25,7 +25,7 @@
 //    4 x 2 x 1.6 m box at heading 30 degrees gives +7.5 % with its bottom on
 //    the 0.2 m lattice and +21 % with it 0.1 m off (a ninth cell layer);
 //    min_sub_voxels = 4 (half of the 8 a cell holds) gives +2.5 % and +7.6 %
-//    (tests/test_mesh_voxelize.cpp).
+//    (tests/world/test_mesh_voxelize.cpp).
 // A box with a zero, negative or non-finite dimension has no volume and gives
 // no voxels (not an error: Waymo has boxes of zero height).
 #pragma once

@@ -2,7 +2,7 @@
 // write v1 (v2 when the header passes 65,535 bytes), little-endian C order,
 // dtypes <f4 <f8 |u1 <u2 <i4 <u4 <i8, any rank. Fortran order, big-endian
 // and other dtypes are rejected with scene::InputError. Writes are atomic.
-// Tests: tests/test_world_npy.cpp.
+// Tests: tests/world/test_world_npy.cpp.
 #pragma once
 
 #include <cstdint>

@@ -12,7 +12,7 @@
 // Vote (conventions §2): each voxel takes the class with the most points,
 // ties to the lowest class id; its instance is the most frequent instance
 // among the points of the winning class, ties to the lowest id.
-// Tests: tests/test_world_io.cpp.
+// Tests: tests/world/test_world_io.cpp.
 #pragma once
 
 #include "world/voxel_grid.h"

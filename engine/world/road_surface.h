@@ -50,7 +50,7 @@
 // seed_margin must be finite, >= 0 and <= block_size.
 //
 // Road-edge and lane points are the map's polylines resampled with
-// polyline_resample.h (0.25 m). Tests: tests/test_road_surface.cpp.
+// polyline_resample.h (0.25 m). Tests: tests/world/test_road_surface.cpp.
 #pragma once
 
 #include "scene/scene.h"

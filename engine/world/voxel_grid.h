@@ -16,7 +16,7 @@
 // returns empty.
 //
 // Within a brick, voxel (lx, ly, lz) is bit lx + 8 ly + 64 lz of the mask
-// (x fastest). Tests: tests/test_voxel_grid.cpp.
+// (x fastest). Tests: tests/world/test_voxel_grid.cpp.
 #pragma once
 
 #include "world/chunk_pose.h"

@@ -13,7 +13,7 @@
 //         far from (0, 0, 0) keeps its precision. Positions are float, so they
 //         stay within 1 mm up to about 16 km from the origin (the PLY too).
 // .nvdb is not offered: the engine does not use NanoVDB.
-// Tests: tests/test_world_io.cpp.
+// Tests: tests/world/test_world_io.cpp.
 #pragma once
 
 #include "world/voxel_grid.h"

@@ -15,7 +15,7 @@
 // The reader checks magic, version, CRC, sizes (a brick count is bounded by
 // the file size before anything is allocated), brick coordinates, duplicate
 // and empty bricks and class ids (1..22), and reports the first problem as
-// scene::InputError with its byte offset. Tests: tests/test_world_io.cpp.
+// scene::InputError with its byte offset. Tests: tests/world/test_world_io.cpp.
 #pragma once
 
 #include "world/voxel_grid.h"

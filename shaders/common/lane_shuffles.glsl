@@ -4,8 +4,8 @@
 // store and a branch per lane. `lanes` must be a constant (a spec constant,
 // <= 32) so that the guards fold away after specialisation, and every lane
 // 0 .. lanes-1 must be active. Kernels keep the intrinsics on GPUs (the host
-// module picks the path: kernels/subgroup_ops.h). Used by splat_blend.comp and
-// common/radix_common.glsl.
+// module picks the path: kernels/subgroup_ops.h). Used by splat/blend.comp and
+// primitives/radix_common.glsl.
 #ifndef ICUBE_LANE_SHUFFLES_GLSL
 #define ICUBE_LANE_SHUFFLES_GLSL
 #extension GL_KHR_shader_subgroup_basic : require

@@ -1,5 +1,5 @@
 // Push constants and record layout of the Stage-1 condition kernels
-// (shaders/cond_points.comp, shaders/cond_boxes.comp; host module
+// (shaders/world/cond_points.comp, shaders/world/cond_boxes.comp; host module
 // engine/world/conditions_gpu.{h,cpp}). Volume layout: float [8][64][64][64]
 // (channel, i, j, k), channel order as engine/world/conditions.h.
 #ifndef ICUBE_CONDITIONS_PARAMS_H

@@ -1,4 +1,4 @@
-// The camera of a camera-mode cast in double, for shaders/raycast_exact.comp
+// The camera of a camera-mode cast in double, for shaders/raycast/exact.comp
 // (binding 6): the semantic chord of a voxel within float rounding of eps_sem is
 // recomputed from these with the CPU reference's formulas (engine/render/camera.cpp
 // camera_ray, engine/render/raycast_cpu.cpp cast_ray_cpu): the camera-frame

@@ -1,4 +1,4 @@
-// Push constants and the per-ray result of shaders/raycast.comp (host module:
+// Push constants and the per-ray result of shaders/raycast/cast.comp (host module:
 // engine/render/raycast_gpu.{h,cpp}; CPU reference: engine/render/raycast_cpu.h).
 // Shared by GLSL and C++.
 //
@@ -44,12 +44,12 @@ struct RaycastParams {
   // pipeline whose spec constant RAYCAST_OCCUPANCY matches (the kernel branches on that).
   uint occupancy;
   // Camera mode, 1: flag rays (RAYCAST_FLAG_NEAR) whose semantic decision met a chord within float
-  // rounding of eps_sem, for the exact pass (shaders/raycast_exact.comp), which re-casts only those.
+  // rounding of eps_sem, for the exact pass (shaders/raycast/exact.comp), which re-casts only those.
   uint mark_near;
 };
 
 // Occupancy index of the ray bounds (built on the GPU from the brick table by
-// shaders/raycast_occupancy.comp in three passes), in pairs of words (the kernel
+// shaders/raycast/occupancy.comp in three passes), in pairs of words (the kernel
 // reads one pair per level with one R32G32_UINT texel fetch). Super level: pair
 // s of the dense x-fastest box of super bricks (4^3 bricks = 32^3 voxels,
 // s = ijk >> 5) smin = (ref + lo) >> 5, sdim = ((ref + hi - 1) >> 5) - smin + 1

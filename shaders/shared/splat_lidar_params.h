@@ -1,6 +1,6 @@
 // Records and push constants of the LiDAR-on-Gaussians caster
-// (shaders/splat_lidar_bin.comp, splat_lidar_duplicate.comp,
-// splat_lidar_cast.comp; host module engine/splat/lidar_gaussians_gpu.h, CPU
+// (shaders/splat/lidar_bin.comp, splat/lidar_duplicate.comp,
+// splat/lidar_cast.comp; host module engine/splat/lidar_gaussians_gpu.h, CPU
 // reference engine/splat/lidar_gaussians_cpu.h, where the maths is written
 // out). Shared by GLSL and C++.
 //
@@ -20,7 +20,7 @@
 #define SPLAT_LIDAR_TILE_ROWS 4
 #define SPLAT_LIDAR_TILE_COLS 16
 #define SPLAT_LIDAR_TILE_RAYS 64
-// Per-ray candidate slots and pass limit of the cast kernel (see splat_lidar_cast.comp). K = 8: each
+// Per-ray candidate slots and pass limit of the cast kernel (see splat/lidar_cast.comp). K = 8: each
 // insertion and pop moves O(K) registers; K = 16 (with indexed arrays) ran ~2x slower on lavapipe.
 #define SPLAT_LIDAR_K 8
 #define SPLAT_LIDAR_MAX_PASSES 64u

@@ -13,12 +13,12 @@
 
 #define SPLAT_TILE 16
 #define SPLAT_TILE_PIXELS 256
-// splat_blend.comp: pixels of one tile row per invocation (register tile);
+// splat/blend.comp: pixels of one tile row per invocation (register tile);
 // SPLAT_TILE_PIXELS / SPLAT_BLEND_PIXELS invocations per tile.
 #ifndef SPLAT_BLEND_PIXELS
 #define SPLAT_BLEND_PIXELS 16
 #endif
-// Exact tile culling (shaders/common/splat_tiles.glsl, rasterizer_cpu.h
+// Exact tile culling (shaders/splat/tiles.glsl, rasterizer_cpu.h
 // tile_row_span): tile t spans pixels [16t - M, 16t + 16 + M] in the
 // ellipse-against-tile test, M = SPLAT_CULL_MARGIN px (covers both pixel
 // conventions' samples 16t + o .. 16t + 15 + o with at least 0.5 px to spare).
@@ -65,7 +65,7 @@ struct SplatBlendRecord {
 // splat_duplicate read them in j order, so their per-Gaussian reads stream instead of
 // gathering records by Gaussian index (whose cache misses made the counting binning take
 // twice as long: 22.7 against 11.0 ms at 100k / 720p). Packed and read by
-// common/splat_tiles.glsl.
+// splat/tiles.glsl.
 struct SplatBinRecord {
   float mean_x, mean_y, conic_x, conic_y;  // as SplatBlendRecord
   float conic_z, log_cut;
@@ -90,18 +90,18 @@ struct SplatPreprocessParams {
 struct SplatDuplicateParams {
   uint n;  // Gaussians
   uint grid_x;
-  uint cull;  // 1: exact tile culling (splat_tiles.glsl), 0: whole tile rects
+  uint cull;  // 1: exact tile culling (splat/tiles.glsl), 0: whole tile rects
   uint pad1;
 };
 
-// splat_bin_chunks.comp / splat_bin_offsets.comp (the counting-sort tile
+// splat/bin_chunks.comp / splat/bin_offsets.comp (the counting-sort tile
 // binning, engine/splat/tile_binning_gpu.h).
 struct SplatBinParams {
   uint n;          // Gaussians (depth-sorted positions)
   uint grid_x;
   uint chunks;     // C: chunks of the instance list = counters per tile (chunk-major: counter chunk · tiles + tile)
   uint chunk_len;  // instances per chunk: chunk c = [c · chunk_len, min(instances, (c + 1) · chunk_len))
-  uint cull;       // 1: exact tile culling (splat_tiles.glsl), 0: whole tile rects
+  uint cull;       // 1: exact tile culling (splat/tiles.glsl), 0: whole tile rects
   uint tiles;      // grid_x · grid_y
   uint instances;  // tile instances of the frame (the last inclusive offset)
   uint pad0;
@@ -129,7 +129,7 @@ struct SplatBlendParams {
   float hor_r, hor_g, hor_b;  // gradient: horizon
   float gnd_r, gnd_g, gnd_b;  // gradient: straight down
   float m00, m01, m02, m10, m11, m12, m20, m21, m22;
-  // splat_blend.comp: a workgroup whose loops made at least this many iterations counts itself
+  // splat/blend.comp: a workgroup whose loops made at least this many iterations counts itself
   // in the status word (0 = no budget). lavapipe ends every loop of an invocation once its
   // loops have made 65,535 iterations in all, so the host sets SPLAT_BLEND_LOOP_BUDGET there.
   uint loop_budget;

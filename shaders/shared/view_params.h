@@ -1,7 +1,7 @@
 // Push constants of the viewer's passes (host: viewer/view_renderer.{h,cpp}).
 // Shared by GLSL and C++.
-//  shaders/view_shade.comp  ViewShadeParams: the picture from the camera hits (+ visibility)
-//  shaders/view_rays.comp   ViewRaysParams: shadow / ambient-occlusion rays from the camera hits
+//  shaders/view/shade.comp  ViewShadeParams: the picture from the camera hits (+ visibility)
+//  shaders/view/rays.comp   ViewRaysParams: shadow / ambient-occlusion rays from the camera hits
 //                           for the ray caster's ray-list mode, and their results summed per pixel
 #ifndef ICUBE_VIEW_PARAMS_H
 #define ICUBE_VIEW_PARAMS_H
@@ -13,7 +13,7 @@
 #define VIEW_MODE_INSTANCE 3u
 #define VIEW_MODE_COORDS 4u
 
-// Per-pixel visibility word (view_rays.comp writes, view_shade.comp reads):
+// Per-pixel visibility word (view/rays.comp writes, view/shade.comp reads):
 // bit 16 = the sun ray is blocked, bits 0..15 = AO rays blocked.
 #define VIEW_VIS_SHADOW_BIT 65536u
 #define VIEW_VIS_AO_MASK 65535u

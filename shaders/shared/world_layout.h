@@ -1,5 +1,5 @@
 // GPU layout of the sparse semantic voxel world (engine/world/gpu_world.h,
-// shaders/common/world_lookup.glsl). Shared by GLSL and C++.
+// shaders/world/lookup.glsl). Shared by GLSL and C++.
 //
 // brick_table: open-addressing hash table of WorldHashEntry, capacity a power
 //   of two (load <= 0.5), linear probing from world_brick_hash(ux, uy, uz),
@@ -38,7 +38,7 @@ struct WorldBrickRecord {
   uint instances[256];
 };
 
-// world_probe.comp: n query ijks (ivec4, w unused) -> (class, instance) per query.
+// world/probe.comp: n query ijks (ivec4, w unused) -> (class, instance) per query.
 struct WorldProbeParams {
   uint n;
   uint table_mask;  // capacity - 1

@@ -15,7 +15,7 @@
 // frame it uploads the overlay records and the table (capacity · 16 bytes).
 // The ray bounds are the static bounds joined with the touched bricks.
 // The overlay grows (one full re-upload) when a frame needs more bricks.
-// Test: tests/test_guidance_buffers.cpp (identical hits to a world rebuilt
+// Test: tests/render/test_guidance_buffers.cpp (identical hits to a world rebuilt
 // from scratch with the same cells).
 #pragma once
 

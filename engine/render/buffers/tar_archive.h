@@ -10,7 +10,7 @@
 // order they were added in. Members larger than 8 GiB - 1 are rejected.
 // Reader (tests and round trips): plain ustar/v7 regular files only; bad
 // checksums, truncated data and non-octal fields throw std::runtime_error.
-// Tests: tests/test_guidance_buffers.cpp.
+// Tests: tests/render/test_guidance_buffers.cpp.
 #pragma once
 
 #include <string>

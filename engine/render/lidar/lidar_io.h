@@ -24,7 +24,7 @@
 //   lidar.json              the model, the frames and the conventions.
 // NNNNNN = the frame index (the scene state), 6 digits. Returns in ray order
 // (ring-major). Every file goes through scene::write_file_atomic.
-// Tests: tests/test_lidar.cpp.
+// Tests: tests/render/test_lidar.cpp.
 #pragma once
 
 #include "render/lidar/lidar_scan.h"

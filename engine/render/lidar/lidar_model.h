@@ -34,7 +34,7 @@
 //    the vehicle origin; not verified here.)
 //  - start azimuth 180°, clockwise columns: ASSUMED to match the dataset's
 //    range-image layout (centre column = forward).
-// Tests: tests/test_lidar.cpp.
+// Tests: tests/render/test_lidar.cpp.
 #pragma once
 
 #include <glm/glm.hpp>

@@ -32,7 +32,7 @@
 // measured: asphalt 0.15, retro-reflective paint / signs 0.7-0.9, vegetation
 // 0.55, concrete and buildings 0.35-0.4, painted vehicles 0.5, people 0.35.
 // Range image: `range` holds beams x columns floats (0 = no return).
-// Tests: tests/test_lidar.cpp.
+// Tests: tests/render/test_lidar.cpp.
 #pragma once
 
 #include "gpu/buffer.h"

@@ -11,7 +11,7 @@
 // select_frames / parse_frame_range (--frames A:B) apply unchanged.
 // Scans are handed to a callback one by one and not kept (a waymo-top sweep
 // has up to 170k returns).
-// Tests: tests/test_lidar.cpp.
+// Tests: tests/render/test_lidar.cpp.
 #pragma once
 
 #include "render/buffers/frame_scene.h"
