@@ -23,8 +23,13 @@ std::unique_ptr<gpu::Context> make_validated_context(gpu::ContextOptions opts);
 // (Re)installs the handler that turns validation messages into test failures.
 void install_failing_message_handler(gpu::Context& ctx);
 
-// Data directory for tests that read ../shared/data ($ICUBE_TEST_DATA); empty if absent.
+// The real-data folder: $ICUBE_TEST_DATA, else ../shared/data beside the checkout
+// (ICUBE_SOURCE_DIR, so the working directory does not matter). Empty when absent: the
+// caller returns early, and the test case says it skipped (a MESSAGE) or, with
+// ICUBE_REQUIRE_DATA=1 (CI), fails, so a missing data set never passes silently.
 std::string test_data_dir();
+// test_data_dir()/rel when that file exists; else empty, with the same skip or failure.
+std::string test_data_file(const std::string& rel);
 
 // |got - want| <= atol + rtol * |want| for every element; prints the first mismatches.
 bool allclose(const std::vector<float>& got, const std::vector<float>& want, double atol, double rtol,

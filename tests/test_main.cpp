@@ -10,6 +10,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <memory>
+#include <string>
 
 namespace icube::test {
 
@@ -64,10 +65,39 @@ gpu::Context& gpu_context() {
   return *g_context;
 }
 
+namespace {
+bool data_required() {
+  const char* env = std::getenv("ICUBE_REQUIRE_DATA");
+  return env && std::string(env) == "1";
+}
+// A missing data set skips the calling test case with a message, or fails it under ICUBE_REQUIRE_DATA=1.
+void report_missing(const std::string& what) {
+  if (data_required()) {
+    const std::string message = "required test data missing (ICUBE_REQUIRE_DATA=1): " + what;
+    ADD_FAIL_CHECK_AT(__FILE__, __LINE__, message);
+  } else {
+    MESSAGE("skipped: test data missing: " << what << " (set ICUBE_TEST_DATA)");
+  }
+}
+}  // namespace
+
 std::string test_data_dir() {
   const char* env = std::getenv("ICUBE_TEST_DATA");
-  std::filesystem::path p = env && *env ? env : "../shared/data";
-  return std::filesystem::is_directory(p) ? p.string() : std::string();
+  // Resolved from the checkout, not the working directory, so ctest (run in build/tests) finds it too.
+  const std::filesystem::path p = env && *env ? std::filesystem::path(env)
+                                              : std::filesystem::path(ICUBE_SOURCE_DIR) / ".." / "shared" / "data";
+  if (std::filesystem::is_directory(p)) return p.lexically_normal().string();
+  report_missing(p.string());
+  return {};
+}
+
+std::string test_data_file(const std::string& rel) {
+  const std::string dir = test_data_dir();
+  if (dir.empty()) return {};
+  const std::string path = dir + "/" + rel;
+  if (std::filesystem::exists(path)) return path;
+  report_missing(path);
+  return {};
 }
 
 bool allclose(const std::vector<float>& got, const std::vector<float>& want, double atol, double rtol, const char* what) {

@@ -60,7 +60,7 @@ TEST_CASE("VK_CHECK names the call and maps device loss and out-of-memory to the
   } catch (const gpu::VulkanError& e) {
     CHECK(e.result() == VK_ERROR_INITIALIZATION_FAILED);
     CHECK(std::string(e.what()).find("VK_ERROR_INITIALIZATION_FAILED") != std::string::npos);
-    CHECK(std::string(e.what()).find("tests/test_gpu_core.cpp") != std::string::npos);
+    CHECK(std::string(e.what()).find("tests/gpu/test_gpu_core.cpp") != std::string::npos);
   }
 }
 
@@ -82,7 +82,7 @@ TEST_CASE("the validation messenger reports invalid API use") {
 
 TEST_CASE("group counts fold 1-D dispatches past the device limit") {
   gpu::Context& ctx = test::gpu_context();
-  gpu::Program& iota = ctx.program("iota");  // local_size_x = 64
+  gpu::Program& iota = ctx.program("primitives/iota");  // local_size_x = 64
   gpu::DeviceInfo info = ctx.info();
   SUBCASE("within the limit stays 1-D") {
     gpu::GroupCounts g = gpu::group_counts(info, iota, {64ull * 1000 + 1});
@@ -115,7 +115,7 @@ TEST_CASE("group counts fold 1-D dispatches past the device limit") {
 
 TEST_CASE("dispatch checks push constants and bindings against the shader") {
   gpu::Context& ctx = test::gpu_context();
-  gpu::Program& iota = ctx.program("iota");
+  gpu::Program& iota = ctx.program("primitives/iota");
   gpu::Buffer out(ctx, 256, gpu::MemoryUsage::DeviceLocal, "dispatch-check");
   struct Wrong {
     uint32_t n;
@@ -138,12 +138,12 @@ TEST_CASE("program cache keys on shader name and specialisation constants") {
   gpu::SpecConstants a, b;
   a.set(0, ctx.subgroup_size() /* local_size_x */).set(1, 4096u /* TILE */);
   b.set(0, ctx.subgroup_size()).set(1, 2048u);
-  CHECK(&ctx.program("scan_tiles", a) == &ctx.program("scan_tiles", a));
-  CHECK(&ctx.program("scan_tiles", a) != &ctx.program("scan_tiles", b));
-  CHECK(ctx.program("scan_tiles", a).local_size()[0] == ctx.subgroup_size());
-  CHECK_THROWS_AS(ctx.program("scan_tiles", gpu::SpecConstants{}.set(9, 1u)), std::logic_error);
+  CHECK(&ctx.program("primitives/scan_tiles", a) == &ctx.program("primitives/scan_tiles", a));
+  CHECK(&ctx.program("primitives/scan_tiles", a) != &ctx.program("primitives/scan_tiles", b));
+  CHECK(ctx.program("primitives/scan_tiles", a).local_size()[0] == ctx.subgroup_size());
+  CHECK_THROWS_AS(ctx.program("primitives/scan_tiles", gpu::SpecConstants{}.set(9, 1u)), std::logic_error);
   CHECK_THROWS_WITH_AS(ctx.program("no_such_kernel"), doctest::Contains("no embedded shader"), std::runtime_error);
-  if (ctx.pins_subgroup_size()) CHECK(ctx.program("scan_tiles", a).pinned_subgroup_size() == ctx.subgroup_size());
+  if (ctx.pins_subgroup_size()) CHECK(ctx.program("primitives/scan_tiles", a).pinned_subgroup_size() == ctx.subgroup_size());
 }
 
 TEST_CASE("buffers refuse impossible sizes with a clear message") {
@@ -182,7 +182,7 @@ TEST_CASE("kernels run the same with pooled descriptor sets as with push descrip
   opts.disable_push_descriptors = true;
   auto ctx = test::make_validated_context(opts);
   REQUIRE_FALSE(ctx->info().push_descriptor);
-  REQUIRE_FALSE(ctx->program("iota").uses_push_descriptors());
+  REQUIRE_FALSE(ctx->program("primitives/iota").uses_push_descriptors());
   const uint64_t n = 300000;
   gpu::Buffer a(*ctx, n * 4), b(*ctx, n * 4);
   kernels::Iota iota(*ctx);

@@ -23,7 +23,7 @@ TEST_CASE("every embedded shader reflects as a compute shader with set-0 binding
 }
 
 TEST_CASE("reflection reads workgroup sizes, spec ids, bindings and push-constant sizes") {
-  const EmbeddedShader& scan = find_shader("scan_tiles");
+  const EmbeddedShader& scan = find_shader("primitives/scan_tiles");
   ShaderReflection r = reflect_spirv(scan.words, scan.word_count, scan.name);
   CHECK(r.local_size_spec_id[0] == 0);  // layout(local_size_x_id = 0)
   CHECK(r.local_size_spec_id[1] == -1);
@@ -35,18 +35,18 @@ TEST_CASE("reflection reads workgroup sizes, spec ids, bindings and push-constan
   CHECK(r.push_constant_size == 16);
   CHECK(r.spec_ids == std::vector<uint32_t>{0, 1});
 
-  const EmbeddedShader& iota = find_shader("iota");
+  const EmbeddedShader& iota = find_shader("primitives/iota");
   ShaderReflection ri = reflect_spirv(iota.words, iota.word_count, iota.name);
   CHECK(ri.local_size[0] == 64);  // literal layout(local_size_x = 64)
   CHECK(ri.local_size_spec_id[0] == -1);
   CHECK(ri.bindings.size() == 1);
 
-  const EmbeddedShader& scatter = find_shader("radix_scatter64");
+  const EmbeddedShader& scatter = find_shader("primitives/radix_scatter64");
   CHECK(reflect_spirv(scatter.words, scatter.word_count, scatter.name).bindings.size() == 5);
 }
 
 TEST_CASE("malformed SPIR-V is rejected with the shader's name") {
-  const EmbeddedShader& s = find_shader("iota");
+  const EmbeddedShader& s = find_shader("primitives/iota");
   std::vector<uint32_t> words(s.words, s.words + s.word_count);
   std::vector<uint32_t> bad_magic = words;
   bad_magic[0] = 0xdeadbeef;

@@ -1,4 +1,4 @@
-// iota kernel (shaders/iota.comp) against its CPU reference, plus the
+// iota kernel (shaders/primitives/iota.comp) against its CPU reference, plus the
 // fill/copy commands, including a dispatch folded past 65,535 workgroups.
 #include <doctest/doctest.h>
 

@@ -1,4 +1,4 @@
-// GPU prefix scan (shaders/scan_tile_sums.comp + shaders/scan_tiles.comp)
+// GPU prefix scan (shaders/primitives/scan_tile_sums.comp + shaders/primitives/scan_tiles.comp)
 // against the plain-loop CPU reference: sizes around every tile and subgroup
 // edge, the 65,535·64+13 dispatch edge, 20M elements, wrap-around and in-place.
 #include <doctest/doctest.h>

@@ -1,5 +1,5 @@
-// GPU radix sort (shaders/radix_count32.comp, radix_scatter32.comp,
-// radix_count64.comp, radix_scatter64.comp) against std::stable_sort: sizes
+// GPU radix sort (shaders/primitives/radix_count32.comp, primitives/radix_scatter32.comp,
+// primitives/radix_count64.comp, primitives/radix_scatter64.comp) against std::stable_sort: sizes
 // off every tile/subgroup edge, duplicate-heavy keys (stability), presorted
 // and reversed inputs, extreme keys, partial key bits and the splatting
 // rasterizer's (tile id << 32 | depth bits) keys. ctest runs this suite at

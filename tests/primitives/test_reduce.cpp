@@ -1,4 +1,4 @@
-// GPU reduction (shaders/reduce.comp) against the CPU reference: every op and
+// GPU reduction (shaders/primitives/reduce.comp) against the CPU reference: every op and
 // element type, sizes off the tile/subgroup grid, and extreme values.
 #include <doctest/doctest.h>
 

@@ -1,5 +1,5 @@
-// Helpers shared by the ray caster's tests (tests/test_raycast.cpp,
-// tests/test_raycast_index.cpp): GPU hits as RayResults, the GPU / CPU agreement
+// Helpers shared by the ray caster's tests (tests/render/test_raycast.cpp,
+// tests/render/test_raycast_index.cpp): GPU hits as RayResults, the GPU / CPU agreement
 // count with the first mismatches printed, cameras, and hit equality.
 #pragma once
 

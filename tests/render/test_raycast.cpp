@@ -1,4 +1,4 @@
-// The voxel ray caster: shaders/raycast.comp (engine/render/raycast_gpu.h)
+// The voxel ray caster: shaders/raycast/cast.comp (engine/render/raycast_gpu.h)
 // against the double-precision brute-force DDA (engine/render/raycast_cpu.h)
 // on fixed-seed random worlds and cameras (odd image sizes), and both against
 // hand-computed answers for the stiff cases: axis-parallel rays, origins on

@@ -1,6 +1,6 @@
-// The ray caster's occupancy index (shaders/raycast_occupancy.comp: super-brick
+// The ray caster's occupancy index (shaders/raycast/occupancy.comp: super-brick
 // words, column heights, brick blocks), its texel-buffer bindings and the exact
-// pass (shaders/raycast_exact.comp): each against the hash path, the flat walk
+// pass (shaders/raycast/exact.comp): each against the hash path, the flat walk
 // and the CPU reference (engine/render/raycast_cpu.h).
 #include <doctest/doctest.h>
 
@@ -43,7 +43,7 @@ VoxelGrid sparse_super_world(uint32_t seed) {
 
 }  // namespace
 
-TEST_CASE("raycast: super-brick occupancy skipping (masks built by raycast_occupancy.comp) equals hash skipping, the flat walk and the CPU") {
+TEST_CASE("raycast: super-brick occupancy skipping (masks built by raycast/occupancy.comp) equals hash skipping, the flat walk and the CPU") {
   Agreement total;
   size_t steps_occ = 0, steps_hash = 0, steps_flat = 0, bad_hash = 0, bad_flat = 0;
   for (uint32_t seed = 1; seed <= 4; ++seed) {
@@ -221,7 +221,7 @@ TEST_CASE("raycast: column-height skips (rays above brick and super-brick column
 }
 
 TEST_CASE("raycast: the occupancy index and brick words are texel-buffer bindings, checked at dispatch and working with pooled descriptor sets") {
-  const gpu::EmbeddedShader& sh = gpu::find_shader("raycast");
+  const gpu::EmbeddedShader& sh = gpu::find_shader("raycast/cast");
   const gpu::ShaderReflection r = gpu::reflect_spirv(sh.words, sh.word_count, sh.name);
   REQUIRE(r.bindings.size() == 8);
   CHECK(r.bindings[3].type == VK_DESCRIPTOR_TYPE_STORAGE_BUFFER);
@@ -233,7 +233,7 @@ TEST_CASE("raycast: the occupancy index and brick words are texel-buffer binding
 
   gpu::Context& ctx = test::gpu_context();
   gpu::Buffer buf(ctx, 256, gpu::MemoryUsage::DeviceLocal, "texel-check");
-  gpu::Program& c = ctx.program("raycast", gpu::SpecConstants{}.set(0, 64u));
+  gpu::Program& c = ctx.program("raycast/cast", gpu::SpecConstants{}.set(0, 64u));
   shader::RaycastParams p{};
   p.n = 1;
   ctx.submit_and_wait([&](gpu::CommandList& cmd) {
@@ -259,7 +259,7 @@ TEST_CASE("raycast: the occupancy index and brick words are texel-buffer binding
   gpu::ContextOptions opts = gpu::ContextOptions::from_env();
   opts.disable_push_descriptors = true;
   auto pooled = test::make_validated_context(opts);
-  REQUIRE_FALSE(pooled->program("raycast_occupancy").uses_push_descriptors());
+  REQUIRE_FALSE(pooled->program("raycast/occupancy").uses_push_descriptors());
   const VoxelGrid g = column_world();
   const render::RaycastWorld wp = render::upload_raycast_world(*pooled, g);
   const render::RaycastWorld wq = render::upload_raycast_world(ctx, g);
@@ -276,7 +276,7 @@ TEST_CASE("raycast: the occupancy index and brick words are texel-buffer binding
   CHECK(hits > a.size() / 2);
 }
 
-TEST_CASE("raycast: the exact pass (raycast_exact.comp) decides near-threshold semantic chords as the CPU does on the demo world") {
+TEST_CASE("raycast: the exact pass (raycast/exact.comp) decides near-threshold semantic chords as the CPU does on the demo world") {
   gpu::Context& ctx = test::gpu_context();
   render::RaycasterGpu probe(ctx);
   if (!probe.exact()) {

@@ -11,12 +11,7 @@
 namespace icube::test::odr_util {
 
 // Path of a real map ("carla/Town01.xodr"), empty when the data folder is absent.
-inline std::string real_map(const std::string& rel) {
-  const std::string dir = test_data_dir();
-  if (dir.empty()) return {};
-  const std::string p = dir + "/maps/opendrive/" + rel;
-  return std::filesystem::exists(p) ? p : std::string();
-}
+inline std::string real_map(const std::string& rel) { return test_data_file("maps/opendrive/" + rel); }
 
 // One right driving lane of `width` and one left driving lane, centre mark solid.
 inline std::string two_lane_section(double width = 3.5, const std::string& s = "0") {

@@ -110,12 +110,7 @@ struct TempFile {
   TempFile& operator=(const TempFile&) = delete;
 };
 
-inline std::string real_file_path() {
-  const std::string dir = test_data_dir();
-  if (dir.empty()) return {};
-  const std::string p = dir + "/maps/waymo/motion_data_one_scenario.tfrecord";
-  return std::filesystem::exists(p) ? p : std::string();
-}
+inline std::string real_file_path() { return test_data_file("maps/waymo/motion_data_one_scenario.tfrecord"); }
 
 // The error message of `fn`, or "" if it did not throw InputError.
 template <class F>

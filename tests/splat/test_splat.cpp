@@ -88,7 +88,7 @@ Compare compare(splat::SplatRendererGpu& gpu, const splat::GaussianCloud& cloud,
                   double(b.depth), double(a.conic_x), double(a.conic_y), double(a.conic_z), double(b.conic_x),
                   double(b.conic_y), double(b.conic_z));
   }
-  INFO("splat_preprocess.comp: radii, means, conics, depths, opacities, colours");
+  INFO("splat/preprocess.comp: radii, means, conics, depths, opacities, colours");
   CHECK(bad == 0);
   r.instances = bins.keys.size();
   // Tile-intersection lists: the (tile, Gaussian) sequence must be identical. The depth
@@ -97,7 +97,7 @@ Compare compare(splat::SplatRendererGpu& gpu, const splat::GaussianCloud& cloud,
   std::vector<uint32_t> gt(dbg.keys.size()), ct(bins.keys.size());
   for (size_t i = 0; i < gt.size(); ++i) gt[i] = static_cast<uint32_t>(dbg.keys[i] >> 32);
   for (size_t i = 0; i < ct.size(); ++i) ct[i] = static_cast<uint32_t>(bins.keys[i] >> 32);
-  // splat_sorted_counts.comp: each Gaussian's tiles touched, in depth order, scanned into the
+  // splat/sorted_counts.comp: each Gaussian's tiles touched, in depth order, scanned into the
   // duplicate offsets: every visible Gaussian appears exactly tile_count() times (exact tile culling).
   {
     std::vector<uint32_t> seen(proj.size(), 0);
@@ -108,19 +108,19 @@ Compare compare(splat::SplatRendererGpu& gpu, const splat::GaussianCloud& cloud,
       const uint32_t want = splat::tile_count(proj[i], f.grid_x, f.grid_y, rule);
       if (seen[i] != want && bad_counts++ < 5) std::printf("  Gaussian %zu: %u instances, want %u\n", i, seen[i], want);
     }
-    INFO("splat_preprocess.comp tile counts + splat_sorted_counts.comp + scan: instances per Gaussian = the tiles "
+    INFO("splat/preprocess.comp tile counts + splat/sorted_counts.comp + scan: instances per Gaussian = the tiles "
          "its α-cut ellipse reaches (tile_count)");
     CHECK(bad_counts == 0);
   }
-  INFO("splat_duplicate.comp + stable tile-id radix sort: the sorted (tile, Gaussian) list");
+  INFO("splat/duplicate.comp + stable tile-id radix sort: the sorted (tile, Gaussian) list");
   CHECK(test::equal_report(gt, ct, "key tile ids"));
   size_t same_keys = 0;
   for (size_t i = 0; i < std::min(dbg.keys.size(), bins.keys.size()); ++i) same_keys += dbg.keys[i] == bins.keys[i];
   r.equal_keys = same_keys;
   CHECK(test::equal_report(dbg.values, bins.values, "values"));
-  INFO("splat_ranges.comp: per-tile ranges");
+  INFO("splat/ranges.comp: per-tile ranges");
   CHECK(test::equal_report(dbg.ranges, bins.ranges, "ranges"));
-  INFO("splat_blend.comp: RGBA and expected/median depth per pixel");
+  INFO("splat/blend.comp: RGBA and expected/median depth per pixel");
 
   r.pixels = size_t{gi.width} * gi.height;
   REQUIRE(gi.rgba.size() == ci.rgba.size());
@@ -437,12 +437,8 @@ TEST_CASE("splat gpu binning: the counting sort (splat_bin_chunks, splat_bin_off
 
 TEST_CASE("splat gpu vs cpu, stage by stage (splat_preprocess, splat_sorted_counts, splat_duplicate + sort, splat_ranges, splat_blend): the real .ply") {
   Renderer R;
-  const std::string dir = test::test_data_dir();
-  const std::string path = dir + "/splats/pc_short.ply";
-  if (dir.empty() || !std::filesystem::exists(path)) {
-    MESSAGE("skipped: " << path << " not found");
-    return;
-  }
+  const std::string path = test::test_data_file("splats/pc_short.ply");
+  if (path.empty()) return;  // skipped (or failed under ICUBE_REQUIRE_DATA=1)
   const auto cloud = splat::read_gaussians_ply(path);
   const auto s = splat::summarize(cloud);
   const double ext = glm::length(s.max - s.min);
@@ -564,7 +560,7 @@ TEST_CASE("splat gpu: a tile over the blend's loop budget is an error, not a cut
               cmp.instances, cmp.band, cmp.pixels, cmp.max_interior);
 }
 
-// splat_blend.comp skips, per batch, the column groups (SPLAT_BLEND_G = 8 columns × the subgroup's
+// splat/blend.comp skips, per batch, the column groups (SPLAT_BLEND_G = 8 columns × the subgroup's
 // rows; the test covers every 4th column boundary, so groups of 4 too) that
 // a Gaussian's α-cut ellipse cannot reach, and tests rows against the subgroup's block. Small
 // Gaussians centred 1.5 px outside every group and block boundary reach exactly one column

@@ -142,12 +142,8 @@ TEST_CASE("splat ply: NaN, Inf and zero quaternions are rejected naming the file
 }
 
 TEST_CASE("splat ply: the real 3DGS file (SH3, trailing bytes)") {
-  const std::string dir = test::test_data_dir();
-  const std::string path = dir + "/splats/pc_short.ply";
-  if (dir.empty() || !std::filesystem::exists(path)) {
-    MESSAGE("skipped: " << path << " not found");
-    return;
-  }
+  const std::string path = test::test_data_file("splats/pc_short.ply");
+  if (path.empty()) return;  // skipped (or failed under ICUBE_REQUIRE_DATA=1)
   const auto c = splat::read_gaussians_ply(path);
   CHECK(c.size() == 100);
   CHECK(c.sh_degree == 3);
@@ -294,12 +290,8 @@ TEST_CASE("splat .splat: truncated and garbage files give one-line errors naming
 }
 
 TEST_CASE("splat .splat: the real 3DGS file .ply -> .splat -> .ply keeps the DC colour and geometry") {
-  const std::string dir = test::test_data_dir();
-  const std::string path = dir + "/splats/pc_short.ply";
-  if (dir.empty() || !std::filesystem::exists(path)) {
-    MESSAGE("skipped: " << path << " not found");
-    return;
-  }
+  const std::string path = test::test_data_file("splats/pc_short.ply");
+  if (path.empty()) return;  // skipped (or failed under ICUBE_REQUIRE_DATA=1)
   const auto c = splat::read_gaussians(path);
   const auto tmp = scratch_dir("icube-splat-real");
   bool dropped = false;

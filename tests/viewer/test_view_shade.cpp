@@ -1,8 +1,8 @@
-// shaders/view_shade.comp through viewer::ViewRenderer (ray caster + shading,
+// shaders/view/shade.comp through viewer::ViewRenderer (ray caster + shading,
 // headless): the semantic mode against a CPU reference (the CPU ray caster's
 // class per pixel through the guidance palette, sky = palette entry 8), and
 // the instance mode's background rule (no hit = black), on a hand-built world;
-// the shaded mode's sun shadows and ambient occlusion (shaders/view_rays.comp
+// the shaded mode's sun shadows and ambient occlusion (shaders/view/rays.comp
 // + the ray caster's ray-list mode) against the same lighting with CPU rays
 // (render::cast_ray_cpu) on a box floating over a floor, and the other modes
 // unchanged by them.
@@ -146,7 +146,7 @@ struct CpuShade {
   std::vector<int> normal;  // the camera hit's entry face
 };
 
-// view_shade.comp's shaded mode (fog 0) with the visibility of view_rays.comp from CPU rays
+// view/shade.comp's shaded mode (fog 0) with the visibility of view/rays.comp from CPU rays
 // (render::cast_ray_cpu): origin on the entry face of the hit voxel, sun / ao_direction rays.
 CpuShade shade_cpu(const world::VoxelGrid& g, const render::Camera& cam, const viewer::ShadeSettings& s) {
   render::RaycastOptions ro;

@@ -33,7 +33,7 @@ TEST_CASE("viewer checks: semantic and shaded histograms") {
   CHECK(h[3] == 1.0);
   CHECK(h[10] == 1.0);
 
-  // Lit class colours keep their direction; the sky gradient (view_shade.comp) is sky.
+  // Lit class colours keep their direction; the sky gradient (view/shade.comp) is sky.
   std::vector<uint8_t> sh;
   put(sh, world::kGuidancePalette[6], 0.55);  // building in shadow
   put(sh, world::kGuidancePalette[4], 0.9);   // vegetation

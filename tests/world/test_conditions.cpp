@@ -1,7 +1,7 @@
 // Stage-1 condition volumes: polyline resampling, exact box ∩ cell volume
 // (hand cases, Monte Carlo, degenerate boxes), map channels on hand-placed
 // polylines, the road_surface channel from the fitted surface (road_surface.h),
-// GPU (shaders/cond_points.comp, cond_boxes.comp) vs the CPU
+// GPU (shaders/world/cond_points.comp, world/cond_boxes.comp) vs the CPU
 // reference, translation invariance at 100 km, and the real Waymo scenario.
 #include <doctest/doctest.h>
 
@@ -375,12 +375,8 @@ TEST_CASE("condition volume 100 km from the origin equals the one at the origin"
 }
 
 TEST_CASE("condition volume of the real Waymo scenario, chunk 0") {
-  const std::string dir = test::test_data_dir();
-  const std::string path = dir + "/maps/waymo/motion_data_one_scenario.tfrecord";
-  if (dir.empty() || !std::filesystem::exists(path)) {
-    MESSAGE("skipped: motion_data_one_scenario.tfrecord not found (set ICUBE_TEST_DATA)");
-    return;
-  }
+  const std::string path = test::test_data_file("maps/waymo/motion_data_one_scenario.tfrecord");
+  if (path.empty()) return;  // skipped (or failed under ICUBE_REQUIRE_DATA=1)
   scene::Scene s = scene::load_scene(path);
   scene::classify_tracks(s);
   const world::ChunkPlan plan = world::plan_trajectory(s);

@@ -101,11 +101,7 @@ scene::Map shifted(scene::Map m, const glm::dvec3& s) {
   return m;
 }
 
-std::string real_file(const char* rel) {
-  const std::string dir = test::test_data_dir();
-  const std::string path = dir + "/" + rel;
-  return !dir.empty() && std::filesystem::exists(path) ? path : std::string();
-}
+std::string real_file(const char* rel) { return test::test_data_file(rel); }
 
 double seconds_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

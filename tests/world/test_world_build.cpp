@@ -316,12 +316,8 @@ TEST_CASE("world build: 100 km from the origin the map-derived world is the same
 }
 
 TEST_CASE("world build: a blocks-mode world from the real Waymo scenario") {
-  const std::string data = test::test_data_dir();
-  const std::string path = data + "/maps/waymo/motion_data_one_scenario.tfrecord";
-  if (data.empty() || !std::filesystem::exists(path)) {
-    MESSAGE("skipped: " << path << " not found (set ICUBE_TEST_DATA)");
-    return;
-  }
+  const std::string path = test::test_data_file("maps/waymo/motion_data_one_scenario.tfrecord");
+  if (path.empty()) return;  // skipped (or failed under ICUBE_REQUIRE_DATA=1)
   const scene::Scene s = scene::load_scene(path);
   const world::ProceduralPrior prior(s);
   world::WorldBuildOptions o;

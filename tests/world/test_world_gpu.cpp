@@ -1,5 +1,5 @@
 // GPU world layout: the hash table / brick records built on the CPU, their
-// CPU mirror lookup, and world_probe.comp on the device, all against
+// CPU mirror lookup, and world/probe.comp on the device, all against
 // VoxelGrid::get for random grids and random queries inside and outside.
 #include <doctest/doctest.h>
 
@@ -72,7 +72,7 @@ TEST_CASE("gpu world: host table and records agree with the grid") {
   CHECK(world::lookup_gpu_world_host(e, {0, 0, 0}).class_id == 0);
 }
 
-TEST_CASE("gpu world: world_probe.comp matches VoxelGrid::get") {
+TEST_CASE("gpu world: world/probe.comp matches VoxelGrid::get") {
   gpu::Context& ctx = test::gpu_context();
   for (auto [seed, n, extent] : {std::tuple{21u, 20000, 80}, std::tuple{22u, 37, 5}, std::tuple{23u, 0, 3}}) {
     CAPTURE(seed);
