@@ -7,13 +7,14 @@
 
 namespace icube::kernels {
 
+using gpu::align_up;
+
 using gpu::Buffer;
 using gpu::CommandList;
 
 namespace {
 // Scratch levels start at offsets aligned for any device (<= 256-byte alignment).
 constexpr uint64_t kLevelAlignElems = 64;
-uint64_t align_up(uint64_t v, uint64_t a) { return (v + a - 1) / a * a; }
 }  // namespace
 
 PrefixScan::PrefixScan(gpu::Context& ctx)
@@ -50,7 +51,8 @@ void PrefixScan::record_level(CommandList& cmd, const Buffer& in, uint64_t in_of
     params.n = static_cast<uint32_t>(n);
     params.has_prefix = 0;
     gpu::BufferBinding src = in.binding(in_offset * 4, n * 4);
-    cmd.dispatch(tiles_, {threads_for_tiles(ctx_, 1)}, params, {src, out.binding(out_offset * 4, n * 4), src});
+    cmd.dispatch(tiles_, {threads_for_tiles(ctx_, 1)}, params,
+                 {src, out.binding(out_offset * 4, n * 4), gpu::null_binding() /* tile_prefix: has_prefix = 0 */});
     return;
   }
   const gpu::BufferBinding sums = scratch->binding(scratch_offset * 4, tiles * 4);

@@ -9,13 +9,14 @@
 
 namespace icube::kernels {
 
+using gpu::align_up;
+
 using gpu::Buffer;
 using gpu::CommandList;
 
 namespace {
 constexpr uint32_t kSpecOp = 2, kSpecType = 3;
 constexpr uint64_t kLevelAlignElems = 64;
-uint64_t align_up(uint64_t v, uint64_t a) { return (v + a - 1) / a * a; }
 
 gpu::SpecConstants reduce_spec(const gpu::Context& ctx, ReduceOp op, ElementType type) {
   gpu::SpecConstants s = subgroup_tile_spec(ctx);

@@ -82,7 +82,10 @@ Buffer::~Buffer() { release(); }
 
 void Buffer::release() {
   if (!ctx_) return;
-  if (buffer_) vkDestroyBuffer(ctx_->device(), buffer_, nullptr);
+  if (buffer_) {
+    ctx_->release_views(buffer_);
+    vkDestroyBuffer(ctx_->device(), buffer_, nullptr);
+  }
   if (memory_) vkFreeMemory(ctx_->device(), memory_, nullptr);  // unmaps implicitly
   buffer_ = VK_NULL_HANDLE;
   memory_ = VK_NULL_HANDLE;
@@ -140,7 +143,9 @@ constexpr VkDeviceSize kStagingChunk = 64ull << 20;
 void ensure_capacity(Context& ctx, Buffer& b, VkDeviceSize bytes, const std::string& name, MemoryUsage usage) {
   bytes = std::max<VkDeviceSize>(bytes, 16);
   if (b.valid() && b.size() >= bytes) return;
-  b = Buffer(ctx, bytes + bytes / 2, usage, name);
+  Buffer grown(ctx, bytes + bytes / 2, usage, name);
+  ctx.retire(std::move(b));  // recorded commands may still use the outgrown one
+  b = std::move(grown);
 }
 
 void upload(Context& ctx, const Buffer& dst, const void* src, size_t bytes, VkDeviceSize dst_offset) {

@@ -31,7 +31,20 @@ struct BufferBinding {
   // Texel-buffer bindings (usamplerBuffer / utextureBuffer, imageBuffer): the view's format;
   // VK_FORMAT_UNDEFINED for storage and uniform buffers.
   VkFormat texel_format = VK_FORMAT_UNDEFINED;
+  // gpu::null_binding(): no buffer; dispatch binds the context's zero buffer instead.
+  bool null = false;
 };
+
+// For a binding the kernel does not access in this configuration (an absent optional input,
+// an output a specialisation leaves out): dispatch binds 256 zero bytes (Context::null_buffer)
+// as a storage buffer, or as a texel buffer of `texel_format` (R32_UINT when left undefined)
+// where the shader declares one. Never for data a kernel reads or writes.
+inline BufferBinding null_binding(VkFormat texel_format = VK_FORMAT_UNDEFINED) {
+  BufferBinding b;
+  b.texel_format = texel_format;
+  b.null = true;
+  return b;
+}
 
 class Buffer {
  public:
@@ -54,8 +67,9 @@ class Buffer {
   BufferBinding binding() const { return {buffer_, 0, size_}; }
   // Bytes [offset, offset + range) of this buffer; throws if out of bounds.
   BufferBinding binding(VkDeviceSize offset, VkDeviceSize range) const;
-  // The whole buffer / a range as a texel buffer of `format` (e.g. VK_FORMAT_R32_UINT): the
-  // command list creates the VkBufferView at dispatch and keeps it until it is destroyed.
+  // The whole buffer / a range as a texel buffer of `format` (e.g. VK_FORMAT_R32_UINT): dispatch
+  // takes the VkBufferView from the context's cache (Context::texel_view), made on first use
+  // and destroyed with the buffer.
   BufferBinding texel_binding(VkFormat format) const { return {buffer_, 0, size_, format}; }
   BufferBinding texel_binding(VkFormat format, VkDeviceSize offset, VkDeviceSize range) const;
 
@@ -92,7 +106,8 @@ void download(Context& ctx, const Buffer& src, void* dst, size_t bytes, VkDevice
 
 // Makes `b` hold at least `bytes` (at least 16): keeps it when it already does, else replaces it
 // with a new buffer of 1.5 x `bytes`, so per-frame buffers that grow slowly are not reallocated
-// every frame. The old contents are not kept.
+// every frame. The old contents are not kept; the old buffer is retired (Context::retire), so
+// commands recorded with it but not yet complete stay valid.
 void ensure_capacity(Context& ctx, Buffer& b, VkDeviceSize bytes, const std::string& name,
                      MemoryUsage usage = MemoryUsage::DeviceLocal);
 

@@ -22,7 +22,7 @@ uint64_t texel_format_bytes(VkFormat f) {
 
 GroupCounts group_counts(const DeviceInfo& info, const Program& program, Threads threads) {
   const uint32_t* ls = program.local_size();
-  auto ceil_div = [](uint64_t a, uint64_t b) { return (a + b - 1) / b; };
+  auto ceil_div = div_up;
   uint64_t gx = ceil_div(threads.x, ls[0]);
   uint64_t gy = ceil_div(threads.y, ls[1]);
   uint64_t gz = ceil_div(threads.z, ls[2]);
@@ -45,12 +45,12 @@ GroupCounts group_counts(const DeviceInfo& info, const Program& program, Threads
   return {static_cast<uint32_t>(gx), static_cast<uint32_t>(gy), static_cast<uint32_t>(gz)};
 }
 
-CommandList::CommandList(Context& ctx, VkCommandBuffer cmd) : ctx_(ctx), cmd_(cmd) {}
+CommandList::CommandList(Context& ctx, VkCommandBuffer cmd) : ctx_(ctx), cmd_(cmd), serial_(ctx.open_command_list()) {}
 
 CommandList::~CommandList() {
-  for (VkBufferView v : views_) vkDestroyBufferView(ctx_.device(), v, nullptr);
   if (pool_) vkDestroyDescriptorPool(ctx_.device(), pool_, nullptr);
   for (VkDescriptorPool p : full_pools_) vkDestroyDescriptorPool(ctx_.device(), p, nullptr);
+  ctx_.close_command_list(serial_);  // the buffers retired while it was open may go now
 }
 
 VkDescriptorSet CommandList::allocate_set(Program& program) {
@@ -83,7 +83,8 @@ VkDescriptorSet CommandList::allocate_set(Program& program) {
 }
 
 void CommandList::dispatch_raw(Program& program, Threads threads, const void* push, size_t push_size,
-                               const BufferBinding* bindings, size_t binding_count) {
+                               std::span<const BufferBinding> given) {
+  const size_t binding_count = given.size();
   const ShaderReflection& refl = program.reflection();
   if (push_size != refl.push_constant_size)
     throw std::logic_error("dispatch of " + program.name() + ": push constants are " + std::to_string(push_size) +
@@ -99,10 +100,15 @@ void CommandList::dispatch_raw(Program& program, Threads threads, const void* pu
   std::vector<VkBufferView> views(binding_count, VK_NULL_HANDLE);
   std::vector<VkWriteDescriptorSet> writes(binding_count);
   for (size_t i = 0; i < binding_count; ++i) {
-    const BufferBinding& b = bindings[i];
     const ReflectedBinding& rb = refl.bindings[i];
-    if (!b.buffer) throw std::logic_error("dispatch of " + program.name() + ": binding '" + rb.name + "' is empty");
     const bool texel = rb.type == VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER || rb.type == VK_DESCRIPTOR_TYPE_STORAGE_TEXEL_BUFFER;
+    BufferBinding b = given[i];
+    if (b.null) {  // the context's zero buffer, as the shader declares the binding
+      const VkFormat format = texel ? (b.texel_format != VK_FORMAT_UNDEFINED ? b.texel_format : VK_FORMAT_R32_UINT)
+                                    : VK_FORMAT_UNDEFINED;
+      b = format != VK_FORMAT_UNDEFINED ? ctx_.null_buffer().texel_binding(format) : ctx_.null_buffer().binding();
+    }
+    if (!b.buffer) throw std::logic_error("dispatch of " + program.name() + ": binding '" + rb.name + "' is empty");
     if (texel != (b.texel_format != VK_FORMAT_UNDEFINED))
       throw std::logic_error("dispatch of " + program.name() + ": binding '" + rb.name + "' " +
                              (texel ? "is a texel buffer and needs Buffer::texel_binding(format)"
@@ -118,13 +124,7 @@ void CommandList::dispatch_raw(Program& program, Threads threads, const void* pu
         throw std::invalid_argument("dispatch of " + program.name() + ": texel binding '" + rb.name + "' offset " +
                                     std::to_string(b.offset) + " is not aligned to " +
                                     std::to_string(info.min_texel_buffer_offset_alignment));
-      VkBufferViewCreateInfo vci{VK_STRUCTURE_TYPE_BUFFER_VIEW_CREATE_INFO};
-      vci.buffer = b.buffer;
-      vci.format = b.texel_format;
-      vci.offset = b.offset;
-      vci.range = b.range;
-      VK_CHECK(vkCreateBufferView(ctx_.device(), &vci, nullptr, &views[i]));
-      views_.push_back(views[i]);  // recorded commands use it until the list is destroyed
+      views[i] = ctx_.texel_view(b.buffer, b.texel_format, b.offset, b.range);  // cached per buffer
       writes[i] = {VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET};
       writes[i].dstBinding = rb.binding;
       writes[i].descriptorCount = 1;

@@ -17,6 +17,7 @@
 #include "gpu/program.h"
 
 #include <initializer_list>
+#include <span>
 #include <string>
 #include <type_traits>
 #include <vector>
@@ -36,6 +37,18 @@ struct GroupCounts {
 // Group counts for `threads` on `program`, folded into 2-D/3-D when x would
 // pass the device limit. Throws when even the folded grid does not fit.
 GroupCounts group_counts(const DeviceInfo& info, const Program& program, Threads threads);
+
+// ceil(a / b) and a rounded up to a multiple of b (b > 0).
+constexpr uint64_t div_up(uint64_t a, uint64_t b) { return (a + b - 1) / b; }
+constexpr uint64_t align_up(uint64_t a, uint64_t b) { return div_up(a, b) * b; }
+
+// Thread count of a 1-D dispatch that gives each tile of a width x height image (tile_w x
+// tile_h pixels, edge tiles partial) its own `threads_per_tile` invocations, tiles row-major:
+// the kernel finds its tile as linear thread / threads_per_tile.
+constexpr uint64_t tiled_threads(uint64_t width, uint64_t height, uint64_t tile_w, uint64_t tile_h,
+                                 uint64_t threads_per_tile) {
+  return div_up(width, tile_w) * div_up(height, tile_h) * threads_per_tile;
+}
 
 // A memory dependency between pipeline stages (synchronization2 terms).
 struct MemoryDependency {
@@ -76,6 +89,8 @@ class GpuTimer;
 
 class CommandList {
  public:
+  // Holds a Context serial from here to its destruction, which must come after its commands
+  // completed: buffers retired meanwhile (Context::retire) outlive it.
   CommandList(Context& ctx, VkCommandBuffer cmd);
   ~CommandList();
   CommandList(const CommandList&) = delete;
@@ -84,17 +99,24 @@ class CommandList {
   VkCommandBuffer handle() const { return cmd_; }
   Context& context() const { return ctx_; }
 
+  // Bindings in the shader's binding order, as a braced list or any contiguous range (a
+  // std::vector or array built up by the caller); gpu::null_binding() for ones the kernel
+  // does not access in this configuration.
+  template <class PushConstants>
+  void dispatch(Program& program, Threads threads, const PushConstants& pc, std::span<const BufferBinding> bindings) {
+    static_assert(std::is_trivially_copyable_v<PushConstants>, "push constants must be plain data");
+    dispatch_raw(program, threads, &pc, sizeof(PushConstants), bindings);
+  }
   template <class PushConstants>
   void dispatch(Program& program, Threads threads, const PushConstants& pc, std::initializer_list<BufferBinding> bindings) {
-    static_assert(std::is_trivially_copyable_v<PushConstants>, "push constants must be plain data");
-    dispatch_raw(program, threads, &pc, sizeof(PushConstants), bindings.begin(), bindings.size());
+    dispatch(program, threads, pc, std::span<const BufferBinding>(bindings.begin(), bindings.size()));
   }
   // For shaders without push constants.
   void dispatch(Program& program, Threads threads, std::initializer_list<BufferBinding> bindings) {
-    dispatch_raw(program, threads, nullptr, 0, bindings.begin(), bindings.size());
+    dispatch_raw(program, threads, nullptr, 0, std::span<const BufferBinding>(bindings.begin(), bindings.size()));
   }
   void dispatch_raw(Program& program, Threads threads, const void* push, size_t push_size,
-                    const BufferBinding* bindings, size_t binding_count);
+                    std::span<const BufferBinding> bindings);
 
   void barrier(const MemoryDependency& dep);
   void copy_buffer(const BufferBinding& src, const BufferBinding& dst);
@@ -109,9 +131,9 @@ class CommandList {
   VkDescriptorSet allocate_set(Program& program);
   Context& ctx_;
   VkCommandBuffer cmd_;
+  uint64_t serial_;
   VkDescriptorPool pool_ = VK_NULL_HANDLE;  // only without push descriptors
   std::vector<VkDescriptorPool> full_pools_;
-  std::vector<VkBufferView> views_;  // texel-buffer views of recorded dispatches, destroyed with the list
 };
 
 // Named GPU intervals measured with timestamps. Usage:

@@ -1,8 +1,10 @@
 #include "gpu/context.h"
 
+#include "gpu/buffer.h"
 #include "gpu/commands.h"
 #include "gpu/program.h"
 
+#include <algorithm>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -70,7 +72,10 @@ Context::Context(const ContextOptions& options) : options_(options) {
     info_ = select_device(devices_, options_.device);
     if (options_.disable_push_descriptors) info_.push_descriptor = false;
     create_device();
+    null_buffer_ = std::make_unique<Buffer>(*this, 256, MemoryUsage::DeviceLocal, "null-binding");
+    submit_and_wait([&](CommandList& cmd) { cmd.fill_buffer(null_buffer_->binding(), 0u); });
   } catch (...) {
+    null_buffer_.reset();
     if (device_) vkDestroyDevice(device_, nullptr);
     if (messenger_) {
       auto destroy = reinterpret_cast<PFN_vkDestroyDebugUtilsMessengerEXT>(
@@ -197,6 +202,18 @@ void Context::create_device() {
 
 Context::~Context() {
   if (device_) vkDeviceWaitIdle(device_);
+  {
+    std::vector<Retired> all;
+    {
+      std::lock_guard<std::mutex> lock(lifetime_mutex_);
+      all.swap(retired_);
+    }
+    destroy(all);
+  }
+  null_buffer_.reset();
+  for (auto& [buffer, list] : views_)
+    for (const CachedView& v : list) vkDestroyBufferView(device_, v.view, nullptr);
+  views_.clear();
   programs_.clear();
   if (fence_) vkDestroyFence(device_, fence_, nullptr);
   if (command_pool_) vkDestroyCommandPool(device_, command_pool_, nullptr);
@@ -210,6 +227,108 @@ Context::~Context() {
 }
 
 void Context::wait_idle() { VK_CHECK(vkDeviceWaitIdle(device_)); }
+
+uint64_t Context::open_command_list() {
+  std::lock_guard<std::mutex> lock(lifetime_mutex_);
+  open_serials_.push_back(next_serial_);  // serials only grow: the list stays ascending
+  return next_serial_++;
+}
+
+void Context::close_command_list(uint64_t serial) {
+  std::vector<Retired> done;
+  {
+    std::lock_guard<std::mutex> lock(lifetime_mutex_);
+    auto it = std::lower_bound(open_serials_.begin(), open_serials_.end(), serial);
+    if (it != open_serials_.end() && *it == serial) open_serials_.erase(it);
+    done = take_collectable_locked();
+  }
+  destroy(done);
+}
+
+void Context::retire(Buffer&& b) {
+  if (!b.valid()) return;
+  std::vector<Retired> done;
+  {
+    std::lock_guard<std::mutex> lock(lifetime_mutex_);
+    Retired r;
+    r.after = next_serial_;
+    r.buffer = std::make_unique<Buffer>(std::move(b));
+    retired_.push_back(std::move(r));
+    done = take_collectable_locked();
+  }
+  destroy(done);
+}
+
+size_t Context::retired_count() {
+  std::lock_guard<std::mutex> lock(lifetime_mutex_);
+  return retired_.size();
+}
+
+std::vector<Context::Retired> Context::take_collectable_locked() {
+  const uint64_t oldest_open = open_serials_.empty() ? next_serial_ : open_serials_.front();
+  std::vector<Retired> done;
+  auto keep = retired_.begin();
+  for (auto it = retired_.begin(); it != retired_.end(); ++it) {
+    if (it->after <= oldest_open)
+      done.push_back(std::move(*it));
+    else
+      *keep++ = std::move(*it);
+  }
+  retired_.erase(keep, retired_.end());
+  return done;
+}
+
+// Outside the lock: a Buffer's destructor calls release_views, which takes it.
+void Context::destroy(std::vector<Retired>& done) {
+  for (Retired& r : done) {
+    if (r.view) vkDestroyBufferView(device_, r.view, nullptr);
+    r.buffer.reset();
+  }
+  done.clear();
+}
+
+VkBufferView Context::texel_view(VkBuffer buffer, VkFormat format, VkDeviceSize offset, VkDeviceSize range) {
+  std::vector<Retired> done;
+  VkBufferView view = VK_NULL_HANDLE;
+  {
+    std::lock_guard<std::mutex> lock(lifetime_mutex_);
+    std::vector<CachedView>& list = views_[buffer];
+    for (const CachedView& v : list)
+      if (v.format == format && v.offset == offset && v.range == range) return v.view;
+    VkBufferViewCreateInfo vci{VK_STRUCTURE_TYPE_BUFFER_VIEW_CREATE_INFO};
+    vci.buffer = buffer;
+    vci.format = format;
+    vci.offset = offset;
+    vci.range = range;
+    VK_CHECK(vkCreateBufferView(device_, &vci, nullptr, &view));
+    if (list.size() >= kMaxViewsPerBuffer) {  // a buffer bound with ever-changing ranges: retire the oldest view
+      Retired r;
+      r.after = next_serial_;
+      r.view = list.front().view;
+      retired_.push_back(std::move(r));
+      list.erase(list.begin());
+      done = take_collectable_locked();
+    }
+    list.push_back({format, offset, range, view});
+  }
+  destroy(done);
+  return view;
+}
+
+void Context::release_views(VkBuffer buffer) {
+  std::lock_guard<std::mutex> lock(lifetime_mutex_);
+  auto it = views_.find(buffer);
+  if (it == views_.end()) return;
+  for (const CachedView& v : it->second) vkDestroyBufferView(device_, v.view, nullptr);
+  views_.erase(it);
+}
+
+size_t Context::cached_view_count() {
+  std::lock_guard<std::mutex> lock(lifetime_mutex_);
+  size_t n = 0;
+  for (const auto& [buffer, list] : views_) n += list.size();
+  return n;
+}
 
 void Context::submit_and_wait(const std::function<void(CommandList&)>& record) {
   std::lock_guard<std::mutex> lock(submit_mutex_);

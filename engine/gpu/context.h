@@ -20,6 +20,7 @@ namespace icube::gpu {
 
 class Program;
 class CommandList;
+class Buffer;
 struct SpecConstants;
 
 struct ContextOptions {
@@ -71,7 +72,8 @@ class Context {
   // Records `record` into a one-time command buffer, submits it and waits.
   void submit_and_wait(const std::function<void(CommandList&)>& record);
 
-  // A compute program for an embedded shader (file stem of shaders/<name>.comp),
+  // A compute program for an embedded shader (folder-qualified name: "splat/blend" for
+  // shaders/splat/blend.comp),
   // created on first use and cached by name and specialisation constants.
   Program& program(const std::string& shader_name, const SpecConstants& spec);
   Program& program(const std::string& shader_name);
@@ -80,6 +82,31 @@ class Context {
 
   // Device-wide wait; used before destruction and by error paths.
   void wait_idle();
+
+  // ---- resource lifetimes (deferred destruction, as Granite does) ----
+  // Every CommandList holds a serial from open_command_list() until its destructor calls
+  // close_command_list(); a list is destroyed only once its commands have completed (after
+  // submit_and_wait's fence, or a caller's own fence, as the viewer's presenter does).
+  uint64_t open_command_list();
+  void close_command_list(uint64_t serial);
+  // Destroys `b` once every command list open now has been closed: for buffers that recorded
+  // (possibly pending) commands may still use, e.g. one outgrown by gpu::ensure_capacity.
+  // Immediately when no list is open.
+  void retire(Buffer&& b);
+  // Buffers waiting in retire() (tests).
+  size_t retired_count();
+
+  // The texel-buffer view of bytes [offset, offset + range) of `buffer` as `format`, created on
+  // first use and cached until the buffer is released (release_views). At most
+  // kMaxViewsPerBuffer per buffer: older ones are retired like buffers.
+  static constexpr size_t kMaxViewsPerBuffer = 16;
+  VkBufferView texel_view(VkBuffer buffer, VkFormat format, VkDeviceSize offset, VkDeviceSize range);
+  void release_views(VkBuffer buffer);  // Buffer::release, before the VkBuffer is destroyed
+  size_t cached_view_count();           // tests
+
+  // 256 zero bytes bound where gpu::null_binding() stands for an input the kernel does not
+  // read in this configuration (commands.h).
+  const Buffer& null_buffer() const { return *null_buffer_; }
 
  private:
   friend VkBool32 VKAPI_PTR context_debug_callback(VkDebugUtilsMessageSeverityFlagBitsEXT,
@@ -109,6 +136,26 @@ class Context {
   std::mutex submit_mutex_;
   std::mutex program_mutex_;
   std::map<std::string, std::unique_ptr<Program>> programs_;
+
+  struct Retired {
+    uint64_t after = 0;  // destroy once every list with a serial below this is closed
+    std::unique_ptr<Buffer> buffer;
+    VkBufferView view = VK_NULL_HANDLE;
+  };
+  struct CachedView {
+    VkFormat format;
+    VkDeviceSize offset, range;
+    VkBufferView view;
+  };
+  // Takes the retired resources no open list can use any more out of retired_ (under the lock).
+  std::vector<Retired> take_collectable_locked();
+  void destroy(std::vector<Retired>& done);
+  std::mutex lifetime_mutex_;
+  uint64_t next_serial_ = 1;
+  std::vector<uint64_t> open_serials_;  // ascending
+  std::vector<Retired> retired_;
+  std::map<VkBuffer, std::vector<CachedView>> views_;  // per buffer, oldest first
+  std::unique_ptr<Buffer> null_buffer_;
 };
 
 }  // namespace icube::gpu

@@ -121,7 +121,6 @@ RaycasterGpu::RaycasterGpu(gpu::Context& ctx, bool skip_empty_bricks)
       wg_lanes_(workgroup_lanes(ctx)),
       skip_empty_(skip_empty_bricks),
       occupancy_(skip_empty_bricks),
-      dummy_rays_(ctx, 32, gpu::MemoryUsage::DeviceLocal, "raycast-dummy-rays"),
       occ_(ctx, 16, gpu::MemoryUsage::DeviceLocal, "raycast-occupancy"),
       near_(ctx, 16, gpu::MemoryUsage::DeviceLocal, "raycast-near-list"),
       cam64_(ctx, sizeof(shader::RaycastCameraF64), gpu::MemoryUsage::DeviceLocal, "raycast-camera-f64"),
@@ -189,7 +188,7 @@ GpuRayBatch RaycasterGpu::upload_rays(const RaycastWorld& w, const std::vector<R
 }
 
 void RaycasterGpu::record(gpu::CommandList& cmd, const RaycastWorld& w, const shader::RaycastParams& params,
-                          const gpu::Buffer& rays, const gpu::Buffer& hits, const shader::RaycastCameraF64* cam64) {
+                          const gpu::BufferBinding& rays, const gpu::Buffer& hits, const shader::RaycastCameraF64* cam64) {
   if (params.n == 0) return;
   const VkDeviceSize bytes = VkDeviceSize{params.n} * sizeof(shader::RaycastHit);
   if (hits.size() < bytes) throw std::invalid_argument("raycast: hits buffer too small");
@@ -201,9 +200,10 @@ void RaycasterGpu::record(gpu::CommandList& cmd, const RaycastWorld& w, const sh
       occupancy_layout(w, glm::ivec3(params.ref_x, params.ref_y, params.ref_z), op, words)) {
     const VkDeviceSize occ_bytes = words * 4;
     if (occ_.size() < occ_bytes) {
-      retired_occ_.push_back(std::move(occ_));
-      occ_ = gpu::Buffer(ctx_, std::max<VkDeviceSize>(occ_bytes, retired_occ_.back().size() * 2),
-                         gpu::MemoryUsage::DeviceLocal, "raycast-occupancy");
+      gpu::Buffer grown(ctx_, std::max<VkDeviceSize>(occ_bytes, occ_.size() * 2), gpu::MemoryUsage::DeviceLocal,
+                        "raycast-occupancy");
+      ctx_.retire(std::move(occ_));  // recorded commands may still use it
+      occ_ = std::move(grown);
       occ_cached_ = false;
     }
     const bool reuse = occ_cached_ && w.id != 0 && w.id == occ_id_ && w.revision == occ_revision_ &&
@@ -245,7 +245,7 @@ void RaycasterGpu::record(gpu::CommandList& cmd, const RaycastWorld& w, const sh
   if (tiled) {
     const uint64_t lanes = wg_lanes_, th = lanes / wg_w_;
     const uint64_t height = p.n / p.width;
-    threads = ((p.width + wg_w_ - 1) / wg_w_) * ((height + th - 1) / th) * lanes;
+    threads = gpu::tiled_threads(p.width, height, wg_w_, th, lanes);
   }
   const gpu::BufferBinding occ_texels = occ_.texel_binding(VK_FORMAT_R32G32_UINT, 0, occ_.size() & ~VkDeviceSize{7});
   const gpu::BufferBinding mask_texels = occ_.texel_binding(VK_FORMAT_R32_UINT, 0, occ_.size() & ~VkDeviceSize{3});
@@ -255,7 +255,7 @@ void RaycasterGpu::record(gpu::CommandList& cmd, const RaycastWorld& w, const sh
   if (exact) {
     const VkDeviceSize list_bytes = (VkDeviceSize{p.n} + 1) * 4;
     if (near_.size() < list_bytes) {
-      retired_occ_.push_back(std::move(near_));  // recorded commands may still use it
+      ctx_.retire(std::move(near_));  // recorded commands may still use it
       near_ = gpu::Buffer(ctx_, list_bytes, gpu::MemoryUsage::DeviceLocal, "raycast-near-list");
     }
     cmd.barrier(gpu::deps::kComputeToTransfer);  // an earlier record's passes may still use the list and camera
@@ -264,14 +264,14 @@ void RaycasterGpu::record(gpu::CommandList& cmd, const RaycastWorld& w, const sh
     cmd.barrier(gpu::deps::kTransferToCompute);  // empty list and double camera before the passes
   }
   cmd.dispatch(*prog, {threads}, p,
-               {w.gpu.brick_table.binding(), w.gpu.brick_data.binding(), rays.binding(), hits.binding(0, bytes),
+               {w.gpu.brick_table.binding(), w.gpu.brick_data.binding(), rays, hits.binding(0, bytes),
                 occ_texels, brick_texels, near_.binding(), mask_texels});
   if (exact) {
     // Second pass: the rays flagged RAYCAST_FLAG_NEAR (listed by the first) are cast again with the
     // chords near eps_sem decided in double; a fixed grid strides over the list.
     cmd.barrier(gpu::deps::kComputeToCompute);  // the float pass's hits and list before the exact pass
     cmd.dispatch(cast_program(false, p.occupancy != 0, true), {std::min<uint64_t>(p.n, kExactPassThreads)}, p,
-                 {w.gpu.brick_table.binding(), w.gpu.brick_data.binding(), rays.binding(), hits.binding(0, bytes),
+                 {w.gpu.brick_table.binding(), w.gpu.brick_data.binding(), rays, hits.binding(0, bytes),
                   occ_texels, brick_texels, near_.binding(), cam64_.binding(), mask_texels});
   }
 }
@@ -296,12 +296,12 @@ void RaycasterGpu::record_camera(gpu::CommandList& cmd, const RaycastWorld& w, c
   c.voxel_size = w.gpu.voxel_size;
   c.eps_sem = opts.eps_sem;
   c.t_max = opts.t_max;
-  record(cmd, w, p, dummy_rays_, hits, &c);
+  record(cmd, w, p, gpu::null_binding() /* camera mode makes its rays */, hits, &c);
 }
 
 void RaycasterGpu::record_rays(gpu::CommandList& cmd, const RaycastWorld& w, const GpuRayBatch& rays,
                                const RaycastOptions& opts, const gpu::Buffer& hits) {
-  record(cmd, w, ray_params(w, rays, opts), rays.rays, hits);
+  record(cmd, w, ray_params(w, rays, opts), rays.rays.binding(), hits);
 }
 
 std::vector<shader::RaycastHit> RaycasterGpu::cast_camera(const RaycastWorld& w, const Camera& cam,

@@ -106,7 +106,7 @@ class RaycasterGpu {
 
  private:
   void record(gpu::CommandList& cmd, const RaycastWorld& w, const shader::RaycastParams& params,
-              const gpu::Buffer& rays, const gpu::Buffer& hits, const shader::RaycastCameraF64* cam64 = nullptr);
+              const gpu::BufferBinding& rays, const gpu::Buffer& hits, const shader::RaycastCameraF64* cam64 = nullptr);
   // The ray-casting pipeline: rows or tiles, occupancy index or hash table, float pass or the
   // exact pass (raycast_exact, needs shaderFloat64).
   gpu::Program& cast_program(bool tiled, bool occupancy, bool exact) const;
@@ -119,9 +119,7 @@ class RaycasterGpu {
   bool tiled_ = true;
   bool skip_empty_ = true;
   bool occupancy_ = true;
-  gpu::Buffer dummy_rays_;  // bound in camera mode, never read
-  gpu::Buffer occ_;         // occupancy index, grown on demand
-  std::vector<gpu::Buffer> retired_occ_;  // outgrown masks, kept alive: recorded commands may still use them
+  gpu::Buffer occ_;         // occupancy index, grown on demand (the outgrown one retired: Context::retire)
   // What occ_ holds: the world (id, revision) and layout of the last build, when cacheable.
   bool occ_cached_ = false;
   uint64_t occ_builds_ = 0;
