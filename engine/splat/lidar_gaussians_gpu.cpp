@@ -1,7 +1,7 @@
 // LiDAR on Gaussians, GPU host module; see lidar_gaussians_gpu.h.
 #include "splat/lidar_gaussians_gpu.h"
 
-#include "splat/tile_ranges_gpu.h"
+#include "splat/tile_radix_binning_gpu.h"
 
 #include <algorithm>
 #include <bit>
@@ -58,8 +58,9 @@ std::vector<shader::SplatLidarGaussian> lidar_gaussian_rows(const GaussianCloud&
 }
 
 struct LidarGaussiansGpu::Frame {
-  gpu::Buffer rects, touched, offsets, bound, scan_scratch, keys, values, ranges, total;
-  std::unique_ptr<kernels::RadixSortScratch> sort_scratch;
+  explicit Frame(gpu::Context& ctx) : binning(ctx, kernels::KeyWidth::Bits64, "lidar-gs") {}
+  gpu::Buffer rects, bound, ranges, total;
+  TileRadixBinning binning;  // touched counts -> offsets -> total; keys/values -> sort -> ranges
   std::unique_ptr<gpu::GpuTimer> t1, t2;
 };
 
@@ -73,9 +74,7 @@ LidarGaussiansGpu::LidarGaussiansGpu(gpu::Context& ctx, const render::LidarModel
       duplicate_(ctx.program("splat/lidar_duplicate", local_size())),
       ranges_(ctx.program("splat/ranges", local_size())),
       cast_(ctx.program("splat/lidar_cast", local_size())),
-      scan_(ctx),
-      sort_(ctx, kernels::KeyWidth::Bits64),
-      f_(std::make_unique<Frame>()) {
+      f_(std::make_unique<Frame>(ctx)) {
   if (model_.rays() * sizeof(shader::SplatLidarHit) > ctx_.info().max_storage_buffer_range)
     throw std::invalid_argument("lidar gaussians: " + std::to_string(model_.rays()) +
                                 " rays per sweep exceed one storage binding of hits");
@@ -144,10 +143,10 @@ std::vector<shader::SplatLidarHit> LidarGaussiansGpu::cast(const GpuLidarGaussia
   p.oz = static_cast<float>(o.z);
 
   gpu::ensure_capacity(ctx_, f.rects, n * 16, "lidar-gs-rects");
-  gpu::ensure_capacity(ctx_, f.touched, n * 4, "lidar-gs-touched");
-  gpu::ensure_capacity(ctx_, f.offsets, n * 4, "lidar-gs-offsets");
   gpu::ensure_capacity(ctx_, f.bound, n * 4, "lidar-gs-bound");
-  gpu::ensure_capacity(ctx_, f.scan_scratch, kernels::PrefixScan::scratch_elements(n) * 4, "lidar-gs-scan-scratch");
+  f.binning.reserve_items(n);
+  const gpu::Buffer& touched = f.binning.counts();
+  const gpu::Buffer& offsets = f.binning.offsets();
 
   // Submission 1: bin, scan of the tile counts, the total to the host.
   uint32_t total = 0;
@@ -159,11 +158,9 @@ std::vector<shader::SplatLidarHit> LidarGaussiansGpu::cast(const GpuLidarGaussia
       cmd.dispatch(bin_, {n}, p,
                    {g.gaussians.binding(0, n * sizeof(shader::SplatLidarGaussian)),
                     elev_gpu_.binding(0, uint64_t{model_.beams()} * 4), f.rects.binding(0, n * 16),
-                    f.touched.binding(0, n * 4), f.bound.binding(0, n * 4)});
+                    touched.binding(0, n * 4), f.bound.binding(0, n * 4)});
       cmd.barrier(gpu::deps::kComputeToCompute);  // the scan reads touched[]
-      scan_.record(cmd, f.touched, f.offsets, n, kernels::ScanKind::Inclusive, &f.scan_scratch);
-      cmd.barrier(gpu::deps::kComputeToTransfer);  // the copy reads the last offset
-      cmd.copy_buffer(f.offsets.binding((n - 1) * 4, 4), f.total.binding(0, 4));
+      f.binning.record_scan(cmd, n, f.total.binding(0, 4));
       f.t1->end(cmd, ti);
     });
     std::memcpy(&total, f.total.mapped(), 4);
@@ -172,19 +169,9 @@ std::vector<shader::SplatLidarHit> LidarGaussiansGpu::cast(const GpuLidarGaussia
 
   // Submission 2: keys, sort, ranges, cast.
   const uint64_t inst = total;
-  const uint64_t limit = ctx_.info().max_storage_buffer_range;
-  if (inst > sort_.max_elements() || inst * 8 > limit)
-    throw std::runtime_error("lidar gaussians: " + std::to_string(inst) +
-                             " tile instances exceed the radix sort / storage binding limit");
-  if (inst > 0) {
-    gpu::ensure_capacity(ctx_, f.keys, inst * 8, "lidar-gs-keys");
-    gpu::ensure_capacity(ctx_, f.values, inst * 4, "lidar-gs-values");
-    if (!f.sort_scratch || f.sort_scratch->capacity < inst)
-      f.sort_scratch = std::make_unique<kernels::RadixSortScratch>(ctx_, inst + inst / 2, kernels::KeyWidth::Bits64);
-  } else {
-    gpu::ensure_capacity(ctx_, f.keys, 16, "lidar-gs-keys");
-    gpu::ensure_capacity(ctx_, f.values, 16, "lidar-gs-values");
-  }
+  f.binning.reserve_instances(inst);
+  const gpu::Buffer& keys = f.binning.keys();
+  const gpu::Buffer& values = f.binning.values();
   const uint32_t key_bits = 32 + std::max<uint32_t>(1, static_cast<uint32_t>(std::bit_width(tiles - 1u)));
   const uint64_t rays = model_.rays();
   ctx_.submit_and_wait([&](gpu::CommandList& cmd) {
@@ -192,28 +179,27 @@ std::vector<shader::SplatLidarHit> LidarGaussiansGpu::cast(const GpuLidarGaussia
     const int ts = f.t2->begin(cmd, "sort");
     if (inst > 0) {
       cmd.dispatch(duplicate_, {n}, p,
-                   {f.rects.binding(0, n * 16), f.touched.binding(0, n * 4), f.offsets.binding(0, n * 4),
-                    f.bound.binding(0, n * 4), f.keys.binding(0, inst * 8), f.values.binding(0, inst * 4)});
+                   {f.rects.binding(0, n * 16), touched.binding(0, n * 4), offsets.binding(0, n * 4),
+                    f.bound.binding(0, n * 4), keys.binding(0, inst * 8), values.binding(0, inst * 4)});
       cmd.barrier(gpu::deps::kComputeToCompute);  // the sort reads the keys and values
-      sort_.record(cmd, f.keys, f.values, inst, *f.sort_scratch, key_bits);
     }
-    record_tile_ranges(cmd, ranges_, f.keys, 2, inst, f.ranges, tiles);
+    f.binning.record_sort_ranges(cmd, inst, key_bits, ranges_, f.ranges, tiles);
     f.t2->end(cmd, ts);
     cmd.barrier(gpu::deps::kComputeToCompute);  // the cast reads the ranges
     const int tc = f.t2->begin(cmd, "cast");
     const uint64_t gbytes = std::max<uint64_t>(1, n) * sizeof(shader::SplatLidarGaussian);
     cmd.dispatch(cast_, {uint64_t{tiles} * SPLAT_LIDAR_TILE_RAYS}, p,
-                 {f.ranges.binding(0, uint64_t{tiles} * 8), f.keys.binding(0, std::max<uint64_t>(inst, 1) * 8),
-                  f.values.binding(0, std::max<uint64_t>(inst, 1) * 4),
-                  n > 0 ? g.gaussians.binding(0, gbytes) : f.rects.binding(0, 16),
+                 {f.ranges.binding(0, uint64_t{tiles} * 8), keys.binding(0, std::max<uint64_t>(inst, 1) * 8),
+                  values.binding(0, std::max<uint64_t>(inst, 1) * 4),
+                  n > 0 ? g.gaussians.binding(0, gbytes) : gpu::null_binding(),
                   dirs_gpu_.binding(0, rays * 16), hits_.binding(0, rays * sizeof(shader::SplatLidarHit))});
     f.t2->end(cmd, tc);
   });
   std::vector<shader::SplatLidarHit> hits;
   if (download) hits = gpu::download_vector<shader::SplatLidarHit>(ctx_, hits_, rays);
   if (debug) {
-    debug->keys = inst ? gpu::download_vector<uint64_t>(ctx_, f.keys, inst) : std::vector<uint64_t>{};
-    debug->values = inst ? gpu::download_vector<uint32_t>(ctx_, f.values, inst) : std::vector<uint32_t>{};
+    debug->keys = inst ? gpu::download_vector<uint64_t>(ctx_, keys, inst) : std::vector<uint64_t>{};
+    debug->values = inst ? gpu::download_vector<uint32_t>(ctx_, values, inst) : std::vector<uint32_t>{};
     debug->ranges = gpu::download_vector<uint32_t>(ctx_, f.ranges, uint64_t{tiles} * 2);
   }
   if (timings) {

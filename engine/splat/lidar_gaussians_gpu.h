@@ -102,8 +102,6 @@ class LidarGaussiansGpu {
   gpu::Program& duplicate_;
   gpu::Program& ranges_;
   gpu::Program& cast_;
-  kernels::PrefixScan scan_;
-  kernels::RadixSort sort_;
   gpu::Buffer dirs_gpu_, elev_gpu_, hits_;
   std::unique_ptr<Frame> f_;
 };

@@ -35,7 +35,7 @@
 #include "render/camera.h"
 #include "shared/splat_params.h"
 #include "splat/gaussians.h"
-#include "splat/sky.h"
+#include "splat/splat_frame.h"
 
 #include <glm/glm.hpp>
 
@@ -43,30 +43,6 @@
 #include <vector>
 
 namespace icube::splat {
-
-struct SplatOptions {
-  double near_z = 0.01;
-  double far_z = 1e10;
-  float eps2d = 0.3f;
-  bool antialiased = false;
-  render::PixelConvention pixels = render::PixelConvention::Centre;
-  glm::vec3 background{0.0f};
-  SkyModel sky;  // default: the constant `background`
-  // Expected and median depth (SplatImage::depth). false leaves them out: the GPU blend then
-  // neither keeps nor writes them (a pipeline without them, ~15 % less blend time on
-  // lavapipe), and SplatImage::depth is empty.
-  bool depth = true;
-};
-
-// Per-frame constants shared by the CPU reference and the GPU push constants.
-struct SplatFrame {
-  shader::SplatPreprocessParams pre{};  // n/first/sh_* left for the caller
-  uint32_t grid_x = 0, grid_y = 0;
-  glm::dvec3 camera{0.0};  // world position
-};
-// `origin`: the scene origin the GPU positions are relative to (the CPU reference passes 0 and
-// uses double camera-relative positions instead).
-SplatFrame make_frame(const render::Camera& cam, const SplatOptions& opts, const glm::dvec3& origin);
 
 // Tile rect [x0, x1) × [y0, y1) of a projected Gaussian.
 struct TileRect {
@@ -98,12 +74,6 @@ struct TileBins {
   std::vector<uint64_t> keys;      // sorted
   std::vector<uint32_t> values;    // Gaussian index per key
   std::vector<uint32_t> ranges;    // 2 per tile: [start, end)
-};
-
-struct SplatImage {
-  uint32_t width = 0, height = 0;
-  std::vector<float> rgba;   // 4 per pixel, row-major: RGB (background composited) and alpha
-  std::vector<float> depth;  // 2 per pixel: expected, median
 };
 
 std::vector<shader::SplatProjected> preprocess_cpu(const GaussianCloud& cloud, const render::Camera& cam,

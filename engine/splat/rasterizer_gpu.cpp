@@ -1,7 +1,6 @@
 // GPU host module of the Gaussian splatting rasterizer; see rasterizer_gpu.h.
 #include "splat/rasterizer_gpu.h"
 
-#include "splat/tile_ranges_gpu.h"
 
 #include <algorithm>
 #include <bit>
@@ -32,24 +31,21 @@ gpu::SpecConstants blend_spec(const gpu::Context& ctx, kernels::SubgroupOps vote
 
 }  // namespace
 
-struct SplatRendererGpu::Frame {
-  gpu::Buffer proj, records, rects, bin_records, depth_keys, order, counts, offsets, scan_scratch, keys, values, ranges, rgba,
-      depth, total, sky, incomplete, blend_status;
-  std::shared_ptr<const SkyImage> sky_image;  // the image currently in `sky`
-  std::unique_ptr<kernels::RadixSortScratch> sort_scratch;
-  std::unique_ptr<gpu::GpuTimer> t1, t2;
-  uint64_t binning_bytes = 0;  // TileBinningGpu's counters (counting path)
-  uint64_t bytes() const {
-    uint64_t s = 0;
-    for (const gpu::Buffer* b : {&proj, &records, &rects, &bin_records, &depth_keys, &order, &counts, &offsets, &scan_scratch, &keys,
-                                 &values, &ranges, &rgba, &depth, &sky})
-      s += b->valid() ? b->size() : 0;
-    if (sort_scratch)
-      s += sort_scratch->keys.size() + sort_scratch->values.size() + sort_scratch->histogram.size() +
-           sort_scratch->scan_scratch.size();
-    return s + binning_bytes;
-  }
-};
+SplatFrameBuffers::SplatFrameBuffers(gpu::Context& ctx)
+    : incomplete(ctx, 16, gpu::MemoryUsage::DeviceLocal, "splat-bin-incomplete"),
+      blend_status(ctx, 16, gpu::MemoryUsage::DeviceLocal, "splat-blend-status"),
+      readback(ctx, 16, gpu::MemoryUsage::Readback, "splat-readback"),
+      binning(ctx, kernels::KeyWidth::Bits32, "splat") {}
+
+uint64_t SplatFrameBuffers::bytes() const {
+  uint64_t s = 0;
+  for (const gpu::Buffer* b : {&proj, &records, &rects, &bin_records, &depth_keys, &order, &values, &ranges, &rgba, &depth, &sky})
+    s += b->valid() ? b->size() : 0;
+  if (depth_sort_scratch)
+    s += depth_sort_scratch->keys.size() + depth_sort_scratch->values.size() + depth_sort_scratch->histogram.size() +
+         depth_sort_scratch->scan_scratch.size();
+  return s + binning.bytes();
+}
 
 SplatRendererGpu::SplatRendererGpu(gpu::Context& ctx, SplatGpuVariant variant)
     : ctx_(ctx),
@@ -62,16 +58,11 @@ SplatRendererGpu::SplatRendererGpu(gpu::Context& ctx, SplatGpuVariant variant)
       variant_(variant),
       counting_(variant.binning == TileBinning::Counting ||
                 (variant.binning == TileBinning::Auto && ctx.info().type == VK_PHYSICAL_DEVICE_TYPE_CPU)),
-      scan_(ctx),
-      sort_(ctx, kernels::KeyWidth::Bits32),
-      binning_(ctx),
-      f_(std::make_unique<Frame>()) {
-  f_->t1 = std::make_unique<gpu::GpuTimer>(ctx, 4);
-  f_->t2 = std::make_unique<gpu::GpuTimer>(ctx, 4);
-  f_->total = gpu::Buffer(ctx, 16, gpu::MemoryUsage::Readback, "splat-total");
-  f_->incomplete = gpu::Buffer(ctx, 16, gpu::MemoryUsage::DeviceLocal, "splat-bin-incomplete");
-  f_->blend_status = gpu::Buffer(ctx, 16, gpu::MemoryUsage::DeviceLocal, "splat-blend-status");
-}
+      depth_sort_(ctx, kernels::KeyWidth::Bits32),
+      counting_binning_(ctx),
+      f_(std::make_unique<SplatFrameBuffers>(ctx)),
+      t1_(std::make_unique<gpu::GpuTimer>(ctx, 4)),
+      t2_(std::make_unique<gpu::GpuTimer>(ctx, 4)) {}
 
 SplatRendererGpu::~SplatRendererGpu() = default;
 
@@ -105,129 +96,62 @@ GpuGaussians SplatRendererGpu::upload(const GaussianCloud& cloud) {
   return g;
 }
 
-SplatImage SplatRendererGpu::render(const GpuGaussians& g, const render::Camera& cam, const SplatOptions& opts,
-                                    SplatTimings* timings, SplatDebug* debug, bool download) {
-  const auto t0 = std::chrono::steady_clock::now();
-  SplatFrame frame = make_frame(cam, opts, g.origin);
+SplatFramePlan SplatRendererGpu::plan(const GpuGaussians& g, const render::Camera& cam, const SplatOptions& opts) {
+  SplatFramePlan p;
+  p.gaussians = &g;
+  p.opts = opts;
+  p.frame = make_frame(cam, opts, g.origin);
   validate_sky(opts.sky);
-  const uint32_t W = cam.K.width, H = cam.K.height;
-  const uint32_t tiles = frame.grid_x * frame.grid_y;
-  const uint64_t n = g.count;
-  Frame& f = *f_;
+  p.width = cam.K.width;
+  p.height = cam.K.height;
+  p.tiles = p.frame.grid_x * p.frame.grid_y;
+  p.n = g.count;
+  const uint64_t n = p.n, W = p.width, H = p.height;
+  SplatFrameBuffers& f = *f_;
   const uint64_t limit = ctx_.info().max_storage_buffer_range;
   const uint64_t texel_limit = ctx_.info().max_texel_buffer_elements;  // texels of one texel-buffer view
   if (n * sizeof(shader::SplatProjected) > limit)
     throw std::invalid_argument("splat: " + std::to_string(n) + " Gaussians exceed one storage binding");
   if (n * 3 > texel_limit)
     throw std::invalid_argument("splat: " + std::to_string(n) + " Gaussians exceed one texel-buffer view of blend records");
-  if (uint64_t{W} * H * 16 > limit)
+  if (W * H * 16 > limit)
     throw std::invalid_argument("splat: a " + std::to_string(W) + "x" + std::to_string(H) +
                                 " image exceeds one storage binding");
-  if (frame.grid_x > 0xFFFFu || frame.grid_y > 0xFFFFu)  // SplatBinRecord packs tile coordinates in 16 bits
+  if (p.frame.grid_x > 0xFFFFu || p.frame.grid_y > 0xFFFFu)  // SplatBinRecord packs tile coordinates in 16 bits
     throw std::invalid_argument("splat: a " + std::to_string(W) + "x" + std::to_string(H) +
                                 " image has more than 65,535 tile columns or rows");
+  if (n > depth_sort_.max_elements())
+    throw std::invalid_argument("splat: " + std::to_string(n) + " Gaussians exceed the radix sort limit of " +
+                                std::to_string(depth_sort_.max_elements()));
   gpu::ensure_capacity(ctx_, f.proj, n * sizeof(shader::SplatProjected), "splat-proj");
   gpu::ensure_capacity(ctx_, f.records, n * sizeof(shader::SplatBlendRecord), "splat-blend-records");
   gpu::ensure_capacity(ctx_, f.rects, n * 16, "splat-rects");
   gpu::ensure_capacity(ctx_, f.bin_records, n * sizeof(shader::SplatBinRecord), "splat-bin-records");
   gpu::ensure_capacity(ctx_, f.depth_keys, n * 4, "splat-depth-keys");
   gpu::ensure_capacity(ctx_, f.order, n * 4, "splat-order");
-  gpu::ensure_capacity(ctx_, f.counts, n * 4, "splat-counts");
-  gpu::ensure_capacity(ctx_, f.offsets, n * 4, "splat-offsets");
-  gpu::ensure_capacity(ctx_, f.scan_scratch, kernels::PrefixScan::scratch_elements(n) * 4, "splat-scan-scratch");
-  gpu::ensure_capacity(ctx_, f.ranges, uint64_t{tiles} * 8, "splat-ranges");
-  gpu::ensure_capacity(ctx_, f.rgba, uint64_t{W} * H * 16, "splat-rgba");
+  f.binning.reserve_items(n);
+  gpu::ensure_capacity(ctx_, f.ranges, uint64_t{p.tiles} * 8, "splat-ranges");
+  gpu::ensure_capacity(ctx_, f.rgba, W * H * 16, "splat-rgba");
   // splat_blend_rows always writes depth; splat_blend only with opts.depth.
-  const bool depth_out = opts.depth || !variant_.tile_blend;
-  gpu::ensure_capacity(ctx_, f.depth, depth_out ? uint64_t{W} * H * 8 : 16, "splat-depth");
+  if (opts.depth || !variant_.tile_blend) gpu::ensure_capacity(ctx_, f.depth, W * H * 8, "splat-depth");
   if (opts.sky.kind == SkyKind::Equirect && f.sky_image != opts.sky.image) {
     const SkyImage& im = *opts.sky.image;
     if (im.rgba.size() > limit || im.rgba.size() / 4 > texel_limit)
       throw std::invalid_argument("splat sky: a " + std::to_string(im.width) + "x" + std::to_string(im.height) +
                                   " image exceeds one storage binding");
-    f.sky = gpu::upload_vector(ctx_, im.rgba, "splat-sky");
+    gpu::Buffer sky = gpu::upload_vector(ctx_, im.rgba, "splat-sky");
+    ctx_.retire(std::move(f.sky));
+    f.sky = std::move(sky);
     f.sky_image = opts.sky.image;
   }
-  auto ensure_sort_scratch = [&](uint64_t count) {
-    if (!f.sort_scratch || f.sort_scratch->capacity < count)
-      f.sort_scratch = std::make_unique<kernels::RadixSortScratch>(ctx_, count + count / 2, kernels::KeyWidth::Bits32);
-  };
-  if (n > sort_.max_elements())
-    throw std::invalid_argument("splat: " + std::to_string(n) + " Gaussians exceed the radix sort limit of " +
-                                std::to_string(sort_.max_elements()));
+  if (n > 0 && (!f.depth_sort_scratch || f.depth_sort_scratch->capacity < n))
+    f.depth_sort_scratch = std::make_unique<kernels::RadixSortScratch>(ctx_, n + n / 2, kernels::KeyWidth::Bits32);
 
-  const uint32_t cull = variant_.exact_cull ? 1u : 0u;
-  // Submission 1: preprocess, depth sort of the Gaussians, scan of the tile counts in depth
-  // order, total to the host.
-  uint32_t total = 0;
-  double pre_ms = 0.0, depth_sort_ms = 0.0;
-  if (n > 0) {
-    ensure_sort_scratch(n);
-    // SH windows: each a storage-sized range that one R32G32B32A32_UINT texel view can hold,
-    // starting at a texel-offset-aligned byte offset (sh_stride is a multiple of 4).
-    const uint64_t sh_bytes = uint64_t{g.sh_stride} * 4;
-    const uint64_t texel_align = std::max<uint64_t>(1, ctx_.info().min_texel_buffer_offset_alignment);
-    const auto windows = gpu::storage_windows(ctx_.info(), n, g.sh_stride * 4, texel_align / std::gcd(texel_align, sh_bytes),
-                                              std::min(limit, texel_limit * 16));
-    // A preprocess pipeline per SH degree (splat_preprocess's SPLAT_SH_DEGREE), made on first use.
-    gpu::Program& preprocess =
-        ctx_.program("splat/preprocess", gpu::SpecConstants{}.set(0, kLocal /* local_size_x */).set(1, g.sh_degree /* SPLAT_SH_DEGREE */));
-    ctx_.submit_and_wait([&](gpu::CommandList& cmd) {
-      f.t1->reset(cmd);
-      const int ti = f.t1->begin(cmd, "preprocess");
-      for (const auto& w : windows) {
-        shader::SplatPreprocessParams p = frame.pre;
-        p.n = static_cast<uint32_t>(w.count);
-        p.first = static_cast<uint32_t>(w.first);
-        p.sh_stride = g.sh_stride;
-        cmd.dispatch(preprocess, {w.count}, p,
-                     {g.gaussians.texel_binding(VK_FORMAT_R32G32B32A32_UINT, 0, n * sizeof(shader::SplatGaussian)),
-                      g.sh.texel_binding(VK_FORMAT_R32G32B32A32_UINT, w.first * sh_bytes, w.count * sh_bytes),
-                      f.proj.binding(0, n * sizeof(shader::SplatProjected)), f.rects.binding(0, n * 16),
-                      f.depth_keys.binding(0, n * 4), f.order.binding(0, n * 4),
-                      f.records.binding(0, n * sizeof(shader::SplatBlendRecord))});
-      }
-      f.t1->end(cmd, ti);
-      cmd.barrier(gpu::deps::kComputeToCompute);  // the sort reads the depth keys
-      const int td = f.t1->begin(cmd, "depth sort");
-      sort_.record(cmd, f.depth_keys, f.order, n, *f.sort_scratch, 32);
-      cmd.barrier(gpu::deps::kComputeToCompute);  // counts read the order
-      cmd.dispatch(counts_, {n}, shader::SplatDuplicateParams{static_cast<uint32_t>(n), frame.grid_x, cull, 0},
-                   {f.order.binding(0, n * 4), f.counts.binding(0, n * 4), f.rects.texel_binding(VK_FORMAT_R32G32B32A32_UINT, 0, n * 16),
-                    f.records.texel_binding(VK_FORMAT_R32G32B32A32_UINT, 0, n * sizeof(shader::SplatBlendRecord)),
-                    f.bin_records.binding(0, n * sizeof(shader::SplatBinRecord))});
-      cmd.barrier(gpu::deps::kComputeToCompute);  // the scan reads counts[]
-      scan_.record(cmd, f.counts, f.offsets, n, kernels::ScanKind::Inclusive, &f.scan_scratch);
-      cmd.barrier(gpu::deps::kComputeToTransfer);  // the copy reads the last offset
-      cmd.copy_buffer(f.offsets.binding((n - 1) * 4, 4), f.total.binding(0, 4));
-      f.t1->end(cmd, td);
-    });
-    std::memcpy(&total, f.total.mapped(), 4);
-    pre_ms = f.t1->milliseconds(0);
-    depth_sort_ms = f.t1->milliseconds(1);
-  }
-
-  // Submission 2: binning by tile (counting sort, or instances in depth order + stable radix
-  // sort by tile id + ranges), blend.
-  const uint64_t inst = total;
-  const uint32_t chunks = counting_ && inst > 0 ? binning_.chunks_for(inst, tiles, variant_.bin_chunks) : 0u;
-  bool counting = chunks > 0;  // else radix (also when the counters would not fit one binding)
-  if (inst * 4 > limit || inst > texel_limit || (!counting && inst > sort_.max_elements()))
-    throw std::runtime_error("splat: " + std::to_string(inst) + " tile instances exceed one storage binding, one " +
-                             "texel-buffer view or the radix sort limit of " + std::to_string(sort_.max_elements()));
-  auto prepare_radix = [&] {
-    if (inst == 0) return;
-    gpu::ensure_capacity(ctx_, f.keys, inst * 4, "splat-keys");
-    ensure_sort_scratch(inst);
-  };
-  if (inst > 0) gpu::ensure_capacity(ctx_, f.values, inst * 4, "splat-values");
-  if (!counting) prepare_radix();
-  const uint32_t tile_bits = std::max<uint32_t>(1, static_cast<uint32_t>(std::bit_width(tiles - 1u)));
-  shader::SplatBlendParams bp{};
-  bp.width = W;
-  bp.height = H;
-  bp.grid_x = frame.grid_x;
-  bp.grid_y = frame.grid_y;
+  shader::SplatBlendParams& bp = p.blend;
+  bp.width = p.width;
+  bp.height = p.height;
+  bp.grid_x = p.frame.grid_x;
+  bp.grid_y = p.frame.grid_y;
   bp.pixel_offset = static_cast<float>(render::pixel_offset(opts.pixels));
   bp.sky_kind = static_cast<uint32_t>(opts.sky.kind);
   if (opts.sky.kind == SkyKind::Equirect) {
@@ -248,103 +172,210 @@ SplatImage SplatRendererGpu::render(const GpuGaussians& g, const render::Camera&
   bp.gnd_g = sg.ground.y;
   bp.gnd_b = sg.ground.z;
   sky_ray_matrix(cam, &bp.m00);
-  const bool tile_blend = variant_.tile_blend;
-  if (tile_blend)
+  if (variant_.tile_blend)
     bp.loop_budget = variant_.blend_loop_budget >= 0 ? static_cast<uint32_t>(variant_.blend_loop_budget)
                      : ctx_.info().type == VK_PHYSICAL_DEVICE_TYPE_CPU ? SPLAT_BLEND_LOOP_BUDGET
                                                                         : 0u;
-  auto submit2 = [&](gpu::CommandList& cmd) {
-    if (tile_blend) {
-      cmd.barrier(gpu::deps::kComputeToTransfer);  // an earlier frame's blend and copy are done with it
-      cmd.fill_buffer(f.blend_status.binding(0, 4), 0u);
-      cmd.barrier(gpu::deps::kTransferToCompute);  // zeroed status before the blend counts into it
-    }
-    f.t2->reset(cmd);
-    const int ts = f.t2->begin(cmd, "sort");
-    if (counting) {
-      binning_.record(cmd,
-                      TileBinningGpu::Frame{f.order, f.offsets, f.bin_records, n, inst, frame.grid_x, tiles,
-                                            variant_.exact_cull, chunks},
-                      f.values, f.ranges, f.incomplete);
-    } else if (inst > 0) {
-      cmd.dispatch(duplicate_, {n}, shader::SplatDuplicateParams{static_cast<uint32_t>(n), frame.grid_x, cull, 0},
+  return p;
+}
+
+void SplatRendererGpu::record_preprocess(gpu::CommandList& cmd, const SplatFramePlan& p) {
+  const uint64_t n = p.n;
+  SplatFrameBuffers& f = *f_;
+  t1_->reset(cmd);
+  if (n == 0) {  // no Gaussians: an instance total of 0 for read_instances
+    cmd.barrier(gpu::deps::kComputeToTransfer);  // an earlier frame's copy into the readback
+    cmd.fill_buffer(f.readback.binding(0, 4), 0u);
+    return;
+  }
+  const GpuGaussians& g = *p.gaussians;
+  const uint64_t limit = ctx_.info().max_storage_buffer_range;
+  const uint64_t texel_limit = ctx_.info().max_texel_buffer_elements;
+  // SH windows: each a storage-sized range that one R32G32B32A32_UINT texel view can hold,
+  // starting at a texel-offset-aligned byte offset (sh_stride is a multiple of 4).
+  const uint64_t sh_bytes = uint64_t{g.sh_stride} * 4;
+  const uint64_t texel_align = std::max<uint64_t>(1, ctx_.info().min_texel_buffer_offset_alignment);
+  const auto windows = gpu::storage_windows(ctx_.info(), n, g.sh_stride * 4, texel_align / std::gcd(texel_align, sh_bytes),
+                                            std::min(limit, texel_limit * 16));
+  // A preprocess pipeline per SH degree (splat_preprocess's SPLAT_SH_DEGREE), made on first use.
+  gpu::Program& preprocess =
+      ctx_.program("splat/preprocess", gpu::SpecConstants{}.set(0, kLocal /* local_size_x */).set(1, g.sh_degree /* SPLAT_SH_DEGREE */));
+  const int ti = t1_->begin(cmd, "preprocess");
+  for (const auto& w : windows) {
+    shader::SplatPreprocessParams pp = p.frame.pre;
+    pp.n = static_cast<uint32_t>(w.count);
+    pp.first = static_cast<uint32_t>(w.first);
+    pp.sh_stride = g.sh_stride;
+    cmd.dispatch(preprocess, {w.count}, pp,
+                 {g.gaussians.texel_binding(VK_FORMAT_R32G32B32A32_UINT, 0, n * sizeof(shader::SplatGaussian)),
+                  g.sh.texel_binding(VK_FORMAT_R32G32B32A32_UINT, w.first * sh_bytes, w.count * sh_bytes),
+                  f.proj.binding(0, n * sizeof(shader::SplatProjected)), f.rects.binding(0, n * 16),
+                  f.depth_keys.binding(0, n * 4), f.order.binding(0, n * 4),
+                  f.records.binding(0, n * sizeof(shader::SplatBlendRecord))});
+  }
+  t1_->end(cmd, ti);
+  cmd.barrier(gpu::deps::kComputeToCompute);  // the sort reads the depth keys
+  const int td = t1_->begin(cmd, "depth sort");
+  depth_sort_.record(cmd, f.depth_keys, f.order, n, *f.depth_sort_scratch, 32);
+  cmd.barrier(gpu::deps::kComputeToCompute);  // counts read the order
+  const uint32_t cull = variant_.exact_cull ? 1u : 0u;
+  cmd.dispatch(counts_, {n}, shader::SplatDuplicateParams{static_cast<uint32_t>(n), p.frame.grid_x, cull, 0},
+               {f.order.binding(0, n * 4), f.binning.counts().binding(0, n * 4),
+                f.rects.texel_binding(VK_FORMAT_R32G32B32A32_UINT, 0, n * 16),
+                f.records.texel_binding(VK_FORMAT_R32G32B32A32_UINT, 0, n * sizeof(shader::SplatBlendRecord)),
+                f.bin_records.binding(0, n * sizeof(shader::SplatBinRecord))});
+  cmd.barrier(gpu::deps::kComputeToCompute);  // the scan reads the counts
+  f.binning.record_scan(cmd, n, f.readback.binding(0, 4));
+  t1_->end(cmd, td);
+}
+
+uint64_t SplatRendererGpu::read_instances(SplatFramePlan& p) {
+  SplatFrameBuffers& f = *f_;
+  uint32_t total = 0;
+  std::memcpy(&total, f.readback.mapped(), 4);
+  p.instances = total;
+  const uint64_t inst = total;
+  const uint64_t limit = ctx_.info().max_storage_buffer_range;
+  const uint64_t texel_limit = ctx_.info().max_texel_buffer_elements;
+  p.chunks = counting_ && inst > 0 ? counting_binning_.chunks_for(inst, p.tiles, variant_.bin_chunks) : 0u;
+  p.counting = p.chunks > 0;  // else radix (also when the counters would not fit one binding)
+  if (inst * 4 > limit || inst > texel_limit || (!p.counting && inst > f.binning.max_instances()))
+    throw std::runtime_error("splat: " + std::to_string(inst) + " tile instances exceed one storage binding, one " +
+                             "texel-buffer view or the radix sort limit of " + std::to_string(f.binning.max_instances()));
+  gpu::ensure_capacity(ctx_, f.values, std::max<uint64_t>(inst, 1) * 4, "splat-values");
+  if (!p.counting) f.binning.reserve_instances(inst);
+  return inst;
+}
+
+const gpu::Buffer& SplatRendererGpu::instance_values(const SplatFramePlan& p) const {
+  return p.counting ? f_->values : f_->binning.values();
+}
+
+void SplatRendererGpu::record_bin(gpu::CommandList& cmd, const SplatFramePlan& p) {
+  SplatFrameBuffers& f = *f_;
+  const uint64_t n = p.n, inst = p.instances;
+  t2_->reset(cmd);
+  const int ts = t2_->begin(cmd, "sort");
+  if (p.counting) {
+    counting_binning_.record(cmd,
+                             TileBinningGpu::Frame{f.order, f.binning.offsets(), f.bin_records, n, inst, p.frame.grid_x,
+                                                   p.tiles, variant_.exact_cull, p.chunks},
+                             f.values, f.ranges, f.incomplete);
+  } else {
+    if (inst > 0) {
+      const uint32_t cull = variant_.exact_cull ? 1u : 0u;
+      cmd.dispatch(duplicate_, {n}, shader::SplatDuplicateParams{static_cast<uint32_t>(n), p.frame.grid_x, cull, 0},
                    {f.order.binding(0, n * 4),
                     f.bin_records.texel_binding(VK_FORMAT_R32G32B32A32_UINT, 0, n * sizeof(shader::SplatBinRecord)),
-                    f.counts.binding(0, n * 4), f.offsets.binding(0, n * 4), f.keys.binding(0, inst * 4),
-                    f.values.binding(0, inst * 4)});
+                    f.binning.counts().binding(0, n * 4), f.binning.offsets().binding(0, n * 4),
+                    f.binning.keys().binding(0, inst * 4), f.binning.values().binding(0, inst * 4)});
       cmd.barrier(gpu::deps::kComputeToCompute);  // the sort reads the keys and values
-      sort_.record(cmd, f.keys, f.values, inst, *f.sort_scratch, tile_bits);
     }
-    if (!counting) record_tile_ranges(cmd, ranges_, f.keys, 1, inst, f.ranges, tiles);
-    f.t2->end(cmd, ts);
-    cmd.barrier(gpu::deps::kComputeToCompute);  // blend reads the ranges
-    const int tb = f.t2->begin(cmd, "blend");
-    std::vector<gpu::BufferBinding> blend_bindings = {
-        f.ranges.binding(0, uint64_t{tiles} * 8),
-        inst > 0 ? f.values.texel_binding(VK_FORMAT_R32_UINT, 0, inst * 4)
-                 : f.ranges.texel_binding(VK_FORMAT_R32_UINT, 0, 8),
-        n > 0 ? f.records.texel_binding(VK_FORMAT_R32G32B32A32_UINT, 0, n * sizeof(shader::SplatBlendRecord))
-              : f.rgba.texel_binding(VK_FORMAT_R32G32B32A32_UINT, 0, 16),
-        f.rgba.binding(0, uint64_t{W} * H * 16), f.depth.binding(0, depth_out ? uint64_t{W} * H * 8 : 16),
-        opts.sky.kind == SkyKind::Equirect
-            ? f.sky.texel_binding(VK_FORMAT_R32_UINT, 0, opts.sky.image->rgba.size() & ~size_t{3})
-            : f.ranges.texel_binding(VK_FORMAT_R32_UINT, 0, 8)};
-    if (tile_blend) blend_bindings.push_back(f.blend_status.binding(0, 4));
-    cmd.dispatch_raw(opts.depth ? blend_ : blend_color_, {uint64_t{tiles} * kBlendInvocationsPerTile}, &bp, sizeof bp, blend_bindings.data(),
-                     blend_bindings.size());
-    f.t2->end(cmd, tb);
-    if (tile_blend) {
-      cmd.barrier(gpu::deps::kComputeToTransfer);  // the copy reads the blend's status
-      cmd.copy_buffer(f.blend_status.binding(0, 4), f.total.binding(8, 4));
-    }
-    if (counting) {
-      cmd.barrier(gpu::deps::kComputeToTransfer);  // the copy reads the walks' flag
-      cmd.copy_buffer(f.incomplete.binding(0, 4), f.total.binding(4, 4));
-    }
-  };
-  ctx_.submit_and_wait(submit2);
-  bool fallback = false;
-  if (counting) {
-    uint32_t incomplete = 0;
-    std::memcpy(&incomplete, static_cast<const char*>(f.total.mapped()) + 4, 4);
-    if (incomplete) {  // a walk was cut short (lavapipe's loop limit): bin this frame with the radix path
-      fallback = true;
-      counting = false;
-      prepare_radix();
-      ctx_.submit_and_wait(submit2);
-    }
+    const uint32_t tile_bits = std::max<uint32_t>(1, static_cast<uint32_t>(std::bit_width(p.tiles - 1u)));
+    f.binning.record_sort_ranges(cmd, inst, tile_bits, ranges_, f.ranges, p.tiles);
   }
+  t2_->end(cmd, ts);
+  cmd.barrier(gpu::deps::kComputeToCompute);  // the blend reads the ranges and the instance list
+}
 
+void SplatRendererGpu::record_blend(gpu::CommandList& cmd, const SplatFramePlan& p) {
+  SplatFrameBuffers& f = *f_;
+  const uint64_t n = p.n, inst = p.instances, pixels = uint64_t{p.width} * p.height;
+  const bool tile_blend = variant_.tile_blend;
+  const bool depth_out = p.opts.depth || !tile_blend;
   if (tile_blend) {
+    cmd.barrier(gpu::deps::kComputeToTransfer);  // an earlier frame's blend and copy are done with it
+    cmd.fill_buffer(f.blend_status.binding(0, 4), 0u);
+    cmd.barrier(gpu::deps::kTransferToCompute);  // zeroed status before the blend counts into it
+  }
+  const int tb = t2_->begin(cmd, "blend");
+  std::vector<gpu::BufferBinding> bindings = {
+      f.ranges.binding(0, uint64_t{p.tiles} * 8),
+      inst > 0 ? instance_values(p).texel_binding(VK_FORMAT_R32_UINT, 0, inst * 4) : gpu::null_binding(),
+      n > 0 ? f.records.texel_binding(VK_FORMAT_R32G32B32A32_UINT, 0, n * sizeof(shader::SplatBlendRecord))
+            : gpu::null_binding(VK_FORMAT_R32G32B32A32_UINT),
+      f.rgba.binding(0, pixels * 16),
+      depth_out ? f.depth.binding(0, pixels * 8) : gpu::null_binding(),
+      p.opts.sky.kind == SkyKind::Equirect
+          ? f.sky.texel_binding(VK_FORMAT_R32_UINT, 0, p.opts.sky.image->rgba.size() & ~size_t{3})
+          : gpu::null_binding()};
+  if (tile_blend) bindings.push_back(f.blend_status.binding(0, 4));
+  cmd.dispatch(p.opts.depth ? blend_ : blend_color_, {uint64_t{p.tiles} * kBlendInvocationsPerTile}, p.blend, bindings);
+  t2_->end(cmd, tb);
+  if (tile_blend) {
+    cmd.barrier(gpu::deps::kComputeToTransfer);  // the copy reads the blend's status
+    cmd.copy_buffer(f.blend_status.binding(0, 4), f.readback.binding(8, 4));
+  }
+  if (p.counting) {
+    cmd.barrier(gpu::deps::kComputeToTransfer);  // the copy reads the walks' flag
+    cmd.copy_buffer(f.incomplete.binding(0, 4), f.readback.binding(4, 4));
+  }
+}
+
+bool SplatRendererGpu::finish(SplatFramePlan& p) {
+  const char* rb = static_cast<const char*>(f_->readback.mapped());
+  if (p.counting) {
+    uint32_t incomplete = 0;
+    std::memcpy(&incomplete, rb + 4, 4);
+    if (incomplete) return false;  // a walk was cut short (lavapipe's loop limit)
+  }
+  if (variant_.tile_blend) {
     uint32_t over = 0;
-    std::memcpy(&over, static_cast<const char*>(f.total.mapped()) + 8, 4);
+    std::memcpy(&over, rb + 8, 4);
     if (over > 0)
-      throw std::runtime_error("splat: " + std::to_string(over) + " pixel block(s) of " + std::to_string(W) + "x" +
-                               std::to_string(H) + " frame need more than " + std::to_string(bp.loop_budget) +
+      throw std::runtime_error("splat: " + std::to_string(over) + " pixel block(s) of " + std::to_string(p.width) + "x" +
+                               std::to_string(p.height) + " frame need more than " + std::to_string(p.blend.loop_budget) +
                                " blend loop iterations (lavapipe ends a shader's loops after 65,535), so the image "
                                "would be incomplete; too many Gaussians overlap one 16x16 tile (" +
-                               std::to_string(inst) + " tile instances in all)");
+                               std::to_string(p.instances) + " tile instances in all)");
+  }
+  return true;
+}
+
+SplatImage SplatRendererGpu::render(const GpuGaussians& g, const render::Camera& cam, const SplatOptions& opts,
+                                    SplatTimings* timings, SplatDebug* debug, bool download) {
+  const auto t0 = std::chrono::steady_clock::now();
+  SplatFramePlan p = plan(g, cam, opts);
+  // Submission 1: preprocess, depth sort, tiles touched in depth order, scan, total to the host.
+  ctx_.submit_and_wait([&](gpu::CommandList& cmd) { record_preprocess(cmd, p); });
+  const double pre_ms = p.n > 0 ? t1_->milliseconds(0) : 0.0;
+  const double depth_sort_ms = p.n > 0 ? t1_->milliseconds(1) : 0.0;
+  read_instances(p);
+  // Submission 2: binning by tile, blend.
+  auto bin_and_blend = [&](gpu::CommandList& cmd) {
+    record_bin(cmd, p);
+    record_blend(cmd, p);
+  };
+  ctx_.submit_and_wait(bin_and_blend);
+  if (!finish(p)) {  // the counting walks were cut short: bin this frame with the radix path
+    p.fallback = true;
+    p.counting = false;
+    f_->binning.reserve_instances(p.instances);
+    ctx_.submit_and_wait(bin_and_blend);
+    finish(p);
   }
 
+  const SplatFrameBuffers& f = *f_;
+  const uint64_t n = p.n, inst = p.instances;
   SplatImage img;
-  img.width = W;
-  img.height = H;
+  img.width = p.width;
+  img.height = p.height;
   if (download) {
-    img.rgba = gpu::download_vector<float>(ctx_, f.rgba, size_t{W} * H * 4);
-    if (opts.depth) img.depth = gpu::download_vector<float>(ctx_, f.depth, size_t{W} * H * 2);
+    img.rgba = gpu::download_vector<float>(ctx_, f.rgba, size_t{p.width} * p.height * 4);
+    if (opts.depth) img.depth = gpu::download_vector<float>(ctx_, f.depth, size_t{p.width} * p.height * 2);
   }
   if (debug) {
     debug->proj = gpu::download_vector<shader::SplatProjected>(ctx_, f.proj, n);
-    debug->values = inst ? gpu::download_vector<uint32_t>(ctx_, f.values, inst) : std::vector<uint32_t>{};
-    debug->ranges = gpu::download_vector<uint32_t>(ctx_, f.ranges, size_t{tiles} * 2);
-    debug->counting = counting;
-    debug->binning_fallback = fallback;
+    debug->values = inst ? gpu::download_vector<uint32_t>(ctx_, instance_values(p), inst) : std::vector<uint32_t>{};
+    debug->ranges = gpu::download_vector<uint32_t>(ctx_, f.ranges, size_t{p.tiles} * 2);
+    debug->counting = p.counting;
+    debug->binning_fallback = p.fallback;
     std::vector<uint32_t> tile_ids;
-    if (!counting) {
-      tile_ids = inst ? gpu::download_vector<uint32_t>(ctx_, f.keys, inst) : std::vector<uint32_t>{};
+    if (!p.counting) {
+      tile_ids = inst ? gpu::download_vector<uint32_t>(ctx_, f.binning.keys(), inst) : std::vector<uint32_t>{};
     } else {  // the counting path keeps no tile ids: each instance's tile from the ranges (UINT32_MAX: none)
       tile_ids.assign(inst, UINT32_MAX);
-      for (uint32_t t = 0; t < tiles; ++t)
+      for (uint32_t t = 0; t < p.tiles; ++t)
         for (uint32_t k = debug->ranges[2 * t]; k < debug->ranges[2 * t + 1] && k < inst; ++k) tile_ids[k] = t;
     }
     debug->keys.resize(inst);
@@ -357,13 +388,12 @@ SplatImage SplatRendererGpu::render(const GpuGaussians& g, const render::Camera&
   if (timings) {
     timings->preprocess_ms = pre_ms;
     timings->depth_sort_ms = depth_sort_ms;
-    timings->sort_ms = f.t2->milliseconds(0);
-    timings->blend_ms = f.t2->milliseconds(1);
+    timings->sort_ms = t2_->milliseconds(0);
+    timings->blend_ms = t2_->milliseconds(1);
     timings->instances = inst;
-    timings->binning_chunks = counting ? chunks : 0;
-    timings->binning_fallback = fallback;
-    f.binning_bytes = binning_.bytes();
-    timings->frame_bytes = f.bytes();
+    timings->binning_chunks = p.counting ? p.chunks : 0;
+    timings->binning_fallback = p.fallback;
+    timings->frame_bytes = f.bytes() + counting_binning_.bytes();
     timings->wall_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   }
   return img;

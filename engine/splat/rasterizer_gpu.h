@@ -3,7 +3,12 @@
 // splat/duplicate.comp, splat/ranges.comp, splat/blend.comp; TileBinningGpu; the
 // foundation PrefixScan and 32-bit RadixSort from kernels/). Same rules and outputs as the CPU reference rasterizer_cpu.h.
 //
-// Frame = two submissions (one CPU sync, as in the reference rasterizer):
+// A frame is three recorded stages (record_preprocess, record_bin, record_blend)
+// over one SplatFramePlan (the frame's set-up and sizes) and the renderer's
+// SplatFrameBuffers; callers with their own command lists (the viewer, icube
+// generate) record them there, render() submits them itself. The instance total
+// is read back once between preprocess and binning (it sizes the instance
+// buffers), so a frame is two submissions:
 //   1. preprocess (one invocation per Gaussian, a pipeline per SH degree, the
 //      SH row read as vec4 texels from windows of at most maxStorageBufferRange;
 //      also writes the depth keys) -> 32-bit RadixSort of the Gaussians by
@@ -61,8 +66,10 @@
 #include "gpu/commands.h"
 #include "prefix_scan.h"
 #include "radix_sort.h"
-#include "splat/rasterizer_cpu.h"
+#include "splat/gaussians.h"
+#include "splat/splat_frame.h"
 #include "splat/tile_binning_gpu.h"
+#include "splat/tile_radix_binning_gpu.h"
 
 #include <memory>
 
@@ -127,6 +134,43 @@ struct SplatGpuVariant {
   kernels::SubgroupOps votes = kernels::SubgroupOps::Auto;
 };
 
+// The per-frame device buffers, grown on demand (gpu::ensure_capacity) and reused frame to
+// frame; each stage names what it reads and writes.
+struct SplatFrameBuffers {
+  explicit SplatFrameBuffers(gpu::Context& ctx);
+  gpu::Buffer proj;         // SplatProjected per Gaussian (preprocess; tests read it)
+  gpu::Buffer records;      // SplatBlendRecord per Gaussian (preprocess -> blend)
+  gpu::Buffer rects;        // tile rect per Gaussian (preprocess -> sorted counts)
+  gpu::Buffer bin_records;  // SplatBinRecord in depth order (sorted counts -> binning)
+  gpu::Buffer depth_keys;   // depth sort keys, then scratch (preprocess -> depth sort)
+  gpu::Buffer order;        // Gaussian indices in depth order (depth sort -> binning)
+  gpu::Buffer values;       // counting path: Gaussian index per instance, tile-major (-> blend)
+  gpu::Buffer ranges;       // [first, end) per tile (binning -> blend)
+  gpu::Buffer rgba, depth;  // the image (blend); depth 16 bytes when the blend leaves it out
+  gpu::Buffer sky;          // the equirect sky image, uploaded when it changes
+  gpu::Buffer incomplete;   // counting path: != 0 when a walk was cut short
+  gpu::Buffer blend_status; // blocks over the blend's loop budget
+  gpu::Buffer readback;     // host-visible: [0] instances, [1] incomplete, [2] blend status
+  std::shared_ptr<const SkyImage> sky_image;  // the image currently in `sky`
+  std::unique_ptr<kernels::RadixSortScratch> depth_sort_scratch;
+  TileRadixBinning binning;  // depth-ordered counts -> offsets -> total; radix path: keys/values -> sort -> ranges
+  uint64_t bytes() const;
+};
+
+// One frame's set-up (SplatRendererGpu::plan): its constants, sizes and binning choice.
+struct SplatFramePlan {
+  const GpuGaussians* gaussians = nullptr;
+  SplatOptions opts;
+  SplatFrame frame;
+  uint32_t width = 0, height = 0, tiles = 0;
+  uint64_t n = 0;
+  uint64_t instances = 0;    // read_instances(), after record_preprocess's submission
+  bool counting = false;     // this frame bins with the counting sort (record_bin)
+  uint32_t chunks = 0;       // its chunk count
+  bool fallback = false;     // the counting walks were cut short and the frame was re-binned (radix)
+  shader::SplatBlendParams blend{};
+};
+
 class SplatRendererGpu {
  public:
   explicit SplatRendererGpu(gpu::Context& ctx, SplatGpuVariant variant = {});
@@ -138,12 +182,34 @@ class SplatRendererGpu {
   // walk was cut short (SplatTimings::binning_chunks, binning_fallback).
   TileBinning binning() const { return counting_ ? TileBinning::Counting : TileBinning::Radix; }
 
-  // Renders one frame. `download` = false skips reading the image back (benchmarks).
+  // Renders one frame: the stages below in two submissions. `download` = false skips reading
+  // the image back (benchmarks).
   SplatImage render(const GpuGaussians& g, const render::Camera& cam, const SplatOptions& opts,
                     SplatTimings* timings = nullptr, SplatDebug* debug = nullptr, bool download = true);
 
+  // ---- the stages, for callers that record into their own command lists ----
+  // Checks the frame against the device limits and sizes the per-Gaussian buffers (host only).
+  SplatFramePlan plan(const GpuGaussians& g, const render::Camera& cam, const SplatOptions& opts);
+  // preprocess -> depth sort -> tiles touched in depth order -> scan -> instance total copied
+  // to the host. The caller submits and waits before read_instances.
+  void record_preprocess(gpu::CommandList& cmd, const SplatFramePlan& p);
+  // The instance total of the completed preprocess submission; sizes the binning buffers and
+  // picks the frame's binning path (p.counting, p.chunks).
+  uint64_t read_instances(SplatFramePlan& p);
+  // Binning by tile (counting sort or the radix path) into buffers().ranges and the instance
+  // list, then a barrier for the blend.
+  void record_bin(gpu::CommandList& cmd, const SplatFramePlan& p);
+  // The blend into buffers().rgba / depth, and its status copied to the host.
+  void record_blend(gpu::CommandList& cmd, const SplatFramePlan& p);
+  // After the binning + blend submission: false when the counting walks were cut short (then
+  // set p.counting = false, re-record record_bin + record_blend and submit again). Throws when
+  // a blend block reached the loop budget (the image would be incomplete).
+  bool finish(SplatFramePlan& p);
+  const SplatFrameBuffers& buffers() const { return *f_; }
+  // The instance list the blend reads: the counting path's values or the radix path's.
+  const gpu::Buffer& instance_values(const SplatFramePlan& p) const;
+
  private:
-  struct Frame;
   gpu::Context& ctx_;
   gpu::Program& counts_;
   gpu::Program& duplicate_;
@@ -152,10 +218,10 @@ class SplatRendererGpu {
   gpu::Program& blend_color_;  // splat_blend without the depth outputs (SplatOptions::depth = false)
   SplatGpuVariant variant_;
   bool counting_;  // the resolved TileBinning
-  kernels::PrefixScan scan_;
-  kernels::RadixSort sort_;
-  TileBinningGpu binning_;
-  std::unique_ptr<Frame> f_;
+  kernels::RadixSort depth_sort_;
+  TileBinningGpu counting_binning_;
+  std::unique_ptr<SplatFrameBuffers> f_;
+  std::unique_ptr<gpu::GpuTimer> t1_, t2_;  // preprocess + depth sort; binning + blend
 };
 
 }  // namespace icube::splat

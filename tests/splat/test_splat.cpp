@@ -324,6 +324,34 @@ TEST_CASE("splat gpu: colour-only frames (SplatOptions::depth = false, splat_ble
   }
 }
 
+TEST_CASE("splat gpu: the stages recorded into a caller's command lists give render()'s image (both binning paths)") {
+  const auto cloud = test::random_cloud(23, 3000, 2, {0.0, 0.0, 0.0}, 2.0);
+  const auto cam = test::look_at_camera({1.0, -6.0, 2.0}, {0.0, 0.0, 0.0}, 141, 87, 130.0, 3.5, -1.0);
+  gpu::Context& ctx = test::gpu_context();
+  for (const auto binning : {splat::TileBinning::Radix, splat::TileBinning::Counting}) {
+    CAPTURE(int(binning));
+    splat::SplatRendererGpu r(ctx, splat::SplatGpuVariant{true, true, binning});
+    const auto g = r.upload(cloud);
+    SplatOptions o;
+    o.background = {0.1f, 0.2f, 0.3f};
+    const auto want = r.render(g, cam, o);
+    // A caller's own lists: preprocess, one readback, then binning and blend in one list.
+    splat::SplatFramePlan p = r.plan(g, cam, o);
+    ctx.submit_and_wait([&](gpu::CommandList& cmd) { r.record_preprocess(cmd, p); });
+    CHECK(r.read_instances(p) > 0);
+    CHECK(p.counting == (binning == splat::TileBinning::Counting));
+    ctx.submit_and_wait([&](gpu::CommandList& cmd) {
+      r.record_bin(cmd, p);
+      r.record_blend(cmd, p);
+    });
+    REQUIRE(r.finish(p));
+    const auto rgba = gpu::download_vector<float>(ctx, r.buffers().rgba, size_t{141} * 87 * 4);
+    const auto depth = gpu::download_vector<float>(ctx, r.buffers().depth, size_t{141} * 87 * 2);
+    CHECK(rgba == want.rgba);
+    CHECK(depth == want.depth);
+  }
+}
+
 TEST_CASE("splat gpu binning: the counting sort (splat_bin_chunks, splat_bin_offsets; 1, few, odd and many chunks) and the radix path give the CPU's tile lists and ranges") {
   using splat::SplatGpuVariant;
   using splat::TileBinning;
