@@ -5,8 +5,8 @@
 // median and expected range); opacity 0/1, tiny and huge scales, a Gaussian
 // containing the sensor, the ±180° azimuth wrap, a 100 km translation; GPU
 // vs CPU on random scenes (odd beam/column counts, rotated sensor) and the
-// real .ply: return flags equal on all but 0.5 % of rays, ranges within 1e-3
-// relative (first mismatches printed); a splat scene's moving object
+// real .ply: return flags and ranges (1e-3 relative) equal on all but 1 in 2,000
+// rays (first mismatches printed); a splat scene's moving object
 // (compose_frame per sweep, as `icube lidar --gaussians scene.json` does).
 // Coplanar Gaussians (the planes scene) have t* equal to within float
 // rounding, so float and double may order them differently; with the 1e-4
@@ -38,6 +38,12 @@ using shader::SplatLidarHit;
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
+// Scenes without coplanar Gaussians (random positions, the real .ply, a translated scene): t*
+// values are distinct far beyond float rounding, so GPU and CPU blend the same Gaussians in
+// the same order, and a ray can differ only where a threshold (α >= 1/255, T < 1e-4, the
+// return's α >= 0.5) is met within float rounding. Every seed here shows 0 such rays; one in
+// 2,000 is allowed for other drivers' exp. The planes scene has its own 0.5 % (header).
+constexpr size_t kRaysPerAllowedDiff = 2000;
 constexpr double kDeg = kPi / 180.0;
 
 // One caster per test case (it must not outlive the shared context).
@@ -266,7 +272,7 @@ TEST_CASE("lidar gaussians: large flat Gaussians (ground + wall) against analyti
     CHECK(checked > 3000);
     CHECK(bad == 0);
     const HitCompare hc = compare_hits(gpu, cpu, m, "planes");
-    CHECK(hc.flag_diff <= hc.rays / 200);
+    CHECK(hc.flag_diff <= hc.rays / 200);  // coplanar t* ties (header): 0.5 %
     CHECK(hc.range_diff <= hc.rays / 200);
     CHECK(hc.overflow > 0);      // many coplanar candidates: more than K pending, several passes
     CHECK(hc.truncated == 0);    // never the pass limit
@@ -403,8 +409,8 @@ TEST_CASE("lidar gaussians: a scene translated by 100 km casts the same") {
   CHECK(diff == 0);
   const auto c1 = splat::cast_lidar_gaussians_cpu(far, inten, m, pose_far, 2);
   const HitCompare hc = compare_hits(g1, c1, m, "100 km");
-  CHECK(hc.flag_diff <= hc.rays / 200);
-  CHECK(hc.range_diff <= hc.rays / 200);
+  CHECK(hc.flag_diff <= hc.rays / kRaysPerAllowedDiff);
+  CHECK(hc.range_diff <= hc.rays / kRaysPerAllowedDiff);
 }
 
 TEST_CASE("lidar gaussians gpu vs cpu: random scenes (odd sizes, rotated sensor)") {
@@ -424,8 +430,8 @@ TEST_CASE("lidar gaussians gpu vs cpu: random scenes (odd sizes, rotated sensor)
     const auto cpu = splat::cast_lidar_gaussians_cpu(c, inten, m, pose, 2);
     const HitCompare hc = compare_hits(gpu, cpu, m, ("random seed " + std::to_string(k.seed)).c_str());
     CHECK(hc.returns_cpu > hc.rays / 20);
-    CHECK(hc.flag_diff <= hc.rays / 200);
-    CHECK(hc.range_diff <= hc.rays / 200);
+    CHECK(hc.flag_diff <= hc.rays / kRaysPerAllowedDiff);
+    CHECK(hc.range_diff <= hc.rays / kRaysPerAllowedDiff);
     CHECK(hc.truncated == 0);
   }
 }
@@ -502,8 +508,8 @@ TEST_CASE("lidar gaussians gpu, stage by stage (splat_lidar_bin + splat_lidar_du
   INFO("splat_lidar_cast: per-ray compositing over those lists against the CPU reference");
   const auto cpu = splat::cast_lidar_gaussians_cpu(c, inten, m, pose, 2);
   const HitCompare hc = compare_hits(gpu, cpu, m, "stage-by-stage sweep");
-  CHECK(hc.flag_diff <= hc.rays / 200);
-  CHECK(hc.range_diff <= hc.rays / 200);
+  CHECK(hc.flag_diff <= hc.rays / kRaysPerAllowedDiff);
+  CHECK(hc.range_diff <= hc.rays / kRaysPerAllowedDiff);
   CHECK(hc.truncated == 0);
 }
 
@@ -520,8 +526,8 @@ TEST_CASE("lidar gaussians gpu vs cpu: the real .ply, waymo-top from its centroi
   const auto gpu = C.g.cast(C.g.upload(cloud, inten), pose);
   const auto cpu = splat::cast_lidar_gaussians_cpu(cloud, inten, m, pose, 2);
   const HitCompare hc = compare_hits(gpu, cpu, m, "pc_short.ply");
-  CHECK(hc.flag_diff <= hc.rays / 200);
-  CHECK(hc.range_diff <= hc.rays / 200);
+  CHECK(hc.flag_diff <= hc.rays / kRaysPerAllowedDiff);
+  CHECK(hc.range_diff <= hc.rays / kRaysPerAllowedDiff);
 }
 
 TEST_CASE("lidar gaussians: hits to returns (threshold, range mode, bad input)") {

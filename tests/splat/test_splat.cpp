@@ -4,9 +4,10 @@
 // points, antialiased mode) and on the real .ply in ../shared/data/splats:
 // identical tile-intersection lists (exact tile culling, and whole rects for
 // the whole-rect variant) and ranges, projected means/conics/depths
-// within 1e-4, pixels within 1e-3 except a reported boundary band (lavapipe's
-// exp/div differ from libm in the last bits, which flips the 1/255 and 1e-4
-// thresholds); a scene translated by 100 km renders the same; degenerate
+// within 1e-4, RGBA and expected depth within 1e-3 at every pixel, median
+// depth within 1e-3 except a bounded boundary band (lavapipe's exp2 differs from
+// libm's exp in the last bits, which can move the T = 0.5 crossing to another
+// Gaussian: there the median must be 0 or another binned Gaussian's depth); a scene translated by 100 km renders the same; degenerate
 // Gaussians (huge/tiny scales, opacity 0 and 1, straddling the near plane,
 // screen edges); CPU reference against hand-computed values; exact tile
 // culling drops only tiles no pixel needs (bit-identical images, fewer
@@ -51,11 +52,12 @@ bool close(float got, float want, double atol, double rtol) {
 struct Compare {
   size_t visible = 0, instances = 0, band = 0, pixels = 0, equal_keys = 0;
   double max_interior = 0.0;
+  double band_median = 0.0;  // largest relative median-depth error inside the band
 };
 
 // GPU vs CPU for one scene and camera; returns counts for reporting.
 Compare compare(splat::SplatRendererGpu& gpu, const splat::GaussianCloud& cloud, const render::Camera& cam,
-                const SplatOptions& opts, double band_fraction_max = 0.01,
+                const SplatOptions& opts, double band_fraction_max = 0.002,
                 splat::TileRule rule = splat::TileRule::Ellipse) {
   Compare r;
   const splat::GpuGaussians g = gpu.upload(cloud);
@@ -124,17 +126,43 @@ Compare compare(splat::SplatRendererGpu& gpu, const splat::GaussianCloud& cloud,
 
   r.pixels = size_t{gi.width} * gi.height;
   REQUIRE(gi.rgba.size() == ci.rgba.size());
+  // RGBA and expected depth: every pixel within 1e-3 (depths relative to the depth scale).
+  // Median depth: the depth of the Gaussian that takes T to <= 0.5 is a discontinuous function
+  // of the blend, so where lavapipe's exp2 and the CPU's exp differ in the last bits at T = 0.5
+  // (opacity-1 Gaussians, degenerate scenes) it may be another Gaussian's depth: those pixels
+  // form the boundary band, bounded in size (band_fraction_max) and in value: the GPU's median
+  // is still 0 (T stays above 0.5) or the depth of a Gaussian binned to the pixel's tile.
+  size_t bad_pixels = 0, bad_band = 0;
   for (size_t p = 0; p < r.pixels; ++p) {
-    double d = 0.0;
-    for (int c = 0; c < 4; ++c) d = std::max(d, std::fabs(double(gi.rgba[4 * p + c]) - double(ci.rgba[4 * p + c])));
-    // depths: relative to the depth scale
-    for (int c = 0; c < 2; ++c) {
-      const double want = double(ci.depth[2 * p + c]);
-      d = std::max(d, std::fabs(double(gi.depth[2 * p + c]) - want) / std::max(1.0, std::fabs(want)));
+    double dc = 0.0;
+    for (int c = 0; c < 4; ++c) dc = std::max(dc, std::fabs(double(gi.rgba[4 * p + c]) - double(ci.rgba[4 * p + c])));
+    const double we = double(ci.depth[2 * p]), wm = double(ci.depth[2 * p + 1]);
+    const double de = std::fabs(double(gi.depth[2 * p]) - we) / std::max(1.0, std::fabs(we));
+    const double dm = std::fabs(double(gi.depth[2 * p + 1]) - wm) / std::max(1.0, std::fabs(wm));
+    if (!(dc <= 1e-3) || !(de <= 1e-3)) {
+      if (bad_pixels++ < 5)
+        std::printf("  pixel %zu: |rgba| %.3g, |expected depth| %.3g over 1e-3\n", p, dc, de);
+      continue;
     }
-    if (!std::isfinite(d) || d > 1e-3) ++r.band;
-    else r.max_interior = std::max(r.max_interior, d);
+    r.max_interior = std::max({r.max_interior, dc, de});
+    if (dm <= 1e-3) {
+      r.max_interior = std::max(r.max_interior, dm);
+      continue;
+    }
+    ++r.band;
+    r.band_median = std::max(r.band_median, std::isfinite(dm) ? dm : 1e30);
+    const double got = double(gi.depth[2 * p + 1]);
+    const uint32_t tile = static_cast<uint32_t>((p / gi.width) / SPLAT_TILE * f.grid_x + (p % gi.width) / SPLAT_TILE);
+    bool found = got == 0.0;
+    for (uint32_t k = bins.ranges[2 * tile]; k < bins.ranges[2 * tile + 1] && !found; ++k)
+      found = std::fabs(double(proj[bins.values[k]].depth) - got) <= 1e-4 * std::max(1.0, std::fabs(got));
+    if (!found && bad_band++ < 5)
+      std::printf("  pixel %zu: median depth %.9g is no depth of a Gaussian binned to its tile\n", p, got);
   }
+  INFO("RGBA and expected depth within 1e-3 everywhere");
+  CHECK(bad_pixels == 0);
+  INFO("median depth: band pixels take another binned Gaussian's depth, and the band is small");
+  CHECK(bad_band == 0);
   CHECK(double(r.band) <= band_fraction_max * double(r.pixels));
   return r;
 }
@@ -143,7 +171,7 @@ void report(const std::string& what, const Compare& c) {
   MESSAGE(what << ": " << c.visible << " visible, " << c.instances << " tile instances (" << c.equal_keys
                << " with bit-identical 64-bit keys), boundary band " << c.band
                << " of " << c.pixels << " pixels (" << 100.0 * double(c.band) / double(std::max<size_t>(1, c.pixels))
-               << " %), max interior diff " << c.max_interior);
+               << " %, median depth only, max rel. error " << c.band_median << "), max interior diff " << c.max_interior);
 }
 
 }  // namespace
@@ -269,7 +297,7 @@ TEST_CASE("splat gpu vs cpu, stage by stage (splat_preprocess, splat_sorted_coun
       CAPTURE(tile_blend);
       splat::SplatRendererGpu v(test::gpu_context(), splat::SplatGpuVariant{cull, tile_blend});
       report(std::string("variant cull ") + (cull ? "on" : "off") + ", " + (tile_blend ? "tile" : "row") + " blend",
-             compare(v, cloud, cam, o, 0.01, cull ? splat::TileRule::Ellipse : splat::TileRule::Rect));
+             compare(v, cloud, cam, o, 0.002, cull ? splat::TileRule::Ellipse : splat::TileRule::Rect));
     }
   // splat_blend's two vote paths (subgroup intrinsics on GPUs, constant-index shuffles on CPU
   // devices), each forced on this device: the same images.
@@ -414,7 +442,7 @@ TEST_CASE("splat gpu binning: the counting sort (splat_bin_chunks, splat_bin_off
         CAPTURE(chunks);
         splat::SplatRendererGpu r(test::gpu_context(), SplatGpuVariant{cull, true, binning, chunks});
         REQUIRE(r.binning() == binning);
-        const Compare c = compare(r, sc.cloud, sc.cam, o, 0.01, cull ? splat::TileRule::Ellipse : splat::TileRule::Rect);
+        const Compare c = compare(r, sc.cloud, sc.cam, o, 0.002, cull ? splat::TileRule::Ellipse : splat::TileRule::Rect);
         if (sc.what == "one tile gets every instance" && cull) {
           // the scene does what it says: every instance in the principal point's tile
           const auto proj = splat::preprocess_cpu(sc.cloud, sc.cam, o);
@@ -545,7 +573,7 @@ TEST_CASE("splat: degenerate Gaussians") {
   for (const auto& g : proj) CHECK(std::isfinite(g.mean_x + g.conic_x + g.r + g.opacity));
   for (const auto& near : {0.01, 0.2, 1.0}) {
     o.near_z = near;
-    const Compare r = compare(R.r, c, cam, o, 0.02);
+    const Compare r = compare(R.r, c, cam, o, 0.01);
     report("degenerate set", r);
   }
   // opacity 1 alone: α is 0.99 at the centre, never 1
@@ -582,7 +610,7 @@ TEST_CASE("splat gpu: a tile over the blend's loop budget is an error, not a cut
     CHECK_THROWS_WITH_AS(r.render(r.upload(c), cam, o), doctest::Contains("blend loop iterations"), std::runtime_error);
   }
   splat::SplatRendererGpu r(test::gpu_context());
-  const Compare cmp = compare(r, c, cam, o, 0.01);
+  const Compare cmp = compare(r, c, cam, o, 0.002);
   CHECK(cmp.instances > 3000);
   std::printf("loop budget scene: %zu visible, %zu instances, band %zu of %zu pixels, max interior %.3g\n", cmp.visible,
               cmp.instances, cmp.band, cmp.pixels, cmp.max_interior);
