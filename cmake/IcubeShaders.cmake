@@ -6,7 +6,9 @@
 # looks them up by their folder-qualified name under shaders/ ("splat/blend"
 # for shaders/splat/blend.comp), so two modules may each have a kernel of the
 # same file name, and nothing at run time depends on the working directory.
-option(ICUBE_SHADER_DEBUG "Compile shaders with debug info (-gVS)" OFF)
+# -g (OpLine/OpSource debug info), not -gVS: Debian 12's glslang 12.0 crashes on
+# splat/lidar_cast.comp when asked for NonSemantic.Shader.DebugInfo (-gV / -gVS).
+option(ICUBE_SHADER_DEBUG "Compile shaders with debug info (glslangValidator -g)" OFF)
 
 function(icube_embed_shaders target)
   set(out_dir ${CMAKE_BINARY_DIR}/shaders)
@@ -24,7 +26,7 @@ function(icube_embed_shaders target)
     set(hdr ${out_dir}/${name}.spv.h)
     set(flags -V --target-env vulkan1.3 -I${CMAKE_SOURCE_DIR}/shaders --quiet)
     if(ICUBE_SHADER_DEBUG)
-      list(APPEND flags -gVS)
+      list(APPEND flags -g)
     endif()
     add_custom_command(
       OUTPUT ${hdr}

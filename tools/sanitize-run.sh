@@ -1,0 +1,46 @@
+#!/usr/bin/env bash
+# Builds the suite with AddressSanitizer + UndefinedBehaviorSanitizer into
+# build-sanitize/ (viewer and benchmarks off, shaders with debug info: the
+# option set CI builds once) and runs icube-tests under them on lavapipe.
+#
+#   tools/sanitize-run.sh                 # the whole suite (about 3x the plain run)
+#   tools/sanitize-run.sh --cpu-only      # the CPU-side tests: scene/ and world/ readers, plans, fits
+#   tools/sanitize-run.sh -- -tc='*npy*'  # any doctest arguments after --
+#   ICUBE_SANITIZE=thread tools/sanitize-run.sh -- -tc='world build*'   # ThreadSanitizer instead
+#
+# Every finding is fatal (-fno-sanitize-recover=all, halt_on_error). Leaks inside
+# the uninstrumented Vulkan driver stack are suppressed (tools/sanitizers/lsan.supp).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+cpu_only=0
+args=()
+while [ $# -gt 0 ]; do
+  case "$1" in
+    --cpu-only) cpu_only=1; shift ;;
+    --) shift; args+=("$@"); break ;;
+    -h|--help) sed -n '2,13p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    *) echo "sanitize-run: unknown argument '$1' (see --help)" >&2; exit 2 ;;
+  esac
+done
+
+sanitizers="${ICUBE_SANITIZE:-address,undefined}"
+dir="build-sanitize"
+[ "$sanitizers" = "address,undefined" ] || dir="build-sanitize-${sanitizers//,/-}"
+werror=OFF
+[ "${CI:-}" = "true" ] && werror=ON
+cmake -S . -B "$dir" -DCMAKE_BUILD_TYPE=Release -DICUBE_SANITIZE="$sanitizers" -DICUBE_WERROR="$werror" \
+  -DICUBE_BUILD_VIEWER=OFF -DICUBE_BUILD_BENCH=OFF -DICUBE_SHADER_DEBUG=ON >/dev/null
+cmake --build "$dir" -j"$(nproc)"
+
+supp="$PWD/tools/sanitizers/lsan.supp"
+export ASAN_OPTIONS="halt_on_error=1:detect_leaks=1:abort_on_error=0:strict_string_checks=1:detect_stack_use_after_return=1"
+export LSAN_OPTIONS="suppressions=$supp:print_suppressions=0"
+export UBSAN_OPTIONS="halt_on_error=1:print_stacktrace=1"
+export TSAN_OPTIONS="halt_on_error=1:second_deadlock_stack=1"
+if [ $cpu_only = 1 ]; then
+  # The test files of the CPU-only modules (no Vulkan work except where a case says so).
+  args=(--source-file='*/tests/scene/*,*/tests/world/test_triangle_mesh.cpp,*/tests/world/test_mesh_voxelize.cpp,*/tests/world/test_voxel_grid.cpp,*/tests/world/test_world_io.cpp,*/tests/world/test_world_npy.cpp,*/tests/world/test_chunk_plan.cpp,*/tests/world/test_road_surface.cpp,*/tests/world/test_world_robustness.cpp' "${args[@]}")
+fi
+echo "== icube-tests under $sanitizers ($dir)"
+"$dir/icube-tests" "${args[@]}"
