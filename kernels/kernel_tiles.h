@@ -3,6 +3,7 @@
 // a tile of kTileElements in subgroup-wide batches.
 #pragma once
 
+#include "gpu/commands.h"
 #include "gpu/program.h"
 
 #include <cstdint>
@@ -19,7 +20,7 @@ inline constexpr uint32_t kSpecLocalSizeX = 0;
 inline constexpr uint32_t kSpecTile = 1;
 inline constexpr uint32_t kSpecRadixLanes = 2;  // primitives/radix_common.glsl RADIX_LANES
 
-inline uint64_t tiles_for(uint64_t n) { return (n + kTileElements - 1) / kTileElements; }
+inline uint64_t tiles_for(uint64_t n) { return gpu::div_up(n, kTileElements); }
 
 // Specialisation for a one-subgroup-per-workgroup kernel on `ctx`.
 inline gpu::SpecConstants subgroup_tile_spec(const gpu::Context& ctx) {

@@ -48,8 +48,8 @@ uint32_t TileBinningGpu::chunks_for(uint64_t instances, uint32_t tiles, uint32_t
   const uint64_t sg = std::max<uint32_t>(1, ctx_.subgroup_size());
   uint64_t c = requested;
   if (!c) {
-    c = std::max<uint64_t>(chunk_groups(device_threads()) * sg, (instances + kMaxInstancesPerChunk - 1) / kMaxInstancesPerChunk);
-    c = (c + sg - 1) / sg * sg;  // whole subgroups
+    c = std::max<uint64_t>(chunk_groups(device_threads()) * sg, gpu::div_up(instances, kMaxInstancesPerChunk));
+    c = gpu::align_up(c, sg);  // whole subgroups
   }
   const uint64_t max_counters = std::min<uint64_t>({ctx_.info().max_storage_buffer_range / 4,
                                                      ctx_.info().max_texel_buffer_elements, UINT32_MAX});
@@ -69,7 +69,7 @@ void TileBinningGpu::record(gpu::CommandList& cmd, const Frame& f, const gpu::Bu
   const shader::SplatBinParams p{static_cast<uint32_t>(n),
                                  f.grid_x,
                                  f.chunks,
-                                 static_cast<uint32_t>((f.instances + f.chunks - 1) / f.chunks),
+                                 static_cast<uint32_t>(gpu::div_up(f.instances, f.chunks)),
                                  f.cull ? 1u : 0u,
                                  f.tiles,
                                  static_cast<uint32_t>(f.instances),

@@ -22,9 +22,7 @@
 // kChunkGroupsPerThread subgroups per device thread (LP_NUM_THREADS, else the
 // host's hardware threads; at least kMinChunkGroups) so the threads share
 // them, and no more, since every chunk adds a counter per tile to zero, scan
-// and walk (100k Gaussians at 720p on 2 threads, with the depth-ordered bin
-// records: 32 chunks 12.7–14.1 ms, 64 13.3–14.8, 128 14.8–16.2 for the whole
-// binning; bench/README.md), and enough that
+// and walk (measured chunk counts: bench/README.md), and enough that
 // no chunk exceeds kMaxInstancesPerChunk (lavapipe ends an invocation's loops
 // after 65,535 iterations in all); the counters stay within one storage
 // binding and one texel-buffer view. A walk that still got cut short reports it (incomplete != 0) and

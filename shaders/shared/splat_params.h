@@ -64,7 +64,7 @@ struct SplatBlendRecord {
 // depth position j (of Gaussian order[j]); the binning walks (splat_bin_chunks) and
 // splat_duplicate read them in j order, so their per-Gaussian reads stream instead of
 // gathering records by Gaussian index (whose cache misses made the counting binning take
-// twice as long: 22.7 against 11.0 ms at 100k / 720p). Packed and read by
+// twice as long; bench/README.md). Packed and read by
 // splat/tiles.glsl.
 struct SplatBinRecord {
   float mean_x, mean_y, conic_x, conic_y;  // as SplatBlendRecord
