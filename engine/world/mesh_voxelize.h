@@ -85,7 +85,8 @@ std::vector<VehicleVoxel> vote_into_cells(const BoxVoxelization& vox, const scen
 std::vector<VehicleVoxel> voxelize_vehicle(const TriangleMesh& mesh, const scene::BoxState& box, uint32_t instance_id,
                                            const VoteOptions& options = {});
 
-// (vehicle_insert.cpp) Inserts the static vehicles of scene state `time_index`
+// (vehicle_insert.cpp; vehicle_insert.h has the form with a mesh and class per
+// vehicle type) Inserts the static vehicles of scene state `time_index`
 // (ObjectType::Vehicle tracks, not dynamic, valid at the index) as CAR voxels
 // with their instance ids, in increasing instance-id order; voxels already in
 // the grid win, so where two cars overlap the lower id keeps the cell. Uses

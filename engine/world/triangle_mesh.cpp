@@ -389,8 +389,15 @@ TriangleMesh parse_gltf(std::string_view bytes, const std::string& name, const s
   }
   TriangleMesh mesh;
   GltfReader reader{model, name, mesh};
-  if (model.scenes.empty()) {
+  if (model.scenes.empty() && model.nodes.empty()) {
     for (size_t m = 0; m < model.meshes.size(); ++m) reader.add_mesh(static_cast<int>(m), glm::dmat4(1.0));
+  } else if (model.scenes.empty()) {
+    std::vector<bool> is_child(model.nodes.size(), false);
+    for (const auto& n : model.nodes)
+      for (int c : n.children)
+        if (c >= 0 && c < static_cast<int>(model.nodes.size())) is_child[static_cast<size_t>(c)] = true;
+    for (size_t n = 0; n < model.nodes.size(); ++n)
+      if (!is_child[n]) reader.add_node(static_cast<int>(n), glm::dmat4(1.0), 0);
   } else {
     const int s = model.defaultScene >= 0 ? model.defaultScene : 0;
     if (s >= static_cast<int>(model.scenes.size())) throw InputError(name, "scene " + std::to_string(s), "does not exist");
@@ -401,16 +408,32 @@ TriangleMesh parse_gltf(std::string_view bytes, const std::string& name, const s
 
 // ---- common -------------------------------------------------------------------
 
-TriangleMesh load_mesh(const std::string& path) {
+const char* mesh_format_name(MeshFormat format) {
+  switch (format) {
+    case MeshFormat::Ply: return "PLY";
+    case MeshFormat::Gltf: return "glTF";
+    case MeshFormat::Obj: break;
+  }
+  return "OBJ";
+}
+
+MeshFormat mesh_format_of(std::string_view v) {
+  if (v.size() >= 4 && v.substr(0, 3) == "ply" && (v[3] == '\n' || v[3] == '\r')) return MeshFormat::Ply;
+  if (v.size() >= 4 && v.substr(0, 4) == "glTF") return MeshFormat::Gltf;
+  const size_t first = v.find_first_not_of(" \t\r\n");
+  if (first != std::string_view::npos && v[first] == '{') return MeshFormat::Gltf;
+  return MeshFormat::Obj;
+}
+
+TriangleMesh load_mesh(const std::string& path, MeshFormat* format) {
   const std::string bytes = scene::read_file(path);
   const std::string_view v(bytes);
-  if (v.size() >= 4 && v.substr(0, 3) == "ply" && (v[3] == '\n' || v[3] == '\r')) return parse_ply(v, path);
+  const MeshFormat f = mesh_format_of(v);
+  if (format) *format = f;
+  if (f == MeshFormat::Ply) return parse_ply(v, path);
+  if (f == MeshFormat::Obj) return parse_obj(v, path);
   const size_t slash = path.find_last_of('/');
-  const std::string dir = slash == std::string::npos ? "" : path.substr(0, slash);
-  if (v.size() >= 4 && v.substr(0, 4) == "glTF") return parse_gltf(v, path, dir);
-  const size_t first = v.find_first_not_of(" \t\r\n");
-  if (first != std::string_view::npos && v[first] == '{') return parse_gltf(v, path, dir);
-  return parse_obj(v, path);
+  return parse_gltf(v, path, slash == std::string::npos ? "" : path.substr(0, slash));
 }
 
 MeshBounds mesh_bounds(const TriangleMesh& mesh) {
