@@ -10,6 +10,7 @@
 #include "command_registry.h"
 #include "mesh_args.h"
 #include "progress.h"
+#include "world_top_png.h"
 
 #include "scene/scene_load.h"
 #include "world/procedural/procedural_prior.h"
@@ -17,7 +18,6 @@
 #include "world/vehicle_mesh_set.h"
 #include "world/world_build.h"
 #include "world/world_file.h"
-#include "world/world_plot.h"
 
 #include <CLI/CLI.hpp>
 
@@ -112,12 +112,7 @@ void cmd_build(BuildArgs& a) {
     world::save_world(r.world, a.output);
     print_summary(r, *generator, meshes);
     std::printf("wrote %s\n", a.output.c_str());
-    if (!a.png.empty()) {
-      const world::WorldPlot p = world::render_world_top(r.world);
-      world::write_world_png(p, a.png);
-      std::printf("wrote %s (%d x %d px, %.2f m/px)\n", a.png.c_str(), p.image.width(), p.image.height(),
-                  p.metres_per_pixel);
-    }
+    if (!a.png.empty()) write_top_png(r.world, a.png);
   });
 }
 
@@ -125,12 +120,7 @@ void cmd_plot(const std::string& input, const std::string& output, int max_pixel
   run_command([&](scene::Diagnostics&) {
     refuse_overwriting_input(input, output);
     const world::VoxelGrid g = world::load_world(input);
-    world::WorldPlotOptions o;
-    o.max_pixels = max_pixels;
-    const world::WorldPlot p = world::render_world_top(g, o);
-    world::write_world_png(p, output);
-    std::printf("wrote %s (%d x %d px, %.2f m/px)\n", output.c_str(), p.image.width(), p.image.height(),
-                p.metres_per_pixel);
+    write_top_png(g, output, max_pixels);
   });
 }
 

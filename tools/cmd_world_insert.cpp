@@ -7,13 +7,13 @@
 #include "cli_common.h"
 #include "command_registry.h"
 #include "mesh_args.h"
+#include "world_top_png.h"
 
 #include "world/object_insert.h"
 #include "world/semantics.h"
 #include "world/vehicle_mesh.h"
 #include "world/voxel_grid.h"
 #include "world/world_file.h"
-#include "world/world_plot.h"
 
 #include <CLI/CLI.hpp>
 
@@ -86,12 +86,7 @@ void cmd_insert(const InsertArgs& a) {
     std::printf("  world %llu -> %llu voxels\n", static_cast<unsigned long long>(before),
                 static_cast<unsigned long long>(g.voxel_count()));
     std::printf("wrote %s\n", a.output.c_str());
-    if (!a.png.empty()) {
-      const world::WorldPlot p = world::render_world_top(g);
-      world::write_world_png(p, a.png);
-      std::printf("wrote %s (%d x %d px, %.2f m/px)\n", a.png.c_str(), p.image.width(), p.image.height(),
-                  p.metres_per_pixel);
-    }
+    if (!a.png.empty()) write_top_png(g, a.png);
   });
 }
 
