@@ -149,6 +149,19 @@ TEST_CASE("cli: icube world build --vehicle-meshes gives each static vehicle its
     CHECK(hist[static_cast<size_t>(world::SemanticClass::Truck)] > 0);
   }
 
+  SUBCASE("--vehicle-mesh: one mesh for every static vehicle") {
+    const std::string obj = (t.path / "meshes/car.obj").string();
+    const auto r = test::run_icube("world build '" + scene.string() + "' -o '" + out.string() + "' --vehicle-mesh '" +
+                                       obj + "' --mesh-axes +x,+z 2>/dev/null",
+                                   t.path);
+    INFO(r.output);
+    REQUIRE(r.code == 0);
+    CHECK(r.output.find(" car (" + obj + " (OBJ, axes +x,+z, ") != std::string::npos);
+    const auto hist = world::load_world(out.string()).class_histogram();
+    CHECK(hist[static_cast<size_t>(world::SemanticClass::Car)] > 0);
+    CHECK(hist[static_cast<size_t>(world::SemanticClass::Truck)] == 0);
+  }
+
   SUBCASE("bad JSON key or mesh: one error line naming the file and key, no world") {
     const std::tuple<std::string, std::string> bad[] = {
         {R"({"car": {"mesh": "meshes/car.obj", "length": [4, 2]}})", "vehicles.json: car.length: must be [min, max]"},

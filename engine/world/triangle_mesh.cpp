@@ -279,6 +279,40 @@ struct GltfReader {
     return buf.data() + start;
   }
 
+  // One POSITION element: float, or integers (KHR_mesh_quantization), normalized to [0, 1] / [-1, 1] when flagged.
+  static glm::dvec3 position(const unsigned char* e, int component, bool normalized) {
+    glm::dvec3 v(0.0);
+    for (int k = 0; k < 3; ++k) {
+      switch (component) {
+        case TINYGLTF_COMPONENT_TYPE_FLOAT: {
+          float f;
+          std::memcpy(&f, e + 4 * k, 4);
+          v[k] = f;
+          break;
+        }
+        case TINYGLTF_COMPONENT_TYPE_BYTE: {
+          const auto b = static_cast<int8_t>(e[k]);
+          v[k] = normalized ? std::max(b / 127.0, -1.0) : b;
+          break;
+        }
+        case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: v[k] = normalized ? e[k] / 255.0 : e[k]; break;
+        case TINYGLTF_COMPONENT_TYPE_SHORT: {
+          int16_t h;
+          std::memcpy(&h, e + 2 * k, 2);
+          v[k] = normalized ? std::max(h / 32767.0, -1.0) : h;
+          break;
+        }
+        default: {
+          uint16_t h;
+          std::memcpy(&h, e + 2 * k, 2);
+          v[k] = normalized ? h / 65535.0 : h;
+          break;
+        }
+      }
+    }
+    return v;
+  }
+
   void add_primitive(const tinygltf::Primitive& prim, const glm::dmat4& xf, const std::string& where) {
     const int mode = prim.mode < 0 ? TINYGLTF_MODE_TRIANGLES : prim.mode;
     if (mode != TINYGLTF_MODE_TRIANGLES && mode != TINYGLTF_MODE_TRIANGLE_STRIP && mode != TINYGLTF_MODE_TRIANGLE_FAN)
@@ -286,13 +320,16 @@ struct GltfReader {
     const auto it = prim.attributes.find("POSITION");
     if (it == prim.attributes.end()) throw InputError(name, where, "no POSITION attribute");
     size_t stride = 0, count = 0;
-    const unsigned char* p =
-        accessor_data(it->second, TINYGLTF_TYPE_VEC3, {TINYGLTF_COMPONENT_TYPE_FLOAT}, stride, count, where);
+    const unsigned char* p = accessor_data(
+        it->second, TINYGLTF_TYPE_VEC3,
+        {TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_COMPONENT_TYPE_BYTE, TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE,
+         TINYGLTF_COMPONENT_TYPE_SHORT, TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT},
+        stride, count, where);
+    const auto& acc = model.accessors[static_cast<size_t>(it->second)];
     const uint32_t base = static_cast<uint32_t>(mesh.positions.size());
     for (size_t i = 0; i < count; ++i) {
-      float f[3];
-      std::memcpy(f, p + i * stride, sizeof f);
-      const glm::dvec4 w = xf * glm::dvec4(f[0], f[1], f[2], 1.0);
+      const glm::dvec3 v = position(p + i * stride, acc.componentType, acc.normalized);
+      const glm::dvec4 w = xf * glm::dvec4(v, 1.0);
       if (!std::isfinite(w.x) || !std::isfinite(w.y) || !std::isfinite(w.z))
         throw InputError(name, where, "position " + std::to_string(i) + " is not finite");
       mesh.positions.emplace_back(w);

@@ -43,8 +43,10 @@ TriangleMesh parse_obj(std::string_view text, const std::string& name);
 // (matrix, or T * R * S) from the root down, so a node instanced by several
 // parents appears once per path. Without scenes, the root nodes (those no
 // node lists as a child) are walked; without nodes, every mesh is taken
-// untransformed. Only embedded (GLB or data: URI) buffers when parsing from
-// memory; load_mesh() also resolves external buffers next to the file.
+// untransformed. POSITION may be float or, as KHR_mesh_quantization allows,
+// 8/16-bit integers, normalized or not. Only embedded (GLB or data: URI)
+// buffers when parsing from memory; load_mesh() also resolves external
+// buffers next to the file.
 TriangleMesh parse_gltf(std::string_view bytes, const std::string& name, const std::string& base_dir = "");
 
 enum class MeshFormat { Ply, Obj, Gltf };
