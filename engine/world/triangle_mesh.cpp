@@ -424,6 +424,10 @@ TriangleMesh parse_gltf(std::string_view bytes, const std::string& name, const s
     while (!msg.empty() && msg.back() == ' ') msg.pop_back();
     throw InputError(name, "glTF", msg);
   }
+  // Compressed geometry required without a fallback: the accessors hold no readable positions.
+  for (const std::string& ext : model.extensionsRequired)
+    if (ext == "KHR_draco_mesh_compression" || ext == "EXT_meshopt_compression" || ext == "KHR_meshopt_compression")
+      throw InputError(name, "glTF", "requires " + ext + " (compressed geometry), which this reader cannot decode");
   TriangleMesh mesh;
   GltfReader reader{model, name, mesh};
   if (model.scenes.empty() && model.nodes.empty()) {
