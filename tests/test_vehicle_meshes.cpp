@@ -289,6 +289,10 @@ TEST_CASE("object_insert: one object, existing voxels win unless overwritten, th
   BoxState nan = b;
   nan.heading = std::nan("");
   CHECK_THROWS_AS(insert_object(grid, car, nan), std::invalid_argument);
+  BoxState huge = b;
+  huge.length = huge.width = 1e6;  // 10^14 sub-voxels: refused before anything is allocated
+  CHECK(error_of([&] { insert_object(grid, car, huge); }).find("1e+06 x 1e+06 x 1.6 m box spans") !=
+        std::string::npos);
   o.class_id = 0;
   CHECK_THROWS_AS(insert_object(grid, car, b, o), std::invalid_argument);
   VoxelGrid full;

@@ -27,7 +27,8 @@
 //    min_sub_voxels = 4 (half of the 8 a cell holds) gives +2.5 % and +7.6 %
 //    (tests/test_mesh_voxelize.cpp).
 // A box with a zero, negative or non-finite dimension has no volume and gives
-// no voxels (not an error: Waymo has boxes of zero height).
+// no voxels (not an error: Waymo has boxes of zero height). A box spanning
+// more than kMaxBoxSubVoxels sub-voxels throws std::invalid_argument.
 #pragma once
 
 #include "scene/scene.h"
@@ -46,6 +47,9 @@ namespace icube::world {
 class VoxelGrid;
 
 inline constexpr double kCarSubVoxel = 0.1;
+// The most sub-voxels (with one padding layer) one box may span: 2^28, a
+// 256 MiB work grid, e.g. 64 x 64 x 64 m at 0.1 m.
+inline constexpr size_t kMaxBoxSubVoxels = size_t{1} << 28;
 
 // The mesh scaled into the box frame (centre at the origin), step 1 above.
 // Empty when the mesh or the box is empty.
