@@ -180,6 +180,14 @@ TEST_CASE("vehicle_mesh_set: bad per-type JSON gives one-line errors naming the 
     CHECK(msg.find('\n') == std::string::npos);
   }
   CHECK_THROWS_AS(load_vehicle_mesh_set((dir.path / "missing.json").string()), InputError);
+  // The JSON is checked whole before any mesh is read: parsing reads no file, and
+  // an overlap is reported although the first mesh is missing.
+  const VehicleMeshSet unread = parse_vehicle_mesh_set(R"({"car": {"mesh": "nope.ply"}})", "v.json", "/some/dir");
+  CHECK(unread.types.at(0).source == "/some/dir/nope.ply");
+  CHECK(unread.types.at(0).mesh.positions.empty());
+  icube::scene::write_file_atomic(
+      j, R"({"car": {"mesh": "nope.ply", "length": [0, 5]}, "bus": {"mesh": "car.obj", "length": [4, 9]}})");
+  CHECK(error_of([&] { load_vehicle_mesh_set(j); }).find("bus.length: [4, 9) overlaps") != std::string::npos);
 }
 
 TEST_CASE("vehicle_insert: each static vehicle gets the mesh and class its length picks") {

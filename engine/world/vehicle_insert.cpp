@@ -60,8 +60,8 @@ uint64_t insert_vehicles(VoxelGrid& grid, const scene::Scene& scene, int time_in
                          const std::function<bool(const scene::Track&, const scene::BoxState&)>& keep,
                          size_t* inserted) {
   VehicleMeshSet one;
-  one.types.push_back(VehicleType{
-      "car", static_cast<uint8_t>(SemanticClass::Car), 0.0, std::numeric_limits<double>::infinity(), "", {}, mesh});
+  one.types.emplace_back();  // "car", every length
+  one.types.back().mesh = mesh;
   const VehicleInsertStats st = insert_vehicles(grid, scene, time_index, one, min_sub_voxels, keep);
   if (inserted) *inserted = st.vehicles;
   return st.voxels;

@@ -48,10 +48,9 @@ VehicleType read_type(const std::string& key, const nlohmann::json& j, const std
   t.class_id = *cls;
   if (!j.contains("mesh") || !j["mesh"].is_string() || j["mesh"].get<std::string>().empty())
     throw InputError(name, key + ".mesh", "missing: the mesh file (PLY, OBJ or glTF) as a string");
-  std::optional<MeshAxes> axes;
   if (j.contains("axes")) {
-    axes = j["axes"].is_string() ? parse_mesh_axes(j["axes"].get<std::string>()) : std::nullopt;
-    if (!axes)
+    t.requested_axes = j["axes"].is_string() ? parse_mesh_axes(j["axes"].get<std::string>()) : std::nullopt;
+    if (!t.requested_axes)
       throw InputError(name, key + ".axes", "must be \"FORWARD,UP\", each one of +x -x +y -y +z -z, e.g. \"+z,+y\"");
   }
   if (j.contains("length"))
@@ -60,9 +59,6 @@ VehicleType read_type(const std::string& key, const nlohmann::json& j, const std
     throw InputError(name, key + ".length", "missing: with several types each needs [min, max] in metres");
   const std::filesystem::path mesh(j["mesh"].get<std::string>());
   t.source = (mesh.is_absolute() || base_dir.empty() ? mesh : std::filesystem::path(base_dir) / mesh).string();
-  VehicleMeshFile f = load_vehicle_mesh(t.source, axes);
-  t.axes = f.axes;
-  t.mesh = std::move(f.mesh);
   return t;
 }
 
@@ -83,7 +79,6 @@ const VehicleType& VehicleMeshSet::pick(double length) const {
 VehicleMeshSet builtin_vehicle_meshes() {
   VehicleMeshSet s;
   VehicleType t;
-  t.name = "car";
   t.source = "built-in car";
   t.mesh = builtin_car_mesh();
   s.types.push_back(std::move(t));
@@ -93,9 +88,8 @@ VehicleMeshSet builtin_vehicle_meshes() {
 VehicleMeshSet single_vehicle_mesh(VehicleMeshFile file, const std::string& source) {
   VehicleMeshSet s;
   VehicleType t;
-  t.name = "car";
   t.source = source;
-  t.axes = file.axes;
+  t.requested_axes = t.axes = file.axes;
   t.mesh = std::move(file.mesh);
   s.types.push_back(std::move(t));
   return s;
@@ -127,7 +121,13 @@ VehicleMeshSet parse_vehicle_mesh_set(const std::string& text, const std::string
 
 VehicleMeshSet load_vehicle_mesh_set(const std::string& json_path) {
   const std::string dir = std::filesystem::path(json_path).parent_path().string();
-  return parse_vehicle_mesh_set(scene::read_file(json_path), json_path, dir);
+  VehicleMeshSet s = parse_vehicle_mesh_set(scene::read_file(json_path), json_path, dir);
+  for (auto& t : s.types) {
+    VehicleMeshFile f = load_vehicle_mesh(t.source, t.requested_axes);
+    t.axes = f.axes;
+    t.mesh = std::move(f.mesh);
+  }
+  return s;
 }
 
 }  // namespace icube::world

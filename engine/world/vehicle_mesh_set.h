@@ -21,28 +21,32 @@
 // there is one type: every length), "axes" (optional, vehicle_mesh.h
 // "FORWARD,UP"; default by the mesh's format). Anything else is an error.
 // Errors are scene::InputError "<json>: <key>: <what>", e.g.
-//   "vehicles.json: truck.length: must be [min, max] with 0 <= min < max"
+//   "vehicles.json: truck.length: must be [min, max] in metres with 0 <= min < max"
 //   "vehicles.json: van: unknown vehicle type (car, truck, bus, other_vehicle)"
-// and errors of a mesh name the mesh file.
+// and errors of a mesh name the mesh file (meshes are read only once the
+// whole JSON has passed).
 #pragma once
 
+#include "world/semantics.h"
 #include "world/triangle_mesh.h"
 #include "world/vehicle_mesh.h"
 
 #include <cstdint>
 #include <limits>
+#include <optional>
 #include <string>
 #include <vector>
 
 namespace icube::world {
 
 struct VehicleType {
-  std::string name;  // a vehicle class name
-  uint8_t class_id = 1;
+  std::string name = "car";  // a vehicle class name
+  uint8_t class_id = static_cast<uint8_t>(SemanticClass::Car);
   double min_length = 0.0, max_length = std::numeric_limits<double>::infinity();
-  std::string source;  // the mesh file, or "built-in car"
-  MeshAxes axes;
-  TriangleMesh mesh;  // object frame (x forward, y left, z up)
+  std::string source;                      // the mesh file, or "built-in car"
+  std::optional<MeshAxes> requested_axes;  // "axes" (or --mesh-axes); nullopt: by the mesh's format
+  MeshAxes axes;                           // the ones applied
+  TriangleMesh mesh;                       // object frame (x forward, y left, z up)
 };
 
 struct VehicleMeshSet {
@@ -56,8 +60,10 @@ VehicleMeshSet builtin_vehicle_meshes();
 // ... or a user's mesh (--vehicle-mesh FILE [--mesh-axes F,U]).
 VehicleMeshSet single_vehicle_mesh(VehicleMeshFile file, const std::string& source);
 
-// The per-type JSON above, meshes loaded.
+// The per-type JSON above, checked whole before any mesh is read, then the meshes loaded.
 VehicleMeshSet load_vehicle_mesh_set(const std::string& json_path);
+// The JSON alone (no file is read): types sorted and checked, `source`
+// resolved against base_dir, meshes empty.
 VehicleMeshSet parse_vehicle_mesh_set(const std::string& json_text, const std::string& name,
                                       const std::string& base_dir);
 
