@@ -157,6 +157,7 @@ TEST_CASE("vehicle_mesh_set: bad per-type JSON gives one-line errors naming the 
       {"{}", "v.json: expected an object of vehicle types"},
       {R"({"van": {"mesh": "car.obj"}})", "v.json: van: unknown vehicle type (car, truck, bus, other_vehicle)"},
       {R"({"road": {"mesh": "car.obj"}})", "v.json: road: unknown vehicle type"},
+      {R"({"c\nar": {"mesh": "car.obj"}})", "v.json: c?ar: unknown vehicle type"},  // a JSON newline in a key
       {R"({"car": "car.obj"})", "v.json: car: must be an object"},
       {R"({"car": {"length": [0, 5]}})", "v.json: car.mesh: missing"},
       {R"({"car": {"mesh": 3}})", "v.json: car.mesh: missing"},
@@ -243,6 +244,7 @@ TEST_CASE("object_insert: the --box spec, with radians or degrees, and its one-l
       {"1,,3,4,5,6,7", "cy '' is not a number"},
       {"1,2,3,4,5,6,east", "heading 'east' is not a number"},
       {"1,2,3,4m,5,6,7", "length '4m' is not a number"},
+      {"1,2\n,3,4,5,6,7", "'1,2?,3,4,5,6,7': cy '2?' is not a number"},  // one line whatever the input
       {"nan,2,3,4,5,6,7", "cx is not finite"},
       {"1,2,3,4,inf,6,7", "width is not finite"},
       {"1,2,3,4,5,6,nandeg", "heading is not finite"},

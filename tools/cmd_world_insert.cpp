@@ -40,7 +40,7 @@ uint8_t class_arg(const std::string& name) {
   std::string known;
   for (int k = 1; k < world::kNumSemanticClasses; ++k)
     known += std::string(k > 1 ? ", " : "") + world::semantic_class_name(static_cast<uint8_t>(k));
-  throw std::invalid_argument("--class '" + name + "': unknown class (" + known + ")");
+  throw std::invalid_argument("--class '" + scene::printable(name) + "': unknown class (" + known + ")");
 }
 
 void cmd_insert(const InsertArgs& a) {

@@ -2,6 +2,7 @@
 // --mesh` share: --mesh-axes FORWARD,UP (engine/world/vehicle_mesh.h).
 #pragma once
 
+#include "scene/input_error.h"
 #include "world/vehicle_mesh.h"
 
 #include <optional>
@@ -19,7 +20,7 @@ inline std::optional<world::MeshAxes> mesh_axes_arg(const std::string& text) {
   if (text.empty() || text == "auto") return std::nullopt;
   const auto axes = world::parse_mesh_axes(text);
   if (!axes)
-    throw std::invalid_argument("--mesh-axes '" + text +
+    throw std::invalid_argument("--mesh-axes '" + scene::printable(text) +
                                 "': expected FORWARD,UP, each one of +x -x +y -y +z -z on different axes, e.g. +z,+y");
   return axes;
 }

@@ -1,6 +1,7 @@
 // insert_object(): one mesh in a box into a world; see object_insert.h.
 #include "world/object_insert.h"
 
+#include "scene/input_error.h"
 #include "world/mesh_voxelize.h"
 #include "world/voxel_grid.h"
 
@@ -23,15 +24,20 @@ void check_box(const scene::BoxState& b) {
     throw std::invalid_argument("insert_object: box length, width and height must be positive");
 }
 
+// Appended piece by piece, as below: GCC 12 misreads chained std::string + here as an overlapping memcpy.
+std::string quoted(std::string_view text, size_t max) {
+  std::string out(1, '\'');
+  out += scene::printable(text, max);
+  out += '\'';
+  return out;
+}
+
 }  // namespace
 
 scene::BoxState parse_box_spec(std::string_view text) {
   static const char* const kField[7] = {"cx", "cy", "cz", "length", "width", "height", "heading"};
-  // Appended piece by piece: GCC 12 misreads chained std::string + as an overlapping memcpy.
   auto fail = [&](std::initializer_list<std::string_view> parts) {
-    std::string msg = "'";
-    msg.append(text.substr(0, 80));
-    msg += "': ";
+    std::string msg = quoted(text, 80) + ": ";
     for (std::string_view p : parts) msg.append(p);
     throw std::invalid_argument(msg);
   };
@@ -50,7 +56,7 @@ scene::BoxState parse_box_spec(std::string_view text) {
     if (!field.empty() && field[0] == '+') field.remove_prefix(1);
     const auto [p, ec] = std::from_chars(field.data(), field.data() + field.size(), v[n]);
     if (field.empty() || ec != std::errc() || p != field.data() + field.size())
-      fail({kField[n], " '", raw.substr(0, 40), "' is not a number"});
+      fail({kField[n], " ", quoted(raw, 40), " is not a number"});
     if (!std::isfinite(v[n])) fail({kField[n], " is not finite"});
     if (n >= 3 && n <= 5 && !(v[n] > 0.0)) fail({kField[n], " must be positive"});
     v[n++] *= scale;

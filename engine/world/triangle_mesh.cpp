@@ -287,7 +287,7 @@ struct GltfReader {
         case TINYGLTF_COMPONENT_TYPE_FLOAT: {
           float f;
           std::memcpy(&f, e + 4 * k, 4);
-          v[k] = f;
+          v[k] = static_cast<double>(f);
           break;
         }
         case TINYGLTF_COMPONENT_TYPE_BYTE: {

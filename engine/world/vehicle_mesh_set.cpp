@@ -34,15 +34,16 @@ void read_length(const nlohmann::json& j, const std::string& name, const std::st
   t.max_length = hi;
 }
 
-VehicleType read_type(const std::string& key, const nlohmann::json& j, const std::string& name,
+VehicleType read_type(const std::string& json_key, const nlohmann::json& j, const std::string& name,
                       const std::string& base_dir, bool several) {
-  const auto cls = semantic_class_from_name(key);
+  const auto cls = semantic_class_from_name(json_key);
+  const std::string key = scene::printable(json_key, 40);  // for messages
   if (!cls || !is_vehicle_class(*cls))
     throw InputError(name, key, "unknown vehicle type (car, truck, bus, other_vehicle)");
   if (!j.is_object()) throw InputError(name, key, "must be an object {\"mesh\": FILE, \"length\": [min, max]}");
   for (const auto& [k, v] : j.items())
     if (k != "mesh" && k != "length" && k != "axes")
-      throw InputError(name, key + "." + k, "unknown key (mesh, length, axes)");
+      throw InputError(name, key + "." + scene::printable(k, 40), "unknown key (mesh, length, axes)");
   VehicleType t;
   t.name = key;
   t.class_id = *cls;
