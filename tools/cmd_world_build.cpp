@@ -4,18 +4,20 @@
 //
 //   icube world build SCENE -o world.icw [--mode trajectory|blocks] [--generator procedural]
 //                     [--seed N] [--record SEL] [--extrapolate N] [--threads N] [--no-vehicles]
-//                     [--png top.png]
+//                     [--vehicle-mesh FILE [--mesh-axes F,U] | --vehicle-meshes JSON] [--png top.png]
 //   icube world plot WORLD -o top.png [--max-pixels N]
 #include "cli_common.h"
 #include "command_registry.h"
+#include "mesh_args.h"
 #include "progress.h"
+#include "world_top_png.h"
 
 #include "scene/scene_load.h"
 #include "world/procedural/procedural_prior.h"
 #include "world/semantics.h"
+#include "world/vehicle_mesh_set.h"
 #include "world/world_build.h"
 #include "world/world_file.h"
-#include "world/world_plot.h"
 
 #include <CLI/CLI.hpp>
 
@@ -30,7 +32,7 @@ namespace icube::tools {
 namespace {
 
 struct BuildArgs {
-  std::string file, output, record, png;
+  std::string file, output, record, png, vehicle_mesh, vehicle_meshes, mesh_axes = "auto";
   std::string mode = "trajectory";
   std::string generator = "procedural";
   uint64_t seed = 0;
@@ -45,7 +47,8 @@ double peak_rss_mib() {
   return static_cast<double>(ru.ru_maxrss) / 1024.0;  // Linux: KiB
 }
 
-void print_summary(const world::WorldBuildResult& r, const world::WorldGenerator& gen) {
+void print_summary(const world::WorldBuildResult& r, const world::WorldGenerator& gen,
+                   const world::VehicleMeshSet& meshes) {
   const world::VoxelGrid& g = r.world;
   const double voxels = static_cast<double>(g.voxel_count());
   std::printf("built %s world (%s generator): %zu chunk(s), %llu voxels in %zu bricks, %.1f MiB\n",
@@ -57,8 +60,12 @@ void print_summary(const world::WorldBuildResult& r, const world::WorldGenerator
               r.total_s, r.plan_s, r.generate_s, r.fuse_s, r.vehicles_s,
               r.total_s > 0 ? static_cast<double>(r.plan.chunks.size()) / r.total_s : 0.0,
               r.total_s > 0 ? voxels / r.total_s * 1e-6 : 0.0, peak_rss_mib());
-  std::printf("  %zu static vehicle(s) inserted, %llu voxels\n", r.vehicles_inserted,
+  std::printf("  %zu static vehicle(s) inserted, %llu voxels", r.vehicles_inserted,
               static_cast<unsigned long long>(r.vehicle_voxels));
+  for (size_t i = 0; i < r.vehicles_per_type.size() && i < meshes.types.size(); ++i)
+    std::printf("%s %zu %s (%s)", i ? "," : ":", r.vehicles_per_type[i], meshes.types[i].name.c_str(),
+                meshes.types[i].source.c_str());
+  std::printf("\n");
   const auto hist = g.class_histogram();
   std::printf("  classes:");
   int shown = 0;
@@ -71,6 +78,16 @@ void print_summary(const world::WorldBuildResult& r, const world::WorldGenerator
   std::printf("\n");
 }
 
+// --vehicle-mesh, --vehicle-meshes or the built-in car; read before any chunk is built.
+world::VehicleMeshSet vehicle_meshes(const BuildArgs& a) {
+  const auto axes = mesh_axes_arg(a.mesh_axes);
+  if (!a.vehicle_meshes.empty()) return world::load_vehicle_mesh_set(a.vehicle_meshes);
+  if (a.vehicle_mesh.empty()) return world::builtin_vehicle_meshes();
+  world::VehicleMeshFile f = world::load_vehicle_mesh(a.vehicle_mesh, axes);
+  const std::string source = describe_mesh(a.vehicle_mesh, f);
+  return world::single_vehicle_mesh(std::move(f), source);
+}
+
 void cmd_build(BuildArgs& a) {
   run_command([&](scene::Diagnostics& diag) {
     refuse_overwriting_input(a.file, a.output);
@@ -78,6 +95,7 @@ void cmd_build(BuildArgs& a) {
     scene::LoadOptions lo;
     lo.waymo_selector = a.record;
     const scene::Scene s = scene::load_scene(a.file, lo, &diag);
+    const world::VehicleMeshSet meshes = vehicle_meshes(a);
     const auto generator = std::make_unique<world::ProceduralPrior>(s);
 
     world::WorldBuildOptions opts;
@@ -86,19 +104,15 @@ void cmd_build(BuildArgs& a) {
     opts.seed = a.seed;
     opts.threads = a.threads;
     opts.insert_static_vehicles = !a.no_vehicles;
+    opts.vehicle_meshes = &meshes;
     ProgressBar bar("world build", "chunks");
     opts.progress = [&](size_t done, size_t total) { bar.update(done, total); };
     const world::WorldBuildResult r = world::build_world(s, *generator, opts);
     for (const std::string& note : r.plan.notes) diag.warn(a.file, "plan", note);
     world::save_world(r.world, a.output);
-    print_summary(r, *generator);
+    print_summary(r, *generator, meshes);
     std::printf("wrote %s\n", a.output.c_str());
-    if (!a.png.empty()) {
-      const world::WorldPlot p = world::render_world_top(r.world);
-      world::write_world_png(p, a.png);
-      std::printf("wrote %s (%d x %d px, %.2f m/px)\n", a.png.c_str(), p.image.width(), p.image.height(),
-                  p.metres_per_pixel);
-    }
+    if (!a.png.empty()) write_top_png(r.world, a.png);
   });
 }
 
@@ -106,12 +120,7 @@ void cmd_plot(const std::string& input, const std::string& output, int max_pixel
   run_command([&](scene::Diagnostics&) {
     refuse_overwriting_input(input, output);
     const world::VoxelGrid g = world::load_world(input);
-    world::WorldPlotOptions o;
-    o.max_pixels = max_pixels;
-    const world::WorldPlot p = world::render_world_top(g, o);
-    world::write_world_png(p, output);
-    std::printf("wrote %s (%d x %d px, %.2f m/px)\n", output.c_str(), p.image.width(), p.image.height(),
-                p.metres_per_pixel);
+    write_top_png(g, output, max_pixels);
   });
 }
 
@@ -149,10 +158,24 @@ void add_world_build_commands(CLI::App& app) {
       ->check(CLI::Range(0, 256))
       ->capture_default_str();
   build->add_flag("--no-vehicles", a->no_vehicles, "Do not insert the static vehicles of the first frame");
+  CLI::Option* mesh_opt =
+      build->add_option("--vehicle-mesh", a->vehicle_mesh,
+                        "Voxelise every static vehicle from this mesh (PLY, OBJ, glTF/GLB) instead of the built-in car")
+          ->type_name("FILE");
+  build->add_option("--vehicle-meshes", a->vehicle_meshes,
+                    "Per-type meshes picked by box length, e.g. {\"car\": {\"mesh\": \"car.ply\", \"length\": [0, 6.5]}, "
+                    "\"truck\": {\"mesh\": \"truck.glb\", \"length\": [6.5, 10]}} (docs/vehicle-meshes.md)")
+      ->type_name("JSON")
+      ->excludes(mesh_opt);
+  build->add_option("--mesh-axes", a->mesh_axes, std::string(kMeshAxesHelp) + " (for --vehicle-mesh)")
+      ->type_name("FORWARD,UP")
+      ->needs(mesh_opt)
+      ->capture_default_str();
   build->add_option("--png", a->png, "Also write a top-down picture of the world")->type_name("top.png");
   build->footer(
       "Chunks are fused in plan order with existing voxels winning. Static vehicles (the boxes of frame 0 that "
-      "never move) are voxelised from the built-in car mesh into the chunks they stand in.");
+      "never move) are voxelised into the chunks they stand in from the built-in car mesh, --vehicle-mesh or the "
+      "type --vehicle-meshes picks by box length (whose name is also the voxels' class).");
   build->callback([a] { cmd_build(*a); });
 
   auto in = std::make_shared<std::string>(), out = std::make_shared<std::string>();

@@ -10,6 +10,7 @@
 
 #include <stdexcept>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace icube::scene {
@@ -23,6 +24,15 @@ class InputError : public std::runtime_error {
  private:
   std::string file_;
 };
+
+// User text for a message: at most max_len characters, anything but printable
+// ASCII as '?', "..." when cut, so the message stays one short line.
+inline std::string printable(std::string_view s, size_t max_len = 64) {
+  std::string out;
+  for (char c : s.substr(0, max_len)) out += (c >= 0x20 && c < 0x7f) ? c : '?';
+  if (s.size() > max_len) out += "...";
+  return out;
+}
 
 struct Diagnostics {
   std::vector<std::string> warnings;

@@ -65,14 +65,6 @@ struct Context {
   }
 };
 
-// Scenario ids are ASCII hex in practice; keep error lines single-line and short for anything else.
-std::string printable(std::string_view s, size_t max_len = 64) {
-  std::string out;
-  for (char c : s.substr(0, max_len)) out += (c >= 0x20 && c < 0x7f) ? c : '?';
-  if (s.size() > max_len) out += "...";
-  return out;
-}
-
 std::string number_text(double v) {
   char buf[40];
   std::snprintf(buf, sizeof buf, "%.17g", v);

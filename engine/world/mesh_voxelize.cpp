@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <stdexcept>
 
@@ -79,6 +80,14 @@ BoxVoxelization voxelize_mesh_in_box(const TriangleMesh& mesh, double length, do
   // mesh in a partial outer layer still close the shell) plus one padding
   // layer on every side, which is always outside.
   const glm::dvec3 half(0.5 * length, 0.5 * width, 0.5 * height);
+  // Bounded before any int conversion or allocation (the work grid spans the box plus 3 layers).
+  const double span = (length / sub_voxel + 3.0) * (width / sub_voxel + 3.0) * (height / sub_voxel + 3.0);
+  if (span > static_cast<double>(kMaxBoxSubVoxels)) {
+    char msg[200];
+    std::snprintf(msg, sizeof msg, "a %g x %g x %g m box spans %.3g sub-voxels of %g m, more than the %zu allowed",
+                  length, width, height, span, sub_voxel, kMaxBoxSubVoxels);
+    throw std::invalid_argument(msg);
+  }
   glm::ivec3 lo, hi, clo, chi;
   for (int k = 0; k < 3; ++k) {
     centre_range(half[k], sub_voxel, lo[k], hi[k]);

@@ -27,7 +27,8 @@
 //    min_sub_voxels = 4 (half of the 8 a cell holds) gives +2.5 % and +7.6 %
 //    (tests/world/test_mesh_voxelize.cpp).
 // A box with a zero, negative or non-finite dimension has no volume and gives
-// no voxels (not an error: Waymo has boxes of zero height).
+// no voxels (not an error: Waymo has boxes of zero height). A box spanning
+// more than kMaxBoxSubVoxels sub-voxels throws std::invalid_argument.
 #pragma once
 
 #include "scene/scene.h"
@@ -46,6 +47,9 @@ namespace icube::world {
 class VoxelGrid;
 
 inline constexpr double kCarSubVoxel = 0.1;
+// The most sub-voxels (with one padding layer) one box may span: 2^28, a
+// 256 MiB work grid, e.g. 64 x 64 x 64 m at 0.1 m.
+inline constexpr size_t kMaxBoxSubVoxels = size_t{1} << 28;
 
 // The mesh scaled into the box frame (centre at the origin), step 1 above.
 // Empty when the mesh or the box is empty.
@@ -85,7 +89,8 @@ std::vector<VehicleVoxel> vote_into_cells(const BoxVoxelization& vox, const scen
 std::vector<VehicleVoxel> voxelize_vehicle(const TriangleMesh& mesh, const scene::BoxState& box, uint32_t instance_id,
                                            const VoteOptions& options = {});
 
-// (vehicle_insert.cpp) Inserts the static vehicles of scene state `time_index`
+// (vehicle_insert.cpp; vehicle_insert.h has the form with a mesh and class per
+// vehicle type) Inserts the static vehicles of scene state `time_index`
 // (ObjectType::Vehicle tracks, not dynamic, valid at the index) as CAR voxels
 // with their instance ids, in increasing instance-id order; voxels already in
 // the grid win, so where two cars overlap the lower id keeps the cell. Uses

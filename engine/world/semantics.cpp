@@ -10,6 +10,12 @@ const char* semantic_class_name(uint8_t c) {
   return c < kNumSemanticClasses ? kNames[c] : "invalid";
 }
 
+std::optional<uint8_t> semantic_class_from_name(std::string_view name) {
+  for (int c = 1; c < kNumSemanticClasses; ++c)
+    if (name == semantic_class_name(static_cast<uint8_t>(c))) return static_cast<uint8_t>(c);
+  return std::nullopt;
+}
+
 uint8_t palette_index(uint8_t c) {
   static const uint8_t kIndex[kNumSemanticClasses] = {
       8,  // undefined

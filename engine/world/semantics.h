@@ -4,6 +4,8 @@
 
 #include <array>
 #include <cstdint>
+#include <optional>
+#include <string_view>
 
 namespace icube::world {
 
@@ -39,6 +41,9 @@ inline constexpr bool is_vehicle_class(uint8_t c) { return c >= 1 && c <= 4; }
 
 // Lower-case names ("car", "traffic_light", ...), indexed by class id.
 const char* semantic_class_name(uint8_t class_id);
+// The class id of a lower-case name (1..22; "undefined" is not a class one can
+// write), or nullopt.
+std::optional<uint8_t> semantic_class_from_name(std::string_view name);
 
 // Guidance-buffer palette index of a class (0..9) and the palette's RGB values.
 uint8_t palette_index(uint8_t class_id);

@@ -279,6 +279,40 @@ struct GltfReader {
     return buf.data() + start;
   }
 
+  // One POSITION element: float, or integers (KHR_mesh_quantization), normalized to [0, 1] / [-1, 1] when flagged.
+  static glm::dvec3 position(const unsigned char* e, int component, bool normalized) {
+    glm::dvec3 v(0.0);
+    for (int k = 0; k < 3; ++k) {
+      switch (component) {
+        case TINYGLTF_COMPONENT_TYPE_FLOAT: {
+          float f;
+          std::memcpy(&f, e + 4 * k, 4);
+          v[k] = static_cast<double>(f);
+          break;
+        }
+        case TINYGLTF_COMPONENT_TYPE_BYTE: {
+          const auto b = static_cast<int8_t>(e[k]);
+          v[k] = normalized ? std::max(b / 127.0, -1.0) : b;
+          break;
+        }
+        case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: v[k] = normalized ? e[k] / 255.0 : e[k]; break;
+        case TINYGLTF_COMPONENT_TYPE_SHORT: {
+          int16_t h;
+          std::memcpy(&h, e + 2 * k, 2);
+          v[k] = normalized ? std::max(h / 32767.0, -1.0) : h;
+          break;
+        }
+        default: {
+          uint16_t h;
+          std::memcpy(&h, e + 2 * k, 2);
+          v[k] = normalized ? h / 65535.0 : h;
+          break;
+        }
+      }
+    }
+    return v;
+  }
+
   void add_primitive(const tinygltf::Primitive& prim, const glm::dmat4& xf, const std::string& where) {
     const int mode = prim.mode < 0 ? TINYGLTF_MODE_TRIANGLES : prim.mode;
     if (mode != TINYGLTF_MODE_TRIANGLES && mode != TINYGLTF_MODE_TRIANGLE_STRIP && mode != TINYGLTF_MODE_TRIANGLE_FAN)
@@ -286,13 +320,16 @@ struct GltfReader {
     const auto it = prim.attributes.find("POSITION");
     if (it == prim.attributes.end()) throw InputError(name, where, "no POSITION attribute");
     size_t stride = 0, count = 0;
-    const unsigned char* p =
-        accessor_data(it->second, TINYGLTF_TYPE_VEC3, {TINYGLTF_COMPONENT_TYPE_FLOAT}, stride, count, where);
+    const unsigned char* p = accessor_data(
+        it->second, TINYGLTF_TYPE_VEC3,
+        {TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_COMPONENT_TYPE_BYTE, TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE,
+         TINYGLTF_COMPONENT_TYPE_SHORT, TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT},
+        stride, count, where);
+    const auto& acc = model.accessors[static_cast<size_t>(it->second)];
     const uint32_t base = static_cast<uint32_t>(mesh.positions.size());
     for (size_t i = 0; i < count; ++i) {
-      float f[3];
-      std::memcpy(f, p + i * stride, sizeof f);
-      const glm::dvec4 w = xf * glm::dvec4(f[0], f[1], f[2], 1.0);
+      const glm::dvec3 v = position(p + i * stride, acc.componentType, acc.normalized);
+      const glm::dvec4 w = xf * glm::dvec4(v, 1.0);
       if (!std::isfinite(w.x) || !std::isfinite(w.y) || !std::isfinite(w.z))
         throw InputError(name, where, "position " + std::to_string(i) + " is not finite");
       mesh.positions.emplace_back(w);
@@ -387,10 +424,21 @@ TriangleMesh parse_gltf(std::string_view bytes, const std::string& name, const s
     while (!msg.empty() && msg.back() == ' ') msg.pop_back();
     throw InputError(name, "glTF", msg);
   }
+  // Compressed geometry required without a fallback: the accessors hold no readable positions.
+  for (const std::string& ext : model.extensionsRequired)
+    if (ext == "KHR_draco_mesh_compression" || ext == "EXT_meshopt_compression" || ext == "KHR_meshopt_compression")
+      throw InputError(name, "glTF", "requires " + ext + " (compressed geometry), which this reader cannot decode");
   TriangleMesh mesh;
   GltfReader reader{model, name, mesh};
-  if (model.scenes.empty()) {
+  if (model.scenes.empty() && model.nodes.empty()) {
     for (size_t m = 0; m < model.meshes.size(); ++m) reader.add_mesh(static_cast<int>(m), glm::dmat4(1.0));
+  } else if (model.scenes.empty()) {
+    std::vector<bool> is_child(model.nodes.size(), false);
+    for (const auto& n : model.nodes)
+      for (int c : n.children)
+        if (c >= 0 && c < static_cast<int>(model.nodes.size())) is_child[static_cast<size_t>(c)] = true;
+    for (size_t n = 0; n < model.nodes.size(); ++n)
+      if (!is_child[n]) reader.add_node(static_cast<int>(n), glm::dmat4(1.0), 0);
   } else {
     const int s = model.defaultScene >= 0 ? model.defaultScene : 0;
     if (s >= static_cast<int>(model.scenes.size())) throw InputError(name, "scene " + std::to_string(s), "does not exist");
@@ -401,16 +449,32 @@ TriangleMesh parse_gltf(std::string_view bytes, const std::string& name, const s
 
 // ---- common -------------------------------------------------------------------
 
-TriangleMesh load_mesh(const std::string& path) {
+const char* mesh_format_name(MeshFormat format) {
+  switch (format) {
+    case MeshFormat::Ply: return "PLY";
+    case MeshFormat::Gltf: return "glTF";
+    case MeshFormat::Obj: break;
+  }
+  return "OBJ";
+}
+
+MeshFormat mesh_format_of(std::string_view v) {
+  if (v.size() >= 4 && v.substr(0, 3) == "ply" && (v[3] == '\n' || v[3] == '\r')) return MeshFormat::Ply;
+  if (v.size() >= 4 && v.substr(0, 4) == "glTF") return MeshFormat::Gltf;
+  const size_t first = v.find_first_not_of(" \t\r\n");
+  if (first != std::string_view::npos && v[first] == '{') return MeshFormat::Gltf;
+  return MeshFormat::Obj;
+}
+
+TriangleMesh load_mesh(const std::string& path, MeshFormat* format) {
   const std::string bytes = scene::read_file(path);
   const std::string_view v(bytes);
-  if (v.size() >= 4 && v.substr(0, 3) == "ply" && (v[3] == '\n' || v[3] == '\r')) return parse_ply(v, path);
+  const MeshFormat f = mesh_format_of(v);
+  if (format) *format = f;
+  if (f == MeshFormat::Ply) return parse_ply(v, path);
+  if (f == MeshFormat::Obj) return parse_obj(v, path);
   const size_t slash = path.find_last_of('/');
-  const std::string dir = slash == std::string::npos ? "" : path.substr(0, slash);
-  if (v.size() >= 4 && v.substr(0, 4) == "glTF") return parse_gltf(v, path, dir);
-  const size_t first = v.find_first_not_of(" \t\r\n");
-  if (first != std::string_view::npos && v[first] == '{') return parse_gltf(v, path, dir);
-  return parse_obj(v, path);
+  return parse_gltf(v, path, slash == std::string::npos ? "" : path.substr(0, slash));
 }
 
 MeshBounds mesh_bounds(const TriangleMesh& mesh) {

@@ -38,14 +38,26 @@ TriangleMesh parse_ply(std::string_view bytes, const std::string& name);
 // statement (vt, vn, g, o, s, usemtl, mtllib, l, p, ...) is ignored.
 TriangleMesh parse_obj(std::string_view text, const std::string& name);
 // glTF 2.0 JSON or GLB bytes: every TRIANGLES (also strip/fan) primitive of
-// the nodes of the default scene (scene 0 when none is named), with node
-// transforms applied. Only embedded (GLB or data: URI) buffers when
-// parsing from memory; load_mesh() also resolves external buffers next to the file.
+// every mesh of the nodes of the default scene (scene 0 when none is named),
+// each with its node's world transform: the product of the local transforms
+// (matrix, or T * R * S) from the root down, so a node instanced by several
+// parents appears once per path. Without scenes, the root nodes (those no
+// node lists as a child) are walked; without nodes, every mesh is taken
+// untransformed. POSITION may be float or, as KHR_mesh_quantization allows,
+// 8/16-bit integers, normalized or not. Only embedded (GLB or data: URI)
+// buffers when parsing from memory; load_mesh() also resolves external
+// buffers next to the file.
 TriangleMesh parse_gltf(std::string_view bytes, const std::string& name, const std::string& base_dir = "");
 
-// Reads a file and picks the reader by content ("ply\n", "glTF" magic, JSON
-// object), falling back to OBJ. Throws InputError when it cannot be read.
-TriangleMesh load_mesh(const std::string& path);
+enum class MeshFormat { Ply, Obj, Gltf };
+const char* mesh_format_name(MeshFormat format);  // "PLY", "OBJ", "glTF"
+// The reader load_mesh() uses for these bytes: "ply" + newline, the GLB
+// "glTF" magic or a JSON object (glTF), else OBJ.
+MeshFormat mesh_format_of(std::string_view bytes);
+
+// Reads a file with the reader mesh_format_of() picks; `format` (optional)
+// gets that reader. Throws InputError when it cannot be read.
+TriangleMesh load_mesh(const std::string& path, MeshFormat* format = nullptr);
 
 // (x, y, z) -> (x, -z, y): a rotation of +90 degrees about x taking glTF's +y up to +z up.
 void gltf_y_up_to_z_up(TriangleMesh& mesh);

@@ -2,9 +2,8 @@
 #include "world/world_build.h"
 
 #include "scene/scene.h"
-#include "world/car_mesh.h"
 #include "world/chunk_fusion.h"
-#include "world/mesh_voxelize.h"
+#include "world/vehicle_insert.h"
 
 #include <algorithm>
 #include <chrono>
@@ -162,14 +161,16 @@ WorldBuildResult build_world(const scene::Scene& scene, const WorldGenerator& ge
 
   if (options.insert_static_vehicles && !scene.tracks.empty()) {
     const auto t0 = Clock::now();
-    const TriangleMesh builtin = options.car_mesh ? TriangleMesh{} : builtin_car_mesh();
-    const TriangleMesh& mesh = options.car_mesh ? *options.car_mesh : builtin;
+    const VehicleMeshSet builtin = options.vehicle_meshes ? VehicleMeshSet{} : builtin_vehicle_meshes();
+    const VehicleMeshSet& meshes = options.vehicle_meshes ? *options.vehicle_meshes : builtin;
     const auto in_plan = [&](const scene::Track&, const scene::BoxState& b) {
       return std::any_of(out.plan.chunks.begin(), out.plan.chunks.end(),
                          [&](const ChunkPose& c) { return inside_chunk(c, b.center); });
     };
-    out.vehicle_voxels =
-        insert_vehicles(out.world, scene, options.vehicle_time_index, mesh, 1, in_plan, &out.vehicles_inserted);
+    const VehicleInsertStats st = insert_vehicles(out.world, scene, options.vehicle_time_index, meshes, 1, in_plan);
+    out.vehicle_voxels = st.voxels;
+    out.vehicles_inserted = st.vehicles;
+    out.vehicles_per_type = st.per_type;
     out.vehicles_s = seconds_since(t0);
   }
   out.total_s = seconds_since(t_start);

@@ -16,7 +16,7 @@
 #include "world/chunk_plan.h"
 #include "world/chunk_fusion.h"
 #include "world/generator.h"
-#include "world/triangle_mesh.h"
+#include "world/vehicle_mesh_set.h"
 #include "world/voxel_grid.h"
 
 #include <cstdint>
@@ -31,7 +31,9 @@ struct WorldBuildOptions {
   uint64_t seed = 0;
   bool insert_static_vehicles = true;
   int vehicle_time_index = 0;
-  const TriangleMesh* car_mesh = nullptr;  // nullptr: the built-in car (car_mesh.h)
+  // Mesh and class per static vehicle, picked by box length (vehicle_mesh_set.h);
+  // nullptr: the built-in car for every vehicle.
+  const VehicleMeshSet* vehicle_meshes = nullptr;
   int threads = 0;                          // 0: hardware concurrency
   // Called after each chunk is fused: (chunks done, chunks total).
   std::function<void(size_t, size_t)> progress;
@@ -48,6 +50,7 @@ struct WorldBuildResult {
   std::vector<ChunkBuildStats> chunks;  // plan order
   uint64_t vehicle_voxels = 0;
   size_t vehicles_inserted = 0;
+  std::vector<size_t> vehicles_per_type;  // per vehicle_meshes->types entry (or the built-in car)
   double plan_s = 0.0, generate_s = 0.0, fuse_s = 0.0, vehicles_s = 0.0, total_s = 0.0;
 };
 

@@ -10,13 +10,13 @@
 // the `icube` binary was not built.
 #include <doctest/doctest.h>
 
+#include "cli_test_util.h"
 #include "test_stb_image.h"
 
 #include "render/lidar/lidar_io.h"
 #include "scene/atomic_file.h"
 #include "splat/gaussians.h"
 
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include <cmath>
@@ -27,30 +27,14 @@
 #include <vector>
 
 using namespace icube;
+using test::icube_binary;
+using test::TempDir;
+using Run = test::CliRun;
 namespace fs = std::filesystem;
 
 namespace {
 
-fs::path icube_binary() {
-  std::error_code ec;
-  const fs::path self = fs::read_symlink("/proc/self/exe", ec);
-  return ec ? fs::path() : self.parent_path() / "icube";
-}
-
-struct Run {
-  int code = -1;
-  std::string output;  // stdout + stderr
-};
-
-Run run(const std::string& args, const fs::path& dir) {
-  const fs::path log = dir / "log.txt";
-  const std::string cmd = icube_binary().string() + " " + args + " > '" + log.string() + "' 2>&1";
-  const int status = std::system(cmd.c_str());
-  Run r;
-  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  r.output = fs::exists(log) ? scene::read_file(log.string()) : std::string();
-  return r;
-}
+Run run(const std::string& args, const fs::path& dir) { return test::run_icube(args, dir); }
 
 // A 12 × 6 m wall at x = 8 m: flat Gaussians (2 cm thick, 0.5 m wide), opaque, grey.
 splat::GaussianCloud wall() {
@@ -83,19 +67,6 @@ std::vector<uint16_t> read_png16(const std::string& path, int& w, int& h) {
   return out;
 }
 
-struct TempDir {
-  fs::path path;
-  TempDir() {
-    path = fs::temp_directory_path() / ("icube-cli-lidar-gs-" + std::to_string(getpid()));
-    fs::remove_all(path);
-    fs::create_directories(path);
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(path, ec);
-  }
-};
-
 bool staging_left(const fs::path& dir) {
   for (const auto& e : fs::directory_iterator(dir))
     if (e.path().filename().string().find(".partial-") != std::string::npos) return true;
@@ -109,7 +80,7 @@ TEST_CASE("cli: icube lidar --gaussians writes plausible PLY, KITTI .bin and ran
     MESSAGE("skipped: " << icube_binary().string() << " not built (cmake --build ... --target icube)");
     return;
   }
-  TempDir t;
+  TempDir t("cli-lidar-gs");
   const fs::path ply = t.path / "wall.ply", poses = t.path / "poses.npy", out = t.path / "out";
   splat::write_gaussians_ply(ply.string(), wall());
   scene::write_file_atomic(poses.string(), poses_npy({0.0, 1.0}));

@@ -220,6 +220,9 @@ TEST_CASE("triangle_mesh: malformed files give one-line InputErrors with file an
   glb.resize(glb.size() / 2);
   one_line_with(load_error("half.glb", glb), "glTF");
   one_line_with(load_error("junk.gltf", "{ \"asset\": { \"version\": \"2.0\" }, \"meshes\": 3 "), "glTF");
+  std::string draco = gltf_bytes(false);
+  draco.insert(draco.find('{') + 1, R"("extensionsRequired": ["KHR_draco_mesh_compression"], )");
+  one_line_with(load_error("draco.gltf", draco), "glTF: requires KHR_draco_mesh_compression (compressed geometry)");
   CHECK_THROWS_AS(load_mesh(tmp_path("does_not_exist.obj")), InputError);
 }
 

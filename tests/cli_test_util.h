@@ -1,0 +1,55 @@
+// Running the `icube` binary built next to icube-tests from a test: its
+// path, one run with stdout + stderr captured, and a temporary folder.
+#pragma once
+
+#include "scene/atomic_file.h"
+
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <string>
+#include <system_error>
+
+namespace icube::test {
+
+inline std::filesystem::path icube_binary() {
+  std::error_code ec;
+  const std::filesystem::path self = std::filesystem::read_symlink("/proc/self/exe", ec);
+  return ec ? std::filesystem::path() : self.parent_path() / "icube";
+}
+
+struct CliRun {
+  int code = -1;
+  std::string output;  // stdout + stderr
+};
+
+// Runs `icube ARGS` (ARGS quoted by the caller) with its output in DIR/log.txt.
+inline CliRun run_icube(const std::string& args, const std::filesystem::path& dir) {
+  const std::filesystem::path log = dir / "log.txt";
+  const std::string cmd = icube_binary().string() + " " + args + " > '" + log.string() + "' 2>&1";
+  const int status = std::system(cmd.c_str());
+  CliRun r;
+  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  r.output = std::filesystem::exists(log) ? scene::read_file(log.string()) : std::string();
+  return r;
+}
+
+// An empty folder TMP/icube-<tag>-<pid>, removed with everything in it.
+struct TempDir {
+  std::filesystem::path path;
+  explicit TempDir(const std::string& tag) {
+    path = std::filesystem::temp_directory_path() / ("icube-" + tag + "-" + std::to_string(getpid()));
+    std::filesystem::remove_all(path);
+    std::filesystem::create_directories(path);
+  }
+  TempDir(const TempDir&) = delete;
+  TempDir& operator=(const TempDir&) = delete;
+  ~TempDir() {
+    std::error_code ec;
+    std::filesystem::remove_all(path, ec);
+  }
+};
+
+}  // namespace icube::test
