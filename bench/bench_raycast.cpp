@@ -22,7 +22,9 @@
 // kernel (occupancy masks built at the first record of the world and kept, 2-D
 // pixel tiles per workgroup), the same with the masks rebuilt every record (the
 // world's revision bumped), with row-major workgroups, the previous kernel's path
-// (hash lookups, rows), the flat GPU walk (--flat, no skipping), the CPU
+// (hash lookups, rows), the float-only exact pass (double-float chords, the
+// route of devices without shaderFloat64) and the float pass alone next to the
+// default's double chords, the flat GPU walk (--flat, no skipping), the CPU
 // reference, OpenVDB. min / median of --runs after --warmup; lane utilisation
 // (mean steps / mean of each subgroup's longest ray);
 // Mrays/s from the median; steps/ray from the results (GPU: voxel steps +
@@ -246,11 +248,16 @@ bool run_case(gpu::Context& ctx, const Case& c, const render::RaycastOptions& op
     std::printf("cpu: %zu of %llu rays have a semantic hit\n", hit_count, static_cast<unsigned long long>(n));
   }
 
-  auto gpu_rows = [&](bool skip, bool occupancy, bool tiled, bool rebuild, const std::string& label, bool exact = true) {
+  // exact: the exact pass as on this device (Exact::Auto: double chords where it has shaderFloat64),
+  // forced to the double-float pass of devices without it (Exact::FloatOnly), or off.
+  enum class Exact { Auto, FloatOnly, Off };
+  auto gpu_rows = [&](bool skip, bool occupancy, bool tiled, bool rebuild, const std::string& label,
+                      Exact exact = Exact::Auto) {
     render::RaycasterGpu rc(ctx, skip);
     rc.set_occupancy(occupancy);
     rc.set_tiled(tiled);
-    rc.set_exact(exact);
+    rc.set_exact(exact != Exact::Off);
+    rc.set_exact_float_only(exact == Exact::FloatOnly);
     gpu::GpuTimer timer(ctx, 1);
     std::vector<double> kernel_ms, submit_ms, cpu_ms;
     for (int i = 0; i < warmup + runs; ++i) {
@@ -330,8 +337,10 @@ bool run_case(gpu::Context& ctx, const Case& c, const render::RaycastOptions& op
   if (!quick) {
     ok = gpu_rows(true, true, true, true, "gpu occupancy rebuilt per record, tiles") && ok;
     ok = gpu_rows(true, true, false, false, "gpu occupancy, rows") && ok;
-    if (render::RaycasterGpu(ctx).exact())  // the float kernel (devices without shaderFloat64)
-      ok = gpu_rows(true, true, true, false, "gpu float only (no double chords), tiles", false) && ok;
+    if (!render::RaycasterGpu(ctx).exact_float_only())  // the route of devices without shaderFloat64
+      ok = gpu_rows(true, true, true, false, "gpu float-only exact (df chords), tiles", Exact::FloatOnly) && ok;
+    // The float pass alone (no device's route; its 1e-5 check is informative only).
+    gpu_rows(true, true, true, false, "gpu float pass alone (no exact), tiles", Exact::Off);
     ok = gpu_rows(true, false, false, false, "gpu hash skip, rows (old path)") && ok;
   }
   if (flat) ok = gpu_rows(false, false, false, false, "gpu flat walk (no skip)") && ok;

@@ -20,8 +20,8 @@ struct Split {
   glm::dvec3 off{0.0};
 };
 
-Split split_point(const RaycastWorld& w, const glm::dvec3& p) {
-  const glm::dvec3 q = (p - w.gpu.origin) / w.gpu.voxel_size;
+Split split_point(const glm::dvec3& origin, double voxel_size, const glm::dvec3& p) {
+  const glm::dvec3 q = (p - origin) / voxel_size;
   Split s;
   for (int a = 0; a < 3; ++a) {
     if (!std::isfinite(q[a])) throw std::invalid_argument("raycast: non-finite ray origin");
@@ -32,6 +32,8 @@ Split split_point(const RaycastWorld& w, const glm::dvec3& p) {
   }
   return s;
 }
+
+Split split_point(const RaycastWorld& w, const glm::dvec3& p) { return split_point(w.gpu.origin, w.gpu.voxel_size, p); }
 
 float to_float_t(double t) { return t >= static_cast<double>(FLT_MAX) ? FLT_MAX : static_cast<float>(t); }
 
@@ -123,10 +125,61 @@ RaycasterGpu::RaycasterGpu(gpu::Context& ctx, bool skip_empty_bricks)
       occupancy_(skip_empty_bricks),
       occ_(ctx, 16, gpu::MemoryUsage::DeviceLocal, "raycast-occupancy"),
       near_(ctx, 16, gpu::MemoryUsage::DeviceLocal, "raycast-near-list"),
-      cam64_(ctx, sizeof(shader::RaycastCameraF64), gpu::MemoryUsage::DeviceLocal, "raycast-camera-f64"),
-      exact_(ctx.info().shader_float64) {}
+      exact_camera_(ctx, std::max(sizeof(shader::RaycastCameraF64), sizeof(shader::RaycastCameraDf)),
+                    gpu::MemoryUsage::DeviceLocal, "raycast-exact-camera") {}
 
-void RaycasterGpu::set_exact(bool on) { exact_ = on && ctx_.info().shader_float64; }
+bool RaycasterGpu::exact_float_only() const { return force_df_ || !ctx_.info().shader_float64; }
+
+shader::RaycastCameraF64 camera_f64(const Camera& cam, const glm::dvec3& grid_origin, double voxel_size,
+                                    const RaycastOptions& opts) {
+  const Split s = split_point(grid_origin, voxel_size, camera_position(cam));
+  shader::RaycastCameraF64 c{};
+  const glm::dmat3 R(cam.c2w);  // column-major: R[c][r]
+  double* r[9] = {&c.r00, &c.r01, &c.r02, &c.r10, &c.r11, &c.r12, &c.r20, &c.r21, &c.r22};
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) *r[3 * i + j] = R[j][i];
+  c.fx = cam.K.fx;
+  c.fy = cam.K.fy;
+  c.cx = cam.K.cx;
+  c.cy = cam.K.cy;
+  c.pixel_offset = pixel_offset(opts.pixels);
+  c.off_x = s.off.x;
+  c.off_y = s.off.y;
+  c.off_z = s.off.z;
+  c.voxel_size = voxel_size;
+  c.eps_sem = opts.eps_sem;
+  c.t_max = opts.t_max;
+  return c;
+}
+
+shader::RaycastCameraDf camera_df(const shader::RaycastCameraF64& c) {
+  auto pair = [](double d) {
+    const float hi = to_float_t(d);
+    return shader::RaycastDf{hi, hi == FLT_MAX ? 0.0f : static_cast<float>(d - static_cast<double>(hi))};
+  };
+  return {pair(c.r00), pair(c.r01), pair(c.r02), pair(c.r10), pair(c.r11), pair(c.r12), pair(c.r20),
+          pair(c.r21), pair(c.r22), pair(c.fx), pair(c.fy), pair(c.cx), pair(c.cy), pair(c.pixel_offset),
+          pair(c.off_x), pair(c.off_y), pair(c.off_z), pair(c.voxel_size), pair(c.eps_sem), pair(c.t_max)};
+}
+
+std::vector<glm::vec2> df_check_gpu(gpu::Context& ctx, const shader::RaycastDfCheckParams& params,
+                                    const std::vector<glm::vec4>& values, const shader::RaycastCameraDf& cam) {
+  if (values.empty()) return {};
+  if (values.size() > UINT32_MAX) throw std::invalid_argument("df_check: too many values");
+  const gpu::Buffer in = gpu::upload_vector(ctx, values, "df-check-in");
+  const gpu::Buffer camera = gpu::upload_vector(ctx, std::vector<shader::RaycastCameraDf>{cam}, "df-check-camera");
+  gpu::Buffer out(ctx, values.size() * sizeof(glm::vec4), gpu::MemoryUsage::DeviceLocal, "df-check-out");
+  shader::RaycastDfCheckParams p = params;
+  p.n = static_cast<uint32_t>(values.size());
+  ctx.submit_and_wait([&](gpu::CommandList& cmd) {
+    cmd.dispatch(ctx.program("raycast/df_check"), {p.n}, p, {in.binding(), out.binding(), camera.binding()});
+  });
+  const std::vector<glm::vec4> r = gpu::download_vector<glm::vec4>(ctx, out, values.size());
+  std::vector<glm::vec2> res;
+  res.reserve(r.size());
+  for (const glm::vec4& x : r) res.emplace_back(x.x, x.y);
+  return res;
+}
 
 gpu::Program& RaycasterGpu::cast_program(bool tiled, bool occupancy, bool exact) const {
   // Created on first use and cached by the context: a world without an occupancy index (or
@@ -137,7 +190,7 @@ gpu::Program& RaycasterGpu::cast_program(bool tiled, bool occupancy, bool exact)
       .set(2, tiled ? tile_w_ : 0u /* RAYCAST_TILE_W: 0 = rows */)
       .set(5, occupancy /* RAYCAST_OCCUPANCY */);
   if (tiled) spec.set(3, ctx_.subgroup_size() /* RAYCAST_SUB_LANES */).set(4, wg_w_ /* RAYCAST_WG_W */);
-  return ctx_.program(exact ? "raycast/exact" : "raycast/cast", spec);
+  return ctx_.program(!exact ? "raycast/cast" : exact_float_only() ? "raycast/exact_df" : "raycast/exact", spec);
 }
 
 shader::RaycastParams RaycasterGpu::camera_params(const RaycastWorld& w, const Camera& cam,
@@ -260,7 +313,12 @@ void RaycasterGpu::record(gpu::CommandList& cmd, const RaycastWorld& w, const sh
     }
     cmd.barrier(gpu::deps::kComputeToTransfer);  // an earlier record's passes may still use the list and camera
     cmd.fill_buffer(near_.binding(0, 4), 0u);
-    cmd.update_buffer(cam64_.binding(), cam64, sizeof *cam64);
+    if (exact_float_only()) {
+      const shader::RaycastCameraDf cdf = camera_df(*cam64);
+      cmd.update_buffer(exact_camera_.binding(0, sizeof cdf), &cdf, sizeof cdf);
+    } else {
+      cmd.update_buffer(exact_camera_.binding(0, sizeof *cam64), cam64, sizeof *cam64);
+    }
     cmd.barrier(gpu::deps::kTransferToCompute);  // empty list and double camera before the passes
   }
   cmd.dispatch(*prog, {threads}, p,
@@ -268,34 +326,18 @@ void RaycasterGpu::record(gpu::CommandList& cmd, const RaycastWorld& w, const sh
                 occ_texels, brick_texels, near_.binding(), mask_texels});
   if (exact) {
     // Second pass: the rays flagged RAYCAST_FLAG_NEAR (listed by the first) are cast again with the
-    // chords near eps_sem decided in double; a fixed grid strides over the list.
+    // chords near eps_sem decided in double (or double-float); a fixed grid strides over the list.
     cmd.barrier(gpu::deps::kComputeToCompute);  // the float pass's hits and list before the exact pass
     cmd.dispatch(cast_program(false, p.occupancy != 0, true), {std::min<uint64_t>(p.n, kExactPassThreads)}, p,
                  {w.gpu.brick_table.binding(), w.gpu.brick_data.binding(), rays, hits.binding(0, bytes),
-                  occ_texels, brick_texels, near_.binding(), cam64_.binding(), mask_texels});
+                  occ_texels, brick_texels, near_.binding(), exact_camera_.binding(), mask_texels});
   }
 }
 
 void RaycasterGpu::record_camera(gpu::CommandList& cmd, const RaycastWorld& w, const Camera& cam,
                                  const RaycastOptions& opts, const gpu::Buffer& hits) {
   const shader::RaycastParams p = camera_params(w, cam, opts);
-  const Split s = split_point(w, camera_position(cam));
-  shader::RaycastCameraF64 c{};
-  const glm::dmat3 R(cam.c2w);  // column-major: R[c][r]
-  double* r[9] = {&c.r00, &c.r01, &c.r02, &c.r10, &c.r11, &c.r12, &c.r20, &c.r21, &c.r22};
-  for (int i = 0; i < 3; ++i)
-    for (int j = 0; j < 3; ++j) *r[3 * i + j] = R[j][i];
-  c.fx = cam.K.fx;
-  c.fy = cam.K.fy;
-  c.cx = cam.K.cx;
-  c.cy = cam.K.cy;
-  c.pixel_offset = pixel_offset(opts.pixels);
-  c.off_x = s.off.x;
-  c.off_y = s.off.y;
-  c.off_z = s.off.z;
-  c.voxel_size = w.gpu.voxel_size;
-  c.eps_sem = opts.eps_sem;
-  c.t_max = opts.t_max;
+  const shader::RaycastCameraF64 c = camera_f64(cam, w.gpu.origin, w.gpu.voxel_size, opts);
   record(cmd, w, p, gpu::null_binding() /* camera mode makes its rays */, hits, &c);
 }
 

@@ -7,13 +7,18 @@
 // camera 100 km from the grid origin renders the same image as at the origin.
 // Traversal is limited to RAYCAST_MAX_REL voxels (±839 km at 0.2 m) around
 // the reference voxel and to the world's brick bounds.
-// Test: tests/render/test_raycast.cpp; benchmark: bench/bench_raycast.cpp.
+// Camera casts add an exact pass for the semantic chords within float rounding
+// of eps_sem: in double (shaders/raycast/exact.comp) or, without shaderFloat64,
+// in double-float (shaders/raycast/exact_df.comp).
+// Tests: tests/render/test_raycast.cpp, test_raycast_index.cpp, test_raycast_df.cpp;
+// benchmark: bench/bench_raycast.cpp.
 #pragma once
 
 #include "gpu/buffer.h"
 #include "gpu/commands.h"
 #include "render/camera.h"
 #include "render/raycast_cpu.h"
+#include "shared/raycast_df_params.h"
 #include "shared/raycast_f64_params.h"
 #include "shared/raycast_params.h"
 #include "world/gpu_world.h"
@@ -76,12 +81,19 @@ class RaycasterGpu {
   // instead of runs of pixels in a row. Same results.
   void set_tiled(bool on) { tiled_ = on; }
   bool tiled() const { return tiled_; }
-  // Camera casts with near-threshold semantic chords decided in double: the float pass lists the
-  // rays whose decision met a chord within float rounding of eps_sem and a second pass
-  // (shaders/raycast/exact.comp) casts only those again; on by default where the device has
-  // shaderFloat64; off: the float kernel alone.
-  void set_exact(bool on);
+  // Camera casts with near-threshold semantic chords decided as the double CPU reference does:
+  // the float pass lists the rays whose decision met a chord within float rounding of eps_sem
+  // and a second pass casts only those again, with those chords in double
+  // (shaders/raycast/exact.comp) where the device has shaderFloat64, else in double-float
+  // (shaders/raycast/exact_df.comp: fp32 pairs, ~48 bits); on by default; off: the float
+  // kernel alone.
+  void set_exact(bool on) { exact_ = on; }
   bool exact() const { return exact_; }
+  // The float-only exact pass (raycast/exact_df.comp) even where the device has shaderFloat64
+  // (the route of devices without it; for tests and benchmarks on lavapipe).
+  void set_exact_float_only(bool on) { force_df_ = on; }
+  // Whether the exact pass (when on) decides in double-float.
+  bool exact_float_only() const;
   uint32_t tile_width() const { return tile_w_; }
 
   // Push constants for a camera (camera mode) / for a ray batch (ray-list mode).
@@ -108,7 +120,7 @@ class RaycasterGpu {
   void record(gpu::CommandList& cmd, const RaycastWorld& w, const shader::RaycastParams& params,
               const gpu::BufferBinding& rays, const gpu::Buffer& hits, const shader::RaycastCameraF64* cam64 = nullptr);
   // The ray-casting pipeline: rows or tiles, occupancy index or hash table, float pass or the
-  // exact pass (raycast_exact, needs shaderFloat64).
+  // exact pass (raycast/exact, needs shaderFloat64, or raycast/exact_df: exact_float_only()).
   gpu::Program& cast_program(bool tiled, bool occupancy, bool exact) const;
   gpu::Context& ctx_;
   static constexpr uint64_t kExactPassThreads = 4096;  // the exact pass's grid
@@ -126,8 +138,24 @@ class RaycasterGpu {
   uint64_t occ_id_ = 0, occ_revision_ = 0;
   shader::RaycastOccupancyParams occ_params_{};
   gpu::Buffer near_;   // the float pass's list of near-threshold rays (count, indices)
-  gpu::Buffer cam64_;  // the double camera of the last exact camera record
-  bool exact_ = false;
+  gpu::Buffer exact_camera_;  // the camera of the last exact camera record (RaycastCameraF64 or RaycastCameraDf)
+  bool exact_ = true;
+  bool force_df_ = false;
 };
+
+// The camera of the exact pass in double (RaycastCameraF64): its rotation, intrinsics, offset
+// from its voxel's corner in a grid at grid_origin with voxel_size, eps_sem and t_max.
+shader::RaycastCameraF64 camera_f64(const Camera& cam, const glm::dvec3& grid_origin, double voxel_size,
+                                    const RaycastOptions& opts);
+// The camera in double-float pairs (RaycastCameraDf) of a double camera (hi = float(d),
+// lo = float(d - hi); t_max clamped to FLT_MAX).
+shader::RaycastCameraDf camera_df(const shader::RaycastCameraF64& c);
+
+// Test hook for the double-float primitives of shaders/common/df.glsl and the ray caster's df
+// chord: dispatches shaders/raycast/df_check.comp with params.op (RAYCAST_DF_*; n is set here)
+// on (a.hi, a.lo, b.hi, b.lo) values (RAYCAST_DF_CHORD: voxel and pixel bits, `cam`) and
+// returns the (hi, lo) results. Test: tests/render/test_raycast_df.cpp.
+std::vector<glm::vec2> df_check_gpu(gpu::Context& ctx, const shader::RaycastDfCheckParams& params,
+                                    const std::vector<glm::vec4>& values, const shader::RaycastCameraDf& cam = {});
 
 }  // namespace icube::render

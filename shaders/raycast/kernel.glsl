@@ -1,6 +1,9 @@
 #ifndef RAYCAST_EXACT_F64
 #define RAYCAST_EXACT_F64 0
 #endif
+#ifndef RAYCAST_EXACT_DF
+#define RAYCAST_EXACT_DF 0
+#endif
 // raycast: one invocation per ray, the semantic hit and the depth of the ray
 // in the GPU world (conventions §10.2) by the one-loop traversal of
 // raycast/traverse.glsl (column-top, 32³ super-brick, 8³ brick and 4³
@@ -21,6 +24,9 @@
 // binding 6 (RaycastCameraF64), so the decision is the CPU reference's. The double
 // code lives in its own pipeline: inside the float loop it doubled the kernel's
 // time on lavapipe (register pressure), as a second pass it costs one flag read per ray.
+// shaders/raycast/exact_df.comp (RAYCAST_EXACT_DF = 1) is the same pass for devices without
+// shaderFloat64: the chords in double-float from the camera of binding 7 as float pairs
+// (RaycastCameraDf, shared/raycast_df_params.h; no double anywhere).
 // Host module: engine/render/raycast_gpu.{h,cpp}; test: tests/render/test_raycast.cpp.
 #include "shared/world_layout.h"
 #include "shared/raycast_params.h"
@@ -55,6 +61,10 @@ layout(binding = 8) uniform usamplerBuffer occ_masks;    // the occupancy index 
 #if RAYCAST_EXACT_F64
 #include "shared/raycast_f64_params.h"
 layout(std430, binding = 7) readonly buffer CameraF64 { RaycastCameraF64 cam64; };
+#elif RAYCAST_EXACT_DF
+#include "shared/raycast_df_params.h"
+#include "common/df.glsl"
+layout(std430, binding = 7) readonly buffer CameraDf { RaycastCameraDf camdf; };
 #endif
 
 #include "world/lookup.glsl"
@@ -68,7 +78,7 @@ vec3 raycast_camera_dir(uvec2 px) {
   return normalize(vec3(p.m00 * u + p.m01 * v + p.m02, p.m10 * u + p.m11 * v + p.m12, p.m20 * u + p.m21 * v + p.m22));
 }
 
-#if RAYCAST_EXACT_F64
+#if RAYCAST_EXACT_F64 || RAYCAST_EXACT_DF
 // Exact pass: a grid-stride loop over the flagged rays of the float pass (camera mode).
 void main() {
   const uint count = near_list[0];

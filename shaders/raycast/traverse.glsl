@@ -36,6 +36,9 @@
 // With RAYCAST_EXACT_F64 (shaders/raycast/exact.comp) a camera ray's semantic chord within
 // float rounding of eps_sem is recomputed in double (raycast_chord_f64), so the first-hit
 // decision is the reference's; the including shader then declares `cam64` (RaycastCameraF64).
+// With RAYCAST_EXACT_DF (shaders/raycast/exact_df.comp, devices without shaderFloat64) the
+// same chord is computed in double-float (raycast/chord_df.glsl, common/df.glsl) from `camdf`
+// (RaycastCameraDf); see there why its decisions are the reference's.
 //
 // The including shader declares world_table / world_bricks (see
 // world/lookup.glsl), the texel buffers `usamplerBuffer occ_index` and `occ_masks` (the
@@ -103,6 +106,8 @@ double raycast_chord_f64(ivec3 v, uvec2 pix, ivec3 lo, ivec3 hi) {
   precise const double chord = min(tx, t1) - max(te, t0);
   return max(chord, 0.0LF);
 }
+#elif RAYCAST_EXACT_DF
+#include "raycast/chord_df.glsl"
 #endif
 
 RaycastHit raycast_traverse(vec3 o, vec3 d, uvec2 pix) {
@@ -236,6 +241,8 @@ RaycastHit raycast_traverse(vec3 o, vec3 d, uvec2 pix) {
       if (!sem && p.width != 0u && abs(chord - p.eps_sem) <= 1.0e-6 + 1.0e-6 * t) {
 #if RAYCAST_EXACT_F64
         sem_pass = raycast_chord_f64(v, pix, lo, hi) >= cam64.eps_sem;
+#elif RAYCAST_EXACT_DF
+        sem_pass = !df_less(raycast_chord_df(camdf, v, pix, lo, hi), camdf.eps_sem);
 #else
         near = near || p.mark_near != 0u;
 #endif

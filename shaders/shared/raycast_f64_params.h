@@ -1,5 +1,5 @@
 // The camera of a camera-mode cast in double, for shaders/raycast/exact.comp
-// (binding 6): the semantic chord of a voxel within float rounding of eps_sem is
+// (binding 7): the semantic chord of a voxel within float rounding of eps_sem is
 // recomputed from these with the CPU reference's formulas (engine/render/camera.cpp
 // camera_ray, engine/render/raycast_cpu.cpp cast_ray_cpu): the camera-frame
 // direction normalize(((u + po - cx) / fx, (v + po - cy) / fy, 1)), rotated by R
@@ -9,17 +9,12 @@
 #ifndef ICUBE_RAYCAST_F64_PARAMS_H
 #define ICUBE_RAYCAST_F64_PARAMS_H
 #include "gpu_types.h"
+#include "raycast_params.h"
 
 ICUBE_SHADER_NAMESPACE_BEGIN
 
 struct RaycastCameraF64 {
-  double r00, r01, r02, r10, r11, r12, r20, r21, r22;  // camera-to-world rotation, row-major
-  double fx, fy, cx, cy;
-  double pixel_offset;       // 0 or 0.5
-  double off_x, off_y, off_z;  // camera position - reference voxel corner, voxel units
-  double voxel_size;         // metres
-  double eps_sem;            // metres
-  double t_max;              // metres
+  RAYCAST_EXACT_CAMERA_FIELDS(double)
 };
 
 ICUBE_SHADER_NAMESPACE_END

@@ -21,6 +21,17 @@
 // Relative bounds are clamped to +-RAYCAST_MAX_REL voxels so that they stay exact in float.
 #define RAYCAST_MAX_REL 4194304
 
+// The fields of the exact pass's camera (shared/raycast_f64_params.h, shared/raycast_df_params.h)
+// in type T: the camera-to-world rotation r00..r22 (row-major), the intrinsics fx, fy, cx, cy,
+// pixel_offset (0 or 0.5), the camera position - reference voxel corner off_x, off_y, off_z
+// (voxel units), voxel_size, eps_sem and t_max (metres).
+#define RAYCAST_EXACT_CAMERA_FIELDS(T) \
+  T r00, r01, r02, r10, r11, r12, r20, r21, r22; \
+  T fx, fy, cx, cy; \
+  T pixel_offset; \
+  T off_x, off_y, off_z; \
+  T voxel_size, eps_sem, t_max;
+
 ICUBE_SHADER_NAMESPACE_BEGIN
 
 struct RaycastParams {

@@ -1,6 +1,7 @@
 // The voxel ray caster: shaders/raycast/cast.comp (engine/render/raycast_gpu.h)
 // against the double-precision brute-force DDA (engine/render/raycast_cpu.h)
-// on fixed-seed random worlds and cameras (odd image sizes), and both against
+// on fixed-seed random worlds and cameras (odd image sizes; the exact pass on
+// the device's route and forced float-only, raycast/exact_df.comp), and both against
 // hand-computed answers for the stiff cases: axis-parallel rays, origins on
 // faces / edges / corners, grazing rays, a camera inside a voxel, an empty and
 // a single-voxel world, a camera 100 km from the origin, eps_sem vs eps_depth.
@@ -68,9 +69,12 @@ std::vector<RayResult> gpu_rays(const VoxelGrid& g, const std::vector<Ray>& rays
   return from_gpu(rc.cast_rays(w, rays, o));
 }
 
-std::vector<RayResult> gpu_camera(const VoxelGrid& g, const render::Camera& cam, const render::RaycastOptions& o = {}) {
+// float_only: the exact pass in double-float (raycast/exact_df.comp) even where the device has shaderFloat64.
+std::vector<RayResult> gpu_camera(const VoxelGrid& g, const render::Camera& cam, const render::RaycastOptions& o = {},
+                                  bool float_only = false) {
   const render::RaycastWorld w = render::upload_raycast_world(test::gpu_context(), g);
   render::RaycasterGpu rc(test::gpu_context());
+  rc.set_exact_float_only(float_only);
   return from_gpu(rc.cast_camera(w, cam, o));
 }
 
@@ -125,8 +129,8 @@ TEST_CASE("raycast: camera rays follow the integer-pixel convention") {
   CHECK_THROWS_AS(render::validate_camera(make_camera(0, 3, 1.0, {}, glm::dmat3(1.0))), std::invalid_argument);
 }
 
-TEST_CASE("raycast: GPU matches the CPU reference on random worlds and cameras") {
-  Agreement total;
+TEST_CASE("raycast: GPU matches the CPU reference on random worlds and cameras (exact pass in double and float-only)") {
+  Agreement total, total_df;
   const double vs = 0.2;
   int image = 0;
   for (uint32_t seed = 1; seed <= 18; ++seed) {
@@ -153,8 +157,15 @@ TEST_CASE("raycast: GPU matches the CPU reference on random worlds and cameras")
     const auto cpu = render::cast_camera_cpu(g, cam, o, 2);
     const Agreement a = compare(gpu, cpu, 1e-3 * vs, "random");
     add(total, a);
+    add(total_df, compare(gpu_camera(g, cam, o, true), cpu, 1e-3 * vs, "random, float-only"));
     ++image;
   }
+  std::printf("raycast random, float-only exact pass (double-float chords): %zu rays, %zu disagree, %zu other entry "
+              "face, max |dt| %.3g m\n",
+              total_df.rays, total_df.disagree, total_df.normal_only, total_df.max_dt);
+  CHECK(static_cast<double>(total_df.disagree) <= 1e-5 * static_cast<double>(total_df.rays));
+  CHECK(static_cast<double>(total_df.normal_only) <= 1e-4 * static_cast<double>(total_df.rays));
+  CHECK(total_df.max_dt <= 1e-3 * vs);
   std::printf("raycast random: %d images, %zu rays, %zu semantic hits, %zu depth hits, %zu disagree, %zu other entry face, "
               "max |dt| %.3g m\n",
               image, total.rays, total.sem_hits, total.depth_hits, total.disagree, total.normal_only, total.max_dt);

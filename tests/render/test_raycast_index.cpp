@@ -1,7 +1,8 @@
 // The ray caster's occupancy index (shaders/raycast/occupancy.comp: super-brick
 // words, column heights, brick blocks), its texel-buffer bindings and the exact
-// pass (shaders/raycast/exact.comp): each against the hash path, the flat walk
-// and the CPU reference (engine/render/raycast_cpu.h).
+// pass on both routes (shaders/raycast/exact.comp in double, exact_df.comp in
+// double-float) on the demo and Waymo worlds: each against the hash path, the
+// flat walk and the CPU reference (engine/render/raycast_cpu.h).
 #include <doctest/doctest.h>
 
 #include "gpu_test_context.h"
@@ -9,12 +10,14 @@
 #include "gpu/shader_registry.h"
 #include "gpu/spirv_reflect.h"
 #include "render/buffers/trajectory.h"
+#include "scene/scene_load.h"
 #include "world/demo_scene.h"
 #include "world/gpu_world.h"
 #include "world/procedural/procedural_prior.h"
 #include "world/world_build.h"
 
 #include <random>
+#include <string>
 #include <vector>
 
 using namespace icube;
@@ -276,43 +279,90 @@ TEST_CASE("raycast: the occupancy index and brick words are texel-buffer binding
   CHECK(hits > a.size() / 2);
 }
 
-TEST_CASE("raycast: the exact pass (raycast/exact.comp) decides near-threshold semantic chords as the CPU does on the demo world") {
-  gpu::Context& ctx = test::gpu_context();
-  render::RaycasterGpu probe(ctx);
-  if (!probe.exact()) {
-    MESSAGE("device has no shaderFloat64; the exact pass is not available, skipped");
-    return;
-  }
-  const scene::Scene sc = world::make_demo_scene();
-  const world::ProceduralPrior prior(sc);
-  world::WorldBuildOptions o;
-  o.mode = world::PlanMode::Trajectory;
-  o.threads = 2;
-  const VoxelGrid g = world::build_world(sc, prior, o).world;
+namespace {
+
+// The Waymo FRONT 832x480 camera at the middle of the scene's ego track (the benchmark's frame).
+render::Camera middle_ego_camera(const scene::Scene& sc) {
   const scene::Camera preset = render::camera_preset("waymo-front-480p");
   const render::Trajectory tr = render::ego_trajectory(sc, preset);
   REQUIRE(tr.size() > 0);
   render::Camera cam;
   cam.K = render::intrinsics_of(preset);
-  cam.c2w = tr.c2w[tr.size() / 2];  // the benchmark's frame, where the float kernel alone misses 7 rays
+  cam.c2w = tr.c2w[tr.size() / 2];
+  return cam;
+}
+
+VoxelGrid procedural_world(const scene::Scene& sc, world::PlanMode mode) {
+  const world::ProceduralPrior prior(sc);
+  world::WorldBuildOptions o;
+  o.mode = mode;
+  o.threads = 2;
+  return world::build_world(sc, prior, o).world;
+}
+
+// The exact pass on both routes — double chords (raycast/exact.comp, where the device has
+// shaderFloat64) and double-float chords (raycast/exact_df.comp, forced) — and the float pass
+// alone, each against the CPU reference: the exact routes within the 1e-5 budget, the flag
+// internal to the passes, every ray the exact pass changes one the float pass decided
+// differently from the CPU, and (with shaderFloat64) both routes giving the same hits.
+void check_exact_routes(const char* name, const VoxelGrid& g, const render::Camera& cam) {
+  gpu::Context& ctx = test::gpu_context();
   const render::RaycastWorld w = render::upload_raycast_world(ctx, g);
-  render::RaycasterGpu exact(ctx), fast(ctx);
+  render::RaycasterGpu fast(ctx), dbl(ctx), df(ctx);
   fast.set_exact(false);
-  REQUIRE(exact.exact());
+  df.set_exact_float_only(true);
+  REQUIRE(df.exact());
+  REQUIRE(df.exact_float_only());
   REQUIRE_FALSE(fast.exact());
-  const auto a = exact.cast_camera(w, cam, {}), b = fast.cast_camera(w, cam, {});
+  const bool has_f64 = !dbl.exact_float_only();
   const std::vector<RayResult> cpu = render::cast_camera_cpu(g, cam, {}, 2);
-  const Agreement ea = compare(from_gpu(a), cpu, 1e-3 * 0.2, "exact");
+  const auto b = fast.cast_camera(w, cam, {});
   const Agreement fa = compare(from_gpu(b), cpu, 1e-3 * 0.2, "float");
-  size_t near_left = 0, changed = 0;
-  for (size_t i = 0; i < a.size(); ++i) {
-    near_left += (a[i].flags & RAYCAST_FLAG_NEAR) != 0 || (b[i].flags & RAYCAST_FLAG_NEAR) != 0;
-    changed += !same_hit(a[i], b[i]);
+  std::vector<shader::RaycastHit> dbl_hits;
+  for (render::RaycasterGpu* rc : {&dbl, &df}) {
+    if (rc == &dbl && !has_f64) continue;
+    const std::string route = rc == &df ? "double-float" : "double";
+    CAPTURE(route);
+    const auto a = rc->cast_camera(w, cam, {});
+    const Agreement ea = compare(from_gpu(a), cpu, 1e-3 * 0.2, route.c_str());
+    size_t near_left = 0, changed = 0, changed_wrong = 0;
+    for (size_t i = 0; i < a.size(); ++i) {
+      near_left += (a[i].flags & RAYCAST_FLAG_NEAR) != 0 || (b[i].flags & RAYCAST_FLAG_NEAR) != 0;
+      if (!same_hit(a[i], b[i])) {
+        ++changed;
+        const Agreement one = compare({from_gpu(b[i])}, {cpu[i]}, 1e-3 * 0.2, "float (changed ray)");
+        changed_wrong += one.disagree;
+      }
+    }
+    MESSAGE(std::string(name) << " " << cam.K.width << "x" << cam.K.height << ": " << route << " exact pass " << ea.disagree
+                 << " of " << ea.rays << " rays differ from the CPU, float pass alone " << fa.disagree << "; " << changed
+                 << " rays changed by the exact pass");
+    CHECK(near_left == 0);  // the flag is internal to the two passes
+    CHECK(static_cast<double>(ea.disagree) <= 1e-5 * static_cast<double>(ea.rays));
+    CHECK(ea.disagree <= fa.disagree);
+    CHECK(changed_wrong == changed);  // the exact pass changes only rays the float decision got wrong
+    CHECK(fa.disagree - ea.disagree == changed);
+    if (rc == &dbl) {
+      dbl_hits = a;
+    } else if (has_f64) {
+      size_t differ = 0;
+      for (size_t i = 0; i < a.size(); ++i) differ += !same_hit(a[i], dbl_hits[i]);
+      CHECK(differ == 0);  // double-float chords decide as double ones
+    }
   }
-  MESSAGE("demo world 832x480: exact pass " << ea.disagree << " rays differ from the CPU, float alone " << fa.disagree
-                                            << "; " << changed << " rays changed by the exact pass");
-  CHECK(near_left == 0);  // the flag is internal to the two passes
-  CHECK(ea.disagree == 0);
-  CHECK(ea.disagree <= fa.disagree);
-  CHECK(changed == fa.disagree);  // the exact pass changes exactly the rays the float decision got wrong
+}
+
+}  // namespace
+
+TEST_CASE("raycast: the exact pass, double (raycast/exact.comp) and float-only (raycast/exact_df.comp), decides near-threshold semantic chords as the CPU does on the demo world") {
+  // The benchmark's frame, where the float pass alone decides 7 rays differently from the CPU.
+  const scene::Scene sc = world::make_demo_scene();
+  check_exact_routes("demo world", procedural_world(sc, world::PlanMode::Trajectory), middle_ego_camera(sc));
+}
+
+TEST_CASE("raycast: the exact pass on both routes on the real Waymo world") {
+  const std::string path = test::test_data_file("maps/waymo/motion_data_one_scenario.tfrecord");
+  if (path.empty()) return;  // skipped (or failed under ICUBE_REQUIRE_DATA=1)
+  const scene::Scene sc = scene::load_scene(path);
+  check_exact_routes("waymo world", procedural_world(sc, world::PlanMode::Blocks), middle_ego_camera(sc));
 }
