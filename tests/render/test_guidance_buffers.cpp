@@ -159,6 +159,14 @@ TEST_CASE("guidance buffers: trajectories from .npy and JSON, frame ranges, came
   CHECK(tj.passes[0].time_index[0] == -1);
   scene::write_file_atomic(dir + "/bad.json", R"({"format": "icube-trajectory", "version": 1, "poses": [[[2,0,0,0],[0,1,0,0],[0,0,1,0],[0,0,0,1]]]})");
   CHECK_THROWS_AS(render::load_trajectory(dir + "/bad.json", 0), scene::InputError);
+  // Keys of the wrong type are input errors too (fuzz_splat_files found "format": 1 escaping as
+  // nlohmann's type_error).
+  for (const char* doc : {R"({"format": 1, "version": 1, "poses": []})",
+                          R"({"format": "icube-trajectory", "version": "1", "poses": []})",
+                          R"({"format": "icube-trajectory", "version": 1.5, "poses": []})"}) {
+    scene::write_file_atomic(dir + "/typed.json", doc);
+    CHECK_THROWS_AS(render::load_trajectory(dir + "/typed.json", 0), scene::InputError);
+  }
   world::write_npy(dir + "/bad.npy", world::NpyArray::make<float>({3, 4}, std::vector<float>(12, 0.0f)));
   CHECK_THROWS_AS(render::load_trajectory(dir + "/bad.npy", 0), scene::InputError);
   const auto r = render::parse_frame_range("3:5");

@@ -76,9 +76,12 @@ TrajectoryFile load_json_trajectory(const std::string& path, size_t scene_states
   } catch (const nlohmann::json::exception& e) {
     throw scene::InputError(path, "", std::string("not valid JSON: ") + e.what());
   }
-  if (!j.is_object() || j.value("format", "") != "icube-trajectory")
+  // Typed checks before any get(): json::value() throws type_error on a key of another type.
+  if (!j.is_object() || !j.contains("format") || !j["format"].is_string() ||
+      j["format"].get<std::string>() != "icube-trajectory")
     throw scene::InputError(path, "format", "expected {\"format\": \"icube-trajectory\", ...}");
-  if (j.value("version", 0) != 1) throw scene::InputError(path, "version", "only version 1 is supported");
+  if (!j.contains("version") || !j["version"].is_number_integer() || j["version"].get<long long>() != 1)
+    throw scene::InputError(path, "version", "only version 1 is supported");
   if (!j.contains("poses") || !j["poses"].is_array() || j["poses"].empty())
     throw scene::InputError(path, "poses", "expected a non-empty array of 4x4 matrices");
   TrajectoryFile out;
