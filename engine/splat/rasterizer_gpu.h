@@ -59,7 +59,7 @@
 // per instance); larger frames, and images of more than 65,535 tile columns or
 // rows (SplatBinRecord packs tile coordinates in 16 bits), fail with a clear
 // message.
-// Tests: tests/splat/test_splat.cpp; benchmark: bench/bench_splat.cpp.
+// Tests: tests/splat/test_splat.cpp, tests/splat/test_splat_stages.cpp; benchmark: bench/bench_splat.cpp.
 #pragma once
 
 #include "gpu/buffer.h"

@@ -1,5 +1,5 @@
 // The Gaussian splatting rasterizer: the GPU path (engine/splat/rasterizer_gpu.h,
-// shaders/splat_*.comp) against the CPU reference (rasterizer_cpu.h) on
+// shaders/splat/*.comp) against the CPU reference (rasterizer_cpu.h) on
 // fixed-seed random scenes (SH 0–3, odd image sizes, off-centre principal
 // points, antialiased mode) and on the real .ply in ../shared/data/splats:
 // identical tile-intersection lists (exact tile culling, and whole rects for
@@ -7,7 +7,8 @@
 // within 1e-4, RGBA and expected depth within 1e-3 at every pixel, median
 // depth within 1e-3 except a bounded boundary band (lavapipe's exp2 differs from
 // libm's exp in the last bits, which can move the T = 0.5 crossing to another
-// Gaussian: there the median must be 0 or another binned Gaussian's depth); a scene translated by 100 km renders the same; degenerate
+// Gaussian: there the median must be 0 or another binned Gaussian's depth); a
+// scene translated by 100 km renders the same; degenerate
 // Gaussians (huge/tiny scales, opacity 0 and 1, straddling the near plane,
 // screen edges); CPU reference against hand-computed values; exact tile
 // culling drops only tiles no pixel needs (bit-identical images, fewer
@@ -16,7 +17,7 @@
 // against hand-computed directions; both tile-binning paths (the counting sort
 // of tile_binning_gpu.h with 1, odd and many chunks, and the radix path) give
 // the CPU's lists and ranges, incl. an empty scene and one tile getting every
-// instance.
+// instance. The stage API: test_splat_stages.cpp.
 #include <doctest/doctest.h>
 
 #include "gpu_test_context.h"
@@ -349,34 +350,6 @@ TEST_CASE("splat gpu: colour-only frames (SplatOptions::depth = false, splat_ble
     const auto cpu = splat::render_cpu(cloud, cam, color);
     CHECK(cpu.depth.empty());
     CHECK(cpu.rgba.size() == a.rgba.size());
-  }
-}
-
-TEST_CASE("splat gpu: the stages recorded into a caller's command lists give render()'s image (both binning paths)") {
-  const auto cloud = test::random_cloud(23, 3000, 2, {0.0, 0.0, 0.0}, 2.0);
-  const auto cam = test::look_at_camera({1.0, -6.0, 2.0}, {0.0, 0.0, 0.0}, 141, 87, 130.0, 3.5, -1.0);
-  gpu::Context& ctx = test::gpu_context();
-  for (const auto binning : {splat::TileBinning::Radix, splat::TileBinning::Counting}) {
-    CAPTURE(int(binning));
-    splat::SplatRendererGpu r(ctx, splat::SplatGpuVariant{true, true, binning});
-    const auto g = r.upload(cloud);
-    SplatOptions o;
-    o.background = {0.1f, 0.2f, 0.3f};
-    const auto want = r.render(g, cam, o);
-    // A caller's own lists: preprocess, one readback, then binning and blend in one list.
-    splat::SplatFramePlan p = r.plan(g, cam, o);
-    ctx.submit_and_wait([&](gpu::CommandList& cmd) { r.record_preprocess(cmd, p); });
-    CHECK(r.read_instances(p) > 0);
-    CHECK(p.counting == (binning == splat::TileBinning::Counting));
-    ctx.submit_and_wait([&](gpu::CommandList& cmd) {
-      r.record_bin(cmd, p);
-      r.record_blend(cmd, p);
-    });
-    REQUIRE(r.finish(p));
-    const auto rgba = gpu::download_vector<float>(ctx, r.buffers().rgba, size_t{141} * 87 * 4);
-    const auto depth = gpu::download_vector<float>(ctx, r.buffers().depth, size_t{141} * 87 * 2);
-    CHECK(rgba == want.rgba);
-    CHECK(depth == want.depth);
   }
 }
 
