@@ -283,9 +283,7 @@ void cmd_lidar(const LidarArgs& a) {
     scene::LoadOptions lo;
     lo.waymo_selector = a.record;
     scene::Scene sc = scene::load_scene(a.scene, lo, &diag);
-    bool unassigned = false;
-    for (const auto& t : sc.tracks) unassigned = unassigned || (t.type == scene::ObjectType::Vehicle && t.instance_id == 0);
-    if (unassigned) scene::classify_tracks(sc);
+    if (scene::tracks_unclassified(sc)) scene::classify_tracks(sc);
     if (sc.ego.empty()) throw scene::InputError(a.scene, "ego", "the scene has no ego trajectory");
     render::Trajectory traj = render::lidar_ego_trajectory(sc, model.sensor_to_ego);
     if (traj.size() == 0) throw scene::InputError(a.scene, "ego", "no valid ego pose");

@@ -162,9 +162,31 @@ struct Scene {
   std::vector<std::string> missing;
 };
 
+// True for the ego car (Scene::sdc_track_index): it is not an object of the scene.
+bool is_ego_track(const Scene& scene, size_t track_index);
+
 // Sets Track::dynamic and Track::instance_id as InfiniCube does: static ids
-// from 1 and dynamic ids from 10000, each in increasing track-id order.
+// from 1 and dynamic ids from 10000, each in increasing track-id order. The
+// ego track is not an object (InfiniCube's labels never hold the ego): it
+// keeps instance_id 0 and dynamic = false.
 void classify_tracks(Scene& scene, double moving_threshold = kMovingThresholdMetres);
+
+// True when some non-ego vehicle track has no instance id yet.
+bool tracks_unclassified(const Scene& scene);
+
+// The state of track `t` at `time_index` as InfiniCube distributes object
+// info over all frames (`distribute_object_info_across_all_frames`,
+// data_process/waymo_utils.py: a pass from the last frame to the first, then
+// one from the first to the last): the state at `time_index` when valid, else
+// the nearest later valid state, else the nearest earlier one; nullptr when
+// the track has no valid state or time_index < 0. `source` (optional) receives the index of the
+// state returned.
+const BoxState* state_filled(const Track& t, int time_index, size_t* source = nullptr);
+
+// InfiniCube's per-frame `object_is_moving` (waymo2webdataset.py): state `i`
+// and state i-1 both valid and their centres more than
+// kMovingThresholdMetres apart.
+bool state_moving(const Track& t, size_t i);
 
 const char* object_type_name(ObjectType t);
 const char* road_edge_type_name(RoadEdgeType t);

@@ -37,9 +37,9 @@ TEST_CASE("waymo: small hand-built scenario decodes every field") {
   CHECK(s.sdc_track_index == 0);
   CHECK(s.tracks[0].type == ObjectType::Vehicle);
   CHECK(s.tracks[1].type == ObjectType::Pedestrian);
-  CHECK(s.tracks[0].dynamic);
+  CHECK(!s.tracks[0].dynamic);  // the ego (sdc) is not an object: no instance id
   CHECK(!s.tracks[1].dynamic);
-  CHECK(s.tracks[0].instance_id == kFirstDynamicInstanceId);
+  CHECK(s.tracks[0].instance_id == 0);
   CHECK(s.tracks[1].instance_id == kFirstStaticInstanceId);
   REQUIRE(s.map.lanes.size() == 1);
   const Lane& lane = s.map.lanes[0];
@@ -383,10 +383,19 @@ TEST_CASE("waymo: the real one-scenario file matches its provenance") {
   CHECK(s.ego[10].valid);
   CHECK(s.missing == std::vector<std::string>{"cameras"});
 
-  // Instance ids: unique, statics 1..n, dynamics 10000.. (classify_tracks).
+  // Instance ids: unique, statics 1..n, dynamics 10000.. (classify_tracks); the ego is no object (id 0).
   std::set<uint32_t> statics, dynamics;
-  for (const Track& t : s.tracks) (t.dynamic ? dynamics : statics).insert(t.instance_id);
-  CHECK(statics.size() + dynamics.size() == 83);
+  REQUIRE(s.sdc_track_index >= 0);
+  for (size_t i = 0; i < s.tracks.size(); ++i) {
+    const Track& t = s.tracks[i];
+    if (is_ego_track(s, i)) {
+      CHECK(t.instance_id == 0);
+      CHECK(!t.dynamic);
+      continue;
+    }
+    (t.dynamic ? dynamics : statics).insert(t.instance_id);
+  }
+  CHECK(statics.size() + dynamics.size() == 82);
   REQUIRE(!statics.empty());
   REQUIRE(!dynamics.empty());
   CHECK(*statics.begin() == kFirstStaticInstanceId);

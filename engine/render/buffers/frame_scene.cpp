@@ -36,10 +36,6 @@ void check_instance(const scene::Track& t) {
 
 }  // namespace
 
-bool is_ego_track(const scene::Scene& s, size_t track_index) {
-  return s.sdc_track_index >= 0 && static_cast<size_t>(s.sdc_track_index) == track_index;
-}
-
 std::vector<CarCell> merge_car_cells(const std::vector<std::vector<world::VehicleVoxel>>& cars) {
   struct Best {
     uint32_t sub = 0;
@@ -87,7 +83,7 @@ world::VoxelGrid make_static_world(const world::VoxelGrid& src, const scene::Sce
   std::vector<std::vector<world::VehicleVoxel>> cars;
   for (size_t i = 0; i < s.tracks.size(); ++i) {
     const scene::Track& t = s.tracks[i];
-    if (t.type != scene::ObjectType::Vehicle || t.dynamic || is_ego_track(s, i)) continue;
+    if (t.type != scene::ObjectType::Vehicle || t.dynamic || scene::is_ego_track(s, i)) continue;
     const scene::BoxState* b = state_at(t, time_index);
     for (size_t k = 0; !b && k < t.states.size(); ++k)
       if (t.states[k].valid) b = &t.states[k];
@@ -113,8 +109,8 @@ std::vector<CarCell> dynamic_car_cells(const scene::Scene& s, int time_index, co
   std::vector<std::pair<const scene::BoxState*, uint32_t>> boxes;
   for (size_t i = 0; i < s.tracks.size(); ++i) {
     const scene::Track& t = s.tracks[i];
-    if (t.type != scene::ObjectType::Vehicle || !t.dynamic || is_ego_track(s, i)) continue;
-    const scene::BoxState* b = state_at(t, time_index);
+    if (t.type != scene::ObjectType::Vehicle || !t.dynamic || scene::is_ego_track(s, i)) continue;
+    const scene::BoxState* b = scene::state_filled(t, time_index);
     if (!b) continue;
     check_instance(t);
     boxes.emplace_back(b, t.instance_id);

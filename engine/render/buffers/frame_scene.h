@@ -9,8 +9,11 @@
 // overwrite static voxels: in InfiniCube's re-voxelisation a car cell's
 // sub-voxel points outvote a static voxel's centre, and ties go to the lowest
 // class id, CAR = 1.
-// Dynamic part of a frame: the dynamic vehicle tracks (not the ego) valid at
-// the frame's time index, voxelised the same way (instance ids >= 10000).
+// Dynamic part of a frame: the dynamic vehicle tracks (not the ego) at the
+// frame's time index, voxelised the same way (instance ids >= 10000). A track
+// not valid at that index is placed at its nearest later, else nearest
+// earlier, valid state (scene::state_filled), as InfiniCube distributes
+// dynamic object info over all frames before it inserts the cars.
 // Where cars overlap each other, the cell goes to the car with the most
 // sub-voxels in it, ties to the lowest instance id (the majority vote of
 // points_to_fvdb). Cells outside the grid's ijk range are dropped.
@@ -34,9 +37,6 @@ struct CarCell {
   uint16_t instance = 0;
   bool operator==(const CarCell&) const = default;
 };
-
-// True for the ego car (scene.sdc_track_index), which is never inserted.
-bool is_ego_track(const scene::Scene& s, size_t track_index);
 
 // Cells of several cars (each list one car's voted cells) merged by the rule
 // above; sorted by ijk (x, then y, then z).
