@@ -5,7 +5,8 @@
 //   icube buffers WORLD [--scene SCENE] [--record SEL] [--trajectory FILE]
 //                 [--camera fx,fy,cx,cy,w,h | --camera-preset waymo-front-480p]
 //                 [--route METRES [--route-seed N] [--route-speed MPS] [--route-start-lane ID]]
-//                 [--frames A:B[:S]] [--seed N] [--pixel-centres] [--normals] [--no-video]
+//                 [--frames A:B[:S]] [--seed N] [--pixel-centres] [--normals]
+//                 [--object-info moving|observed] [--no-video | --video-preset NAME]
 //                 [--clip NAME] -o OUTDIR
 //
 // Trajectory: --trajectory (.npy [N,4,4] / [P,N,4,4] or icube-trajectory
@@ -15,7 +16,9 @@
 // trajectory JSON's camera, the scene's first camera, else waymo-front-480p.
 // Output: OUTDIR/<clip>/ (pass_<k>/ per pass for [P,N,4,4]) is built in a
 // hidden staging folder and renamed into place at the end, so a failure
-// leaves nothing half-written; OUTDIR/contact_sheet.png.
+// leaves nothing half-written; OUTDIR/contact_sheet.png. Frames are numbered
+// 0 ... N-1 as written; buffers_meta.json keeps each one's trajectory index.
+// The field-by-field layout and the official reader of each: docs/guidance-buffers.md.
 // Engine: engine/render/buffers/ (guidance_sequence.h, stage2_writer.h).
 #include "cli_common.h"
 #include "command_registry.h"
@@ -32,6 +35,7 @@
 #include "scene/frames.h"
 #include "scene/route.h"
 #include "scene/scene_load.h"
+#include "video/mp4_writer.h"
 #include "world/car_mesh.h"
 #include "world/npy.h"
 #include "world/world_file.h"
@@ -41,7 +45,6 @@
 #include <unistd.h>
 
 #include <chrono>
-#include <csignal>
 #include <cstdio>
 #include <filesystem>
 #include <memory>
@@ -62,6 +65,8 @@ struct BuffersArgs {
   int64_t route_start_lane = 0;
   bool route_start_given = false;
   bool pixel_centres = false, normals = false, no_video = false;
+  std::string object_info = "moving";
+  std::string video_preset = "veryslow";
 };
 
 std::string sanitize_clip(std::string s) {
@@ -89,9 +94,7 @@ void cmd_buffers(const BuffersArgs& a) {
       scene::LoadOptions lo;
       lo.waymo_selector = a.record;
       sc = scene::load_scene(a.scene, lo, &diag);
-      bool unassigned = false;
-      for (const auto& t : sc->tracks) unassigned = unassigned || (t.type == scene::ObjectType::Vehicle && t.instance_id == 0);
-      if (unassigned) scene::classify_tracks(*sc);
+      if (scene::tracks_unclassified(*sc)) scene::classify_tracks(*sc);
     }
     const scene::Scene* scene_ptr = sc ? &*sc : nullptr;
 
@@ -149,7 +152,6 @@ void cmd_buffers(const BuffersArgs& a) {
     // Output staging.
     StagingDir staging(a.output, clip);
 
-    std::signal(SIGPIPE, SIG_IGN);  // a dying ffmpeg must not kill us
     size_t total_frames = 0;
     for (const auto& p : passes) total_frames += p.size();
     ProgressBar bar("buffers", "frames");
@@ -177,6 +179,8 @@ void cmd_buffers(const BuffersArgs& a) {
       render::Stage2Options wo;
       wo.clip = clip;
       wo.videos = !a.no_video;
+      wo.video.preset = a.video_preset;
+      wo.object_info = a.object_info == "observed" ? render::ObjectInfoMode::Observed : render::ObjectInfoMode::Moving;
       wo.normals = a.normals;
       const render::Stage2Result wr = render::write_stage2(seq, scene_ptr, w2v, dir.string(), wo);
       write_s += wr.write_s + wr.video_s;
@@ -257,13 +261,23 @@ void add_buffers_commands(CLI::App& app) {
       ->capture_default_str();
   cmd->add_flag("--pixel-centres", a->pixel_centres, "Rays through pixel centres (u + 0.5) instead of InfiniCube's integer pixels");
   cmd->add_flag("--normals", a->normals, "Also write face-normal PNGs");
-  cmd->add_flag("--no-video", a->no_video, "Do not write mp4 previews even when ffmpeg is found");
+  cmd->add_option("--object-info", a->object_info,
+                  "dynamic_object_info.tar content: moving = InfiniCube's (the ever-moving vehicles, in every frame, "
+                  "ids from 10000); observed = every vehicle, parked ones too, only in frames where it is observed")
+      ->check(CLI::IsMember({"moving", "observed"}))
+      ->capture_default_str();
+  cmd->add_flag("--no-video", a->no_video, "Do not write the three mp4s (semantic, coordinate, depth_vis)");
+  cmd->add_option("--video-preset", a->video_preset,
+                  "x264 preset of the mp4s (InfiniCube's: veryslow; ultrafast ... veryslow trades time for file size)")
+      ->check(CLI::IsMember(video::x264_presets()))
+      ->capture_default_str();
   cmd->add_option("--clip", a->clip, "Clip name (default: the scenario id, else the world file's stem)")->type_name("NAME");
   cmd->add_option("-o,--output", a->output, "Output folder (gets <clip>/ and contact_sheet.png)")->required()->type_name("OUTDIR");
   cmd->footer(
       "Per frame the world's vehicle voxels are replaced by the scene's cars voxelised from the built-in car mesh "
       "(static cars once, dynamic cars per frame). Poses are written in InfiniCube's voxel world (first camera's "
-      "FLU frame); world_to_voxel_world.npy maps back. mp4s need ffmpeg on PATH.");
+      "FLU frame); world_to_voxel_world.npy maps back. Frames are numbered 0..N-1 in every tar, folder and mp4; "
+      "buffers_meta.json keeps the trajectory index of each. Layout and readers: docs/guidance-buffers.md.");
   cmd->callback([a] { cmd_buffers(*a); });
 }
 

@@ -5,6 +5,7 @@
 #include <doctest/doctest.h>
 
 #include "render/buffers/coordinate_buffer.h"
+#include "render/buffers/guidance_frame.h"
 #include "render/camera.h"
 #include "render/buffers/instance_colors.h"
 #include "render/buffers/tar_archive.h"
@@ -16,6 +17,7 @@
 
 #include <unistd.h>
 
+#include <cmath>
 #include <cstring>
 #include <filesystem>
 #include <random>
@@ -244,4 +246,28 @@ TEST_CASE("guidance buffers: camera_from_scene gives InfiniCube's OpenCV camera-
     for (int j = 0; j < 4; ++j) CHECK(c.c2w[i][j] == doctest::Approx(want[i][j]).epsilon(1e-12));
   // The optical axis (OpenCV +z) looks along the ego's forward axis (world +y here).
   CHECK(c.c2w[2][1] == doctest::Approx(1.0));
+}
+
+TEST_CASE("guidance buffers: depth centimetres are numpy's (depth * 100).astype(uint16) on float32 depth") {
+  // 0.29f * 100 is 28.99999917 in exact arithmetic, which rounds to 29.0f in float32 (as numpy computes
+  // it); a double product would truncate to 28. The same holds for the other values chosen here.
+  const std::vector<float> z = {0.29f, 0.57f, 1.13f, 10.055f, 12.3f, 0.0f, 0.004f, 655.35f, 700.0f, -1.0f};
+  const std::vector<uint16_t> cm = render::depth_centimetres(z);
+  const std::vector<uint16_t> want = {29, 57, 113, 1005, 1230, 0, 0, 65534, 65535, 0};  // 655.35f < 655.35
+  CHECK(cm == want);
+  // The double route differs on the first three: this test would catch a return to it.
+  CHECK(static_cast<int>(std::trunc(static_cast<double>(0.29f) * 100.0)) == 28);
+  CHECK(static_cast<int>(std::trunc(static_cast<double>(0.57f) * 100.0)) == 56);
+  CHECK(static_cast<int>(std::trunc(static_cast<double>(1.13f) * 100.0)) == 112);
+  // Every float in [0, 655) whose product rounds across an integer follows the float32 rule.
+  std::vector<float> sweep;
+  for (float v = 0.0f; v < 655.0f; v = std::nextafter(v + 0.00731f, 1e9f)) sweep.push_back(v);
+  const std::vector<uint16_t> swept = render::depth_centimetres(sweep);
+  for (size_t i = 0; i < sweep.size(); ++i) {
+    const float p = sweep[i] * 100.0f;
+    if (swept[i] != static_cast<uint16_t>(p)) {
+      FAIL_CHECK("depth " << sweep[i] << " m gives " << swept[i] << " cm, float32 rule " << static_cast<uint16_t>(p));
+      break;
+    }
+  }
 }

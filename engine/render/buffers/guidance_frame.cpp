@@ -20,16 +20,20 @@ GuidanceFrame frame_from_hits(const std::vector<shader::RaycastHit>& hits, const
   f.classes.assign(n, 0);
   f.instance.assign(n, 0);
   f.normal.assign(n, 0);
-  const double o = pixel_offset(pixels);
+  // z-depth = t * ray_z in float32, as upstream (camera/pinhole.py: rays =
+  // K^-1 [u, v, 1] / |K^-1 [u, v, 1]| in float32, distance_to_zdepth multiplies).
+  const float o = static_cast<float>(pixel_offset(pixels));
+  const float ifx = 1.0f / static_cast<float>(K.fx), ify = 1.0f / static_cast<float>(K.fy);
+  const float ocx = -static_cast<float>(K.cx) * ifx, ocy = -static_cast<float>(K.cy) * ify;
   for (uint32_t v = 0; v < K.height; ++v) {
-    const double y = (v + o - K.cy) / K.fy;
+    const float y = ify * (static_cast<float>(v) + o) + ocy;
     for (uint32_t u = 0; u < K.width; ++u) {
       const size_t i = static_cast<size_t>(v) * K.width + u;
       const shader::RaycastHit& h = hits[i];
       if (h.flags & RAYCAST_FLAG_DEPTH) {
-        const double x = (u + o - K.cx) / K.fx;
-        const double dz = 1.0 / std::sqrt(x * x + y * y + 1.0);
-        f.zdepth[i] = static_cast<float>(static_cast<double>(h.t_depth) * dz);
+        const float x = ifx * (static_cast<float>(u) + o) + ocx;
+        const float ray_z = 1.0f / std::sqrt(x * x + y * y + 1.0f);
+        f.zdepth[i] = h.t_depth * ray_z;
       }
       if (h.flags & RAYCAST_FLAG_SEM) {
         f.classes[i] = static_cast<uint8_t>(h.sem_class);
@@ -44,8 +48,9 @@ GuidanceFrame frame_from_hits(const std::vector<shader::RaycastHit>& hits, const
 std::vector<uint16_t> depth_centimetres(const std::vector<float>& zdepth) {
   std::vector<uint16_t> out(zdepth.size(), 0);
   for (size_t i = 0; i < zdepth.size(); ++i) {
-    const double cm = std::trunc(static_cast<double>(zdepth[i]) * 100.0);
-    out[i] = cm >= 65535.0 ? uint16_t{65535} : cm > 0.0 ? static_cast<uint16_t>(cm) : uint16_t{0};
+    // float32 product, then truncation: numpy's (depth * 100).astype(np.uint16) on float32 depth.
+    const float cm = std::trunc(zdepth[i] * 100.0f);
+    out[i] = cm >= 65535.0f ? uint16_t{65535} : cm > 0.0f ? static_cast<uint16_t>(cm) : uint16_t{0};
   }
   return out;
 }

@@ -3,10 +3,10 @@
 
 #include "render/buffers/frame_scene.h"
 #include "render/buffers/tar_archive.h"
-#include "render/buffers/video_writer.h"
 #include "scene/atomic_file.h"
 #include "scene/frames.h"
 #include "scene/png_write.h"
+#include "video/mp4_writer.h"
 #include "world/npy.h"
 
 #include <algorithm>
@@ -72,6 +72,14 @@ std::vector<double> row_major(const glm::dmat4& m) {
   return v;
 }
 
+// Upstream saves poses as float32 (`.float()` before the tar).
+std::vector<float> row_major_f32(const glm::dmat4& m) {
+  std::vector<float> v(16);
+  for (int r = 0; r < 4; ++r)
+    for (int c = 0; c < 4; ++c) v[static_cast<size_t>(4 * r + c)] = static_cast<float>(m[c][r]);
+  return v;
+}
+
 std::string png_rgb(const std::vector<uint8_t>& rgb, uint32_t w, uint32_t h) {
   return scene::encode_png(rgb.data(), static_cast<int>(w), static_cast<int>(h), 3);
 }
@@ -106,24 +114,32 @@ void parallel_for(size_t n, unsigned threads, F&& fn) {
 
 glm::dmat4 world_to_voxel_world(const glm::dmat4& c2w0) { return glm::inverse(scene::opencv_to_flu(c2w0)); }
 
-std::string dynamic_object_info_json(const scene::Scene* s, int t, const glm::dmat4& w2v) {
+const char* object_info_mode_name(ObjectInfoMode m) {
+  return m == ObjectInfoMode::Moving ? "moving" : "observed";
+}
+
+std::string dynamic_object_info_json(const scene::Scene* s, int t, const glm::dmat4& w2v, ObjectInfoMode mode) {
   if (!s || t < 0) return "{}";
   std::ostringstream out;
   out << "{";
   bool first = true;
   for (size_t k = 0; k < s->tracks.size(); ++k) {
     const scene::Track& tr = s->tracks[k];
-    if (tr.type != scene::ObjectType::Vehicle || is_ego_track(*s, k)) continue;
-    if (static_cast<size_t>(t) >= tr.states.size() || !tr.states[static_cast<size_t>(t)].valid) continue;
-    const scene::BoxState& b = tr.states[static_cast<size_t>(t)];
-    bool moving = false;
-    if (t > 0 && tr.states[static_cast<size_t>(t) - 1].valid)
-      moving = glm::length(b.center - tr.states[static_cast<size_t>(t) - 1].center) > scene::kMovingThresholdMetres;
+    if (tr.type != scene::ObjectType::Vehicle || scene::is_ego_track(*s, k)) continue;
+    const scene::BoxState* b = nullptr;
+    size_t source = static_cast<size_t>(t);
+    if (mode == ObjectInfoMode::Moving) {
+      if (!tr.dynamic) continue;
+      b = scene::state_filled(tr, t, &source);
+    } else if (static_cast<size_t>(t) < tr.states.size() && tr.states[static_cast<size_t>(t)].valid) {
+      b = &tr.states[static_cast<size_t>(t)];
+    }
+    if (!b) continue;
     out << (first ? "\n  " : ",\n  ");
     first = false;
-    out << "\"" << tr.id << "\": {\"object_to_world\": " << matrix_json(w2v * scene::box_to_world(b))
-        << ", \"object_lwh\": [" << num(b.length) << ", " << num(b.width) << ", " << num(b.height)
-        << "], \"object_is_moving\": " << (moving ? "true" : "false")
+    out << "\"" << tr.id << "\": {\"object_to_world\": " << matrix_json(w2v * scene::box_to_world(*b))
+        << ", \"object_lwh\": [" << num(b->length) << ", " << num(b->width) << ", " << num(b->height)
+        << "], \"object_is_moving\": " << (scene::state_moving(tr, source) ? "true" : "false")
         << ", \"object_type\": \"car\", \"object_id_int\": " << tr.instance_id << "}";
   }
   out << (first ? "}" : "\n}");
@@ -146,7 +162,7 @@ Stage2Result write_stage2(const GuidanceSequence& seq, const scene::Scene* scene
   std::atomic<size_t> files{0};
   parallel_for(nf, threads, [&](size_t f) {
     const GuidanceFrame& fr = seq.frames[f];
-    const std::string id = frame_id(seq.trajectory.frame_index[f]);
+    const std::string id = frame_id(static_cast<int>(f));
     const std::vector<uint16_t> cm = depth_centimetres(fr.zdepth);
     depth_png[f] = scene::encode_png_gray16(cm.data(), static_cast<int>(W), static_cast<int>(H));
     inst_png[f] = scene::encode_png_gray16(fr.instance.data(), static_cast<int>(W), static_cast<int>(H));
@@ -165,13 +181,13 @@ Stage2Result write_stage2(const GuidanceSequence& seq, const scene::Scene* scene
   });
   TarWriter depth_tar, inst_tar, pose_tar, intr_tar, obj_tar;
   for (size_t f = 0; f < nf; ++f) {
-    const std::string base = clip + "." + frame_id(seq.trajectory.frame_index[f]);
+    const std::string base = clip + "." + frame_id(static_cast<int>(f));
     depth_tar.add(base + ".voxel_depth_100.front.png", std::move(depth_png[f]));
     inst_tar.add(base + ".instance_buffer.front.png", std::move(inst_png[f]));
     pose_tar.add(base + ".pose.front.npy",
-                 world::npy_to_bytes(world::NpyArray::make<double>({4, 4}, row_major(w2v * seq.trajectory.c2w[f]))));
+                 world::npy_to_bytes(world::NpyArray::make<float>({4, 4}, row_major_f32(w2v * seq.trajectory.c2w[f]))));
     obj_tar.add(base + ".dynamic_object_info.json",
-                dynamic_object_info_json(scene, seq.trajectory.time_index[f], w2v) + "\n");
+                dynamic_object_info_json(scene, seq.trajectory.time_index[f], w2v, opts.object_info) + "\n");
   }
   intr_tar.add(clip + ".intrinsic.front.npy",
                world::npy_to_bytes(world::NpyArray::make<double>(
@@ -186,7 +202,7 @@ Stage2Result write_stage2(const GuidanceSequence& seq, const scene::Scene* scene
   files += 6;
 
   std::ostringstream meta;
-  meta << "{\n  \"format\": \"icube-guidance-buffers\",\n  \"version\": 1,\n  \"clip\": \"" << json_escape(clip)
+  meta << "{\n  \"format\": \"icube-guidance-buffers\",\n  \"version\": 2,\n  \"clip\": \"" << json_escape(clip)
        << "\",\n  \"frames\": " << nf << ",\n  \"intrinsics\": [" << num(seq.K.fx) << ", " << num(seq.K.fy) << ", "
        << num(seq.K.cx) << ", " << num(seq.K.cy) << ", " << W << ", " << H << "],\n  \"pixel_convention\": \""
        << (seq.pixels == PixelConvention::Integer ? "integer" : "centre") << "\",\n  \"coordinate_min\": ["
@@ -199,23 +215,23 @@ Stage2Result write_stage2(const GuidanceSequence& seq, const scene::Scene* scene
     meta << (first ? "" : ", ") << "\"" << id << "\": [" << int{c[0]} << ", " << int{c[1]} << ", " << int{c[2]} << "]";
     first = false;
   }
-  meta << "},\n  \"frame_indices\": [";
+  meta << "},\n  \"object_info\": \"" << object_info_mode_name(opts.object_info)
+       << "\",\n  \"source_frame_indices\": [";
   for (size_t f = 0; f < nf; ++f) meta << (f ? ", " : "") << seq.trajectory.frame_index[f];
+  meta << "],\n  \"source_time_indices\": [";
+  for (size_t f = 0; f < nf; ++f) meta << (f ? ", " : "") << seq.trajectory.time_index[f];
   meta << "]\n}\n";
   scene::write_file_atomic(dir + "/buffers_meta.json", meta.str());
   ++files;
   res.write_s = seconds_since(t0);
 
   const auto t1 = Clock::now();
-  const std::string ffmpeg = opts.videos ? find_on_path("ffmpeg") : std::string();
   if (!opts.videos) {
     res.notes.push_back("videos disabled: no mp4 written");
-  } else if (ffmpeg.empty()) {
-    res.notes.push_back("ffmpeg not found on PATH: no mp4 written (PNG frames are in the clip folder)");
   } else {
-    VideoWriter sem(ffmpeg, dir + "/semantic_buffer_video_480p_front.mp4", W, H);
-    VideoWriter crd(ffmpeg, dir + "/coordinate_buffer_video_480p_front.mp4", W, H);
-    VideoWriter dep(ffmpeg, dir + "/depth_vis_video_480p_front.mp4", W, H);
+    video::Mp4Writer sem(dir + "/semantic_buffer_video_480p_front.mp4", W, H, opts.video);
+    video::Mp4Writer crd(dir + "/coordinate_buffer_video_480p_front.mp4", W, H, opts.video);
+    video::Mp4Writer dep(dir + "/depth_vis_video_480p_front.mp4", W, H, opts.video);
     for (size_t f = 0; f < nf; ++f) {
       const GuidanceFrame& fr = seq.frames[f];
       sem.add_frame(semantic_rgb(fr, seq.instance_colors));
