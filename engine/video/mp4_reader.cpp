@@ -2,12 +2,12 @@
 #include "video/mp4_reader.h"
 
 #include "scene/input_error.h"
+#include "video/av_util.h"
 #include "video/mp4_writer.h"
 
 extern "C" {
 #include <libavcodec/avcodec.h>
 #include <libavformat/avformat.h>
-#include <libavutil/error.h>
 #include <libswscale/swscale.h>
 }
 
@@ -18,12 +18,6 @@ extern "C" {
 namespace icube::video {
 
 namespace {
-
-std::string av_error(int code) {
-  char buf[AV_ERROR_MAX_STRING_SIZE] = {};
-  av_strerror(code, buf, sizeof buf);
-  return buf;
-}
 
 struct Decoder {
   std::string path;

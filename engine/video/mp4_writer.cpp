@@ -1,10 +1,11 @@
 // libavcodec/libavformat H.264 mp4 writer; see mp4_writer.h.
 #include "video/mp4_writer.h"
 
+#include "video/av_util.h"
+
 extern "C" {
 #include <libavcodec/avcodec.h>
 #include <libavformat/avformat.h>
-#include <libavutil/error.h>
 #include <libavutil/log.h>
 #include <libavutil/opt.h>
 #include <libswscale/swscale.h>
@@ -22,12 +23,6 @@ extern "C" {
 namespace icube::video {
 
 namespace {
-
-std::string av_error(int code) {
-  char buf[AV_ERROR_MAX_STRING_SIZE] = {};
-  av_strerror(code, buf, sizeof buf);
-  return buf;
-}
 
 std::string number(double v) {
   char b[32];

@@ -7,6 +7,7 @@
 // without it the case skips with a message, or fails under ICUBE_REQUIRE_DATA=1.
 #include <doctest/doctest.h>
 
+#include "cli_test_util.h"
 #include "scene/atomic_file.h"
 #include "world/npy.h"
 #include "world/voxel_grid.h"
@@ -15,7 +16,6 @@
 #include <glm/gtc/matrix_transform.hpp>
 
 #include <sys/wait.h>
-#include <unistd.h>
 
 #include <cmath>
 #include <cstdio>
@@ -30,13 +30,6 @@
 using namespace icube;
 
 namespace {
-
-std::string temp_dir(const std::string& name) {
-  const auto p = std::filesystem::temp_directory_path() / ("icube-export-" + name + "-" + std::to_string(getpid()));
-  std::filesystem::remove_all(p);
-  std::filesystem::create_directories(p);
-  return p.string();
-}
 
 // Runs a shell command; returns its exit status and stdout+stderr.
 std::pair<int, std::string> run(const std::string& cmd) {
@@ -125,7 +118,8 @@ TEST_CASE("export_infinicube_voxel: .icw to the voxel-world arrays InfiniCube ha
     return;
   }
   const std::string tool = std::string(ICUBE_SOURCE_DIR) + "/tools/export_infinicube_voxel.py";
-  const std::string dir = temp_dir("arrays");
+  test::TempDir tmp("export-arrays");
+  const std::string dir = tmp.path.string();
   // A blob of voxels with several classes, two bricks apart, at an origin off the 0.1 m lattice.
   world::VoxelGrid g({3.31, -1.73, 0.25}, 0.2);
   for (int i = -3; i < 4; ++i)
@@ -196,5 +190,4 @@ TEST_CASE("export_infinicube_voxel: .icw to the voxel-world arrays InfiniCube ha
     CHECK(rc == 0);
     CHECK(out.find("voxel.pt") != std::string::npos);
   }
-  std::filesystem::remove_all(dir);
 }

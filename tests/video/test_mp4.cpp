@@ -4,13 +4,13 @@
 // (wrong frame sizes, no frames, files that are not videos).
 #include <doctest/doctest.h>
 
+#include "cli_test_util.h"
 #include "scene/atomic_file.h"
 #include "scene/input_error.h"
 #include "video/mp4_reader.h"
 #include "video/mp4_writer.h"
 #include "video/codec_error.h"
 
-#include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
@@ -22,13 +22,6 @@
 using namespace icube;
 
 namespace {
-
-std::string temp_dir(const std::string& name) {
-  const auto p = std::filesystem::temp_directory_path() / ("icube-mp4-" + name + "-" + std::to_string(getpid()));
-  std::filesystem::remove_all(p);
-  std::filesystem::create_directories(p);
-  return p.string();
-}
 
 // A guidance-like frame: flat palette regions with sharp edges (semantic
 // buffer), a smooth gradient band (coordinate buffer) and a moving box.
@@ -56,7 +49,8 @@ std::vector<uint8_t> guidance_like_frame(uint32_t w, uint32_t h, uint32_t f) {
 }  // namespace
 
 TEST_CASE("mp4: frames written with upstream's x264 settings decode to the same count, size, rate and pixels") {
-  const std::string dir = temp_dir("roundtrip");
+  test::TempDir tmp("mp4-roundtrip");
+  const std::string dir = tmp.path.string();
   // 832x480 is upstream's size (scaled down 4x here); 37x23 is odd in both dimensions (padded to 38x24).
   for (const auto& [w, h] : {std::pair<uint32_t, uint32_t>{208, 120}, {37, 23}}) {
     CAPTURE(w);
@@ -109,11 +103,11 @@ TEST_CASE("mp4: frames written with upstream's x264 settings decode to the same 
     // Only the first max_frames when asked.
     CHECK(video::read_video(path, 4).frames.size() == 4);
   }
-  std::filesystem::remove_all(dir);
 }
 
 TEST_CASE("mp4: a writer that is not finished leaves no file; bad frames and empty videos are errors") {
-  const std::string dir = temp_dir("contract");
+  test::TempDir tmp("mp4-contract");
+  const std::string dir = tmp.path.string();
   const std::string path = dir + "/a.mp4";
   {
     video::Mp4Options o;
@@ -158,5 +152,4 @@ TEST_CASE("mp4: a writer that is not finished leaves no file; bad frames and emp
   } catch (const scene::InputError& e) {
     CHECK(std::string(e.what()).find("cut.mp4") != std::string::npos);
   }
-  std::filesystem::remove_all(dir);
 }
