@@ -1,21 +1,33 @@
 // `icube nn` : the network layer's weights.
 //
-//   icube nn info WEIGHTS.safetensors [--check-finite] [--limit N]
+//   icube nn info WEIGHTS.safetensors [--model CONFIG|PRESET [--ema]] [--check-finite] [--limit N]
+//   icube nn forward --model CONFIG|PRESET --weights W.safetensors --input x.npy --timestep t.npy
+//                    [--ema] [--check-finite] [--dump-layers FILE.safetensors] -o y.npy
 //
-// Validates the file (engine/nn/safetensors.h: header, dtypes, shapes,
-// ranges), lists its tensors (name, dtype, shape, elements) and the totals
-// per name prefix (`unet.`, `unet_ema.`, `vae.` in a converted Lightning
-// checkpoint). With --check-finite a NaN or infinity in any tensor is an error
-// naming the tensor and the element. Checking against a model config comes
-// with the models (issue 16).
+// info validates the file (engine/nn/safetensors.h: header, dtypes, shapes,
+// ranges), lists its tensors and the totals per name prefix (`unet.`,
+// `unet_ema.`, `vae.` in a converted Lightning checkpoint), and with --model
+// checks it holds exactly the model's parameters (engine/nn/weights.h).
+// forward runs the dense diffusion UNet on .npy inputs (x [B, C, X, Y, Z]
+// float32, t [B] int64) with the CPU reference (engine/nn/unet_reference.h:
+// exact, double accumulation, slow: a development and checking path until the
+// GPU network engine lands); --dump-layers writes every block's output under
+// the names of unet_small/*.intermediates.safetensors. Outputs are written
+// atomically. Any NaN/Inf with --check-finite, missing or extra tensor, or
+// wrong shape is a one-line error naming the file and the tensor.
 #include "cli_common.h"
 #include "command_registry.h"
 
 #include "nn/safetensors.h"
+#include "nn/unet_config.h"
+#include "nn/unet_reference.h"
+#include "nn/weights.h"
 #include "scene/input_error.h"
+#include "world/npy.h"
 
 #include <CLI/CLI.hpp>
 
+#include <cmath>
 #include <cstdio>
 #include <map>
 #include <memory>
@@ -25,14 +37,66 @@ namespace icube::tools {
 namespace {
 
 struct NnInfoArgs {
-  std::string weights;
-  bool check_finite = false;
+  std::string weights, model;
+  bool check_finite = false, ema = false;
   size_t limit = 50;
 };
+
+struct NnForwardArgs {
+  std::string model, weights, input, timestep, dump, output;
+  bool ema = false, check_finite = false;
+};
+
+void cmd_nn_forward(const NnForwardArgs& a) {
+  run_command([&](scene::Diagnostics&) {
+    const nn::UNetConfig cfg = nn::load_unet_config(a.model);
+    nn::UNetReference net(cfg);
+    const nn::SafetensorsFile file(a.weights);
+    nn::WeightOptions wo;
+    wo.ema = a.ema;
+    wo.check_finite = a.check_finite;
+    net.set_weights(nn::load_weights_cpu(file, net.parameters(), wo));
+    const world::NpyArray x = world::read_npy(a.input);
+    if (x.dtype != world::NpyDtype::F4 || x.shape.size() != 5 || x.shape[1] != static_cast<uint64_t>(cfg.in_channels))
+      throw scene::InputError(a.input, "", "expected float32 [B, " + std::to_string(cfg.in_channels) + ", X, Y, Z]");
+    const world::NpyArray t = world::read_npy(a.timestep);
+    if (t.dtype != world::NpyDtype::I8 || t.shape != std::vector<uint64_t>{x.shape[0]})
+      throw scene::InputError(a.timestep, "", "expected int64 [" + std::to_string(x.shape[0]) + "] (one timestep per batch element)");
+    const std::vector<float> xv = x.values<float>();
+    for (size_t i = 0; i < xv.size(); ++i)
+      if (!std::isfinite(xv[i])) throw scene::InputError(a.input, "element " + std::to_string(i), "is not finite");
+    std::vector<nn::TensorToWrite> dumped;
+    const nn::UNetReference::Capture capture = [&](const std::string& name, const nn::CpuTensor& v) {
+      dumped.push_back(nn::f32_tensor(name, v.shape, v.data));
+    };
+    std::fprintf(stderr, "nn forward: %llu parameters, input [%llu, %llu, %llu, %llu, %llu], CPU reference\n",
+                 static_cast<unsigned long long>(net.parameter_count()), static_cast<unsigned long long>(x.shape[0]),
+                 static_cast<unsigned long long>(x.shape[1]), static_cast<unsigned long long>(x.shape[2]),
+                 static_cast<unsigned long long>(x.shape[3]), static_cast<unsigned long long>(x.shape[4]));
+    const nn::CpuTensor y = net.forward(nn::CpuTensor(std::vector<int64_t>(x.shape.begin(), x.shape.end()), xv),
+                                        t.values<int64_t>(), a.dump.empty() ? nn::UNetReference::Capture{} : capture);
+    std::vector<uint64_t> ys(y.shape.begin(), y.shape.end());
+    if (!a.dump.empty()) nn::write_safetensors(a.dump, dumped, {{"layout", "block outputs [B, C, X, Y, Z]"}});
+    world::write_npy(a.output, world::NpyArray::make<float>(ys, y.data));
+    std::printf("nn forward: wrote %s [%llu, %llu, %llu, %llu, %llu]%s\n", a.output.c_str(),
+                static_cast<unsigned long long>(ys[0]), static_cast<unsigned long long>(ys[1]),
+                static_cast<unsigned long long>(ys[2]), static_cast<unsigned long long>(ys[3]),
+                static_cast<unsigned long long>(ys[4]), a.dump.empty() ? "" : (" and " + a.dump).c_str());
+  });
+}
 
 void cmd_nn_info(const NnInfoArgs& a) {
   run_command([&](scene::Diagnostics&) {
     const nn::SafetensorsFile f(a.weights);
+    if (!a.model.empty()) {
+      const nn::UNetReference net(nn::load_unet_config(a.model));
+      nn::WeightOptions wo;
+      wo.ema = a.ema;
+      (void)nn::resolve_weights(f, net.parameters(), wo);
+      std::printf("%s: holds every parameter of %s (%zu tensors, %llu parameters)%s\n", a.weights.c_str(),
+                  a.model.c_str(), net.parameters().size(), static_cast<unsigned long long>(net.parameter_count()),
+                  a.ema ? ", EMA copy" : "");
+    }
     if (a.check_finite)
       for (const nn::TensorInfo& t : f.tensors())
         if (const int64_t i = f.first_non_finite(t); i >= 0)
@@ -66,13 +130,31 @@ void cmd_nn_info(const NnInfoArgs& a) {
 }
 
 void add_nn_commands(CLI::App& app) {
-  CLI::App& group = subcommand_group(app, "nn", "Networks: weight files (safetensors)");
+  CLI::App& group = subcommand_group(app, "nn", "Networks: weight files (safetensors), the diffusion UNet");
   auto a = std::make_shared<NnInfoArgs>();
   CLI::App* cmd = group.add_subcommand("info", "Validate a .safetensors file and list its tensors");
   cmd->add_option("weights", a->weights, "Weights (.safetensors)")->required()->type_name("WEIGHTS");
+  cmd->add_option("--model", a->model, "Check against a UNet config JSON or preset (infinicube-diffusion)")
+      ->type_name("CONFIG");
+  cmd->add_flag("--ema", a->ema, "With --model: check the EMA copy (unet_ema.*)");
   cmd->add_flag("--check-finite", a->check_finite, "Fail on the first NaN or infinity, naming the tensor");
   cmd->add_option("--limit", a->limit, "List at most N tensors (0 = all)")->capture_default_str()->type_name("N");
   cmd->callback([a] { cmd_nn_info(*a); });
+
+  auto f = std::make_shared<NnForwardArgs>();
+  CLI::App* fwd = group.add_subcommand("forward", "Run the diffusion UNet on .npy inputs (CPU reference)");
+  fwd->add_option("--model", f->model, "UNet config JSON (official UNetModel kwargs) or preset infinicube-diffusion")
+      ->required()
+      ->type_name("CONFIG");
+  fwd->add_option("--weights", f->weights, "Weights (.safetensors; bare, unet.* or unet_ema.* names)")->required()->type_name("W");
+  fwd->add_option("--input", f->input, "x: float32 [B, C, X, Y, Z]")->required()->type_name("X.npy");
+  fwd->add_option("--timestep", f->timestep, "t: int64 [B]")->required()->type_name("T.npy");
+  fwd->add_flag("--ema", f->ema, "Use the EMA copy of the weights");
+  fwd->add_flag("--check-finite", f->check_finite, "Fail on a NaN or infinity in the weights");
+  fwd->add_option("--dump-layers", f->dump, "Write every block's output (official names) to this .safetensors")
+      ->type_name("FILE");
+  fwd->add_option("-o,--output", f->output, "y: float32 [B, out_channels, X, Y, Z]")->required()->type_name("Y.npy");
+  fwd->callback([f] { cmd_nn_forward(*f); });
 }
 
 const CommandRegistrar kRegistrar(add_nn_commands, 50);

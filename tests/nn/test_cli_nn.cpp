@@ -1,13 +1,18 @@
-// `icube nn info` (tools/cmd_nn.cpp): lists a weight file's tensors and
-// totals per prefix; a truncated file and, with --check-finite, a NaN are
-// one-line errors naming the file and the tensor, with a non-zero exit.
+// `icube nn info` and `icube nn forward` (tools/cmd_nn.cpp): listing a weight
+// file's tensors and totals per prefix; a truncated file and, with
+// --check-finite, a NaN are one-line errors naming the file and the tensor;
+// the CPU-reference forward reproduces the unet_small reference case.
 #include <doctest/doctest.h>
 
 #include "cli_test_util.h"
+#include "gpu_test_context.h"
 #include "nn/safetensors.h"
 #include "scene/atomic_file.h"
+#include "world/npy.h"
 
+#include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <string>
 
 using namespace icube;
@@ -43,4 +48,41 @@ TEST_CASE("cli: icube nn info lists tensors, totals and rejects bad weights") {
   CHECK(r.output.find("cut.safetensors: tensor '") != std::string::npos);
   CHECK(r.output.find("past the") != std::string::npos);
   CHECK(test::run_icube("nn info --help", tmp.path).code == 0);
+}
+
+TEST_CASE("cli: icube nn forward reproduces unet_small and dumps its layers; bad inputs leave no output") {
+  const std::string m = test::test_data_file("models/unet_small/config.json");
+  if (m.empty()) return;
+  const std::string dir = std::filesystem::path(m).parent_path().string();
+  test::TempDir tmp("cli-nn-forward");
+  const std::string y = (tmp.path / "y.npy").string(), dump = (tmp.path / "layers.safetensors").string();
+  const std::string common = "nn forward --model '" + dir + "/config.json' --weights '" + dir + "/weights.safetensors' ";
+  test::CliRun r = test::run_icube(common + "--input '" + dir + "/case_1.x.npy' --timestep '" + dir +
+                                       "/case_1.t.npy' --dump-layers '" + dump + "' -o '" + y + "'",
+                                   tmp.path);
+  INFO(r.output);
+  REQUIRE(r.code == 0);
+  const world::NpyArray got = world::read_npy(y), want = world::read_npy(dir + "/case_1.out.npy");
+  REQUIRE(got.shape == want.shape);
+  const std::vector<float> g = got.values<float>(), w = want.values<float>();
+  double mean = 0.0, var = 0.0, mx = 0.0;
+  for (float v : w) mean += static_cast<double>(v);
+  mean /= static_cast<double>(w.size());
+  for (float v : w) var += (static_cast<double>(v) - mean) * (static_cast<double>(v) - mean);
+  for (size_t i = 0; i < g.size(); ++i) mx = std::max(mx, std::abs(static_cast<double>(g[i]) - static_cast<double>(w[i])));
+  CHECK(mx / std::sqrt(var / static_cast<double>(w.size())) <= 1e-4);
+  const nn::SafetensorsFile layers(dump);
+  CHECK(layers.tensors().size() == 27);
+  CHECK(layers.find("middle_block") != nullptr);
+  // The timestep file given as the input: a clear error, no output.
+  const std::string y2 = (tmp.path / "y2.npy").string();
+  r = test::run_icube(common + "--input '" + dir + "/case_1.t.npy' --timestep '" + dir + "/case_1.t.npy' -o '" + y2 + "'",
+                      tmp.path);
+  CHECK(r.code != 0);
+  CHECK(r.output.find("case_1.t.npy: expected float32 [B, 16, X, Y, Z]") != std::string::npos);
+  CHECK(!std::filesystem::exists(y2));
+  // The released preset against the small weights: the first wrong shape is named.
+  r = test::run_icube("nn info '" + dir + "/weights.safetensors' --model infinicube-diffusion", tmp.path);
+  CHECK(r.code != 0);
+  CHECK(r.output.find("tensor 'time_embed.0.weight': shape [128, 32], the model needs [768, 192]") != std::string::npos);
 }
