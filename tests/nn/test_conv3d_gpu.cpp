@@ -1,0 +1,91 @@
+// conv3d on the GPU (kernels/nn/conv3d.h, shaders/nn/conv3d.comp) against the
+// CPU reference (nn::cpu::conv3d) on odd sizes, batch 2, channel counts that
+// are not multiples of the 8-channel tile, 1x1 and 3x3x3 kernels, without bias
+// and with large activations. The bound per element is float32 accumulation's:
+// 1e-6 + n * 2^-23 * sum |w x| over the n = Ci * k^3 products (computed by the
+// reference on |x| and |w|). Runs under the validation layer.
+#include <doctest/doctest.h>
+
+#include "gpu_test_context.h"
+#include "nn/conv3d.h"
+#include "nn/layers_cpu.h"
+
+#include <cmath>
+#include <cstdio>
+#include <random>
+
+using namespace icube;
+
+namespace {
+
+nn::CpuTensor random_tensor(std::vector<int64_t> shape, uint32_t seed, float scale) {
+  nn::CpuTensor t(std::move(shape));
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> u(-scale, scale);
+  for (float& v : t.data) v = u(rng);
+  return t;
+}
+
+nn::CpuTensor abs_of(nn::CpuTensor t) {
+  for (float& v : t.data) v = std::abs(v);
+  return t;
+}
+
+void check_conv(const kernels::nn::Conv3dShape& s, bool with_bias, float x_scale, uint32_t seed) {
+  CAPTURE(s.batch);
+  CAPTURE(s.in_channels);
+  CAPTURE(s.out_channels);
+  CAPTURE(s.kernel);
+  gpu::Context& ctx = test::gpu_context();
+  const nn::CpuTensor x = random_tensor({s.batch, s.in_channels, s.x, s.y, s.z}, seed, x_scale);
+  const int64_t k = s.kernel;
+  const nn::CpuTensor w = random_tensor({s.out_channels, s.in_channels, k, k, k}, seed + 1, 0.5f);
+  const nn::CpuTensor b = random_tensor({s.out_channels}, seed + 2, 1.0f);
+  const nn::CpuTensor want = nn::cpu::conv3d(x, w, with_bias ? &b : nullptr, 1, static_cast<int>(k / 2));
+  const nn::CpuTensor bound = nn::cpu::conv3d(abs_of(x), abs_of(w), nullptr, 1, static_cast<int>(k / 2));
+
+  gpu::Buffer xb = gpu::upload_vector(ctx, x.data, "conv-x");
+  gpu::Buffer wb = gpu::upload_vector(
+      ctx, kernels::nn::pack_conv3d_weights(w.data, s.out_channels, s.in_channels, s.kernel), "conv-w");
+  gpu::Buffer bb = gpu::upload_vector(ctx, b.data, "conv-b");
+  gpu::Buffer yb(ctx, want.data.size() * 4, gpu::MemoryUsage::DeviceLocal, "conv-y");
+  kernels::nn::Conv3d conv(ctx);
+  ctx.submit_and_wait([&](gpu::CommandList& cmd) { conv.record(cmd, s, xb, wb, with_bias ? &bb : nullptr, yb); });
+  const std::vector<float> got = gpu::download_vector<float>(ctx, yb, want.data.size());
+  const double n = static_cast<double>(s.in_channels) * static_cast<double>(k * k * k);
+  size_t bad = 0;
+  for (size_t i = 0; i < got.size(); ++i) {
+    const double tol = 1e-6 + n * std::ldexp(1.0, -23) * static_cast<double>(bound.data[i]);
+    const double err = std::abs(static_cast<double>(got[i]) - static_cast<double>(want.data[i]));
+    if (!(err <= tol) && ++bad <= 5)
+      std::printf("  conv3d mismatch at %zu: got %.9g want %.9g (tol %.3g)\n", i, static_cast<double>(got[i]),
+                  static_cast<double>(want.data[i]), tol);
+  }
+  CHECK(bad == 0);
+}
+
+}  // namespace
+
+TEST_CASE("conv3d gpu: 3x3x3 and 1x1 against the CPU reference at odd sizes and channel counts") {
+  check_conv({2, 3, 5, 5, 4, 7, 3}, true, 1.0f, 11);      // batch 2, Co not a tile multiple, odd grid
+  check_conv({1, 16, 32, 8, 16, 24, 3}, true, 1.0f, 21);  // unet_small's first level
+  check_conv({1, 7, 9, 3, 5, 2, 1}, true, 1.0f, 31);      // 1x1 skip
+  check_conv({1, 4, 8, 1, 1, 1, 3}, false, 1.0f, 41);     // a single voxel: only the centre tap
+  check_conv({1, 8, 16, 9, 3, 33, 3}, true, 3e4f, 51);    // large activations, more than one voxel tile
+}
+
+TEST_CASE("conv3d gpu: weight packing and argument errors") {
+  // [Co=2, Ci=1, 1] -> [1][8] with zeros past Co.
+  const std::vector<float> p = kernels::nn::pack_conv3d_weights({5.f, 7.f}, 2, 1, 1);
+  CHECK(p == std::vector<float>{5.f, 7.f, 0.f, 0.f, 0.f, 0.f, 0.f, 0.f});
+  CHECK_THROWS_AS(kernels::nn::pack_conv3d_weights({1.f}, 2, 1, 1), std::invalid_argument);
+  gpu::Context& ctx = test::gpu_context();
+  gpu::Buffer small(ctx, 16, gpu::MemoryUsage::DeviceLocal, "small");
+  kernels::nn::Conv3d conv(ctx);
+  ctx.submit_and_wait([&](gpu::CommandList& cmd) {
+    CHECK_THROWS_WITH_AS(conv.record(cmd, {1, 2, 2, 4, 4, 4, 3}, small, small, nullptr, small),
+                         doctest::Contains("conv3d: input buffer holds 16 bytes"), std::invalid_argument);
+    CHECK_THROWS_WITH_AS(conv.record(cmd, {1, 2, 2, 4, 4, 4, 5}, small, small, nullptr, small),
+                         doctest::Contains("kernel 5"), std::invalid_argument);
+  });
+}
