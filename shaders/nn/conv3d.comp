@@ -33,14 +33,22 @@ void main() {
   const uint taps = p.kernel * p.kernel * p.kernel;
   const uint co_vec4s = p.co_blocks * (NN_CONV_CO_TILE / 4);
 
-  ivec3 pos[NN_CONV_VOXELS];
-  bool live[NN_CONV_VOXELS];
+  // Per voxel slot: its linear index and which taps fall inside the grid (a
+  // bit per tap; k <= 3 gives at most 27), fixed for every input channel.
+  uint vox[NN_CONV_VOXELS];
+  uint inside[NN_CONV_VOXELS];
   vec4 acc_lo[NN_CONV_VOXELS], acc_hi[NN_CONV_VOXELS];
   for (int k = 0; k < NN_CONV_VOXELS; ++k) {
     const uint v = tile * (NN_CONV_GROUP * NN_CONV_VOXELS) + uint(k) * NN_CONV_GROUP + gl_LocalInvocationID.x;
-    live[k] = v < S;
     const int vi = int(min(v, S - 1u));
-    pos[k] = ivec3(vi / (Y * Z), (vi / Z) % Y, vi % Z);
+    const ivec3 pos = ivec3(vi / (Y * Z), (vi / Z) % Y, vi % Z);
+    vox[k] = uint(vi);
+    uint mask = 0u;
+    for (uint tap = 0u; tap < taps; ++tap) {
+      const ivec3 q = pos + ivec3(int(tap / (p.kernel * p.kernel)), int((tap / p.kernel) % p.kernel), int(tap % p.kernel)) - half_k;
+      if (v < S && all(greaterThanEqual(q, ivec3(0))) && q.x < X && q.y < Y && q.z < Z) mask |= 1u << tap;
+    }
+    inside[k] = mask;
     acc_lo[k] = vec4(0.0);
     acc_hi[k] = vec4(0.0);
   }
@@ -48,22 +56,20 @@ void main() {
     const uint x_base = (b * p.in_channels + ci) * S;
     for (uint tap = 0u; tap < taps; ++tap) {
       const ivec3 off = ivec3(int(tap / (p.kernel * p.kernel)), int((tap / p.kernel) % p.kernel), int(tap % p.kernel)) - half_k;
+      const int shift = (off.x * Y + off.y) * Z + off.z;  // linear offset of the tap
       const uint wi = (ci * taps + tap) * co_vec4s + cob * (NN_CONV_CO_TILE / 4);
       const vec4 w_lo = w_packed[wi];
       const vec4 w_hi = w_packed[wi + 1u];
       for (int k = 0; k < NN_CONV_VOXELS; ++k) {
-        const ivec3 q = pos[k] + off;
-        float xv = 0.0;
-        if (all(greaterThanEqual(q, ivec3(0))) && q.x < X && q.y < Y && q.z < Z)
-          xv = x_in[x_base + uint((q.x * Y + q.y) * Z + q.z)];
+        const float xv = (inside[k] & (1u << tap)) != 0u ? x_in[x_base + uint(int(vox[k]) + shift)] : 0.0;
         acc_lo[k] = fma(w_lo, vec4(xv), acc_lo[k]);
         acc_hi[k] = fma(w_hi, vec4(xv), acc_hi[k]);
       }
     }
   }
   for (int k = 0; k < NN_CONV_VOXELS; ++k) {
-    if (!live[k]) continue;
     const uint v = tile * (NN_CONV_GROUP * NN_CONV_VOXELS) + uint(k) * NN_CONV_GROUP + gl_LocalInvocationID.x;
+    if (v >= S) continue;
     for (uint c = 0u; c < NN_CONV_CO_TILE; ++c) {
       const uint co = cob * NN_CONV_CO_TILE + c;
       if (co >= p.out_channels) break;
