@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 #include <string>
 
@@ -32,9 +33,9 @@ CpuTensor pointwise(const CpuTensor& x, const CpuTensor& w, const CpuTensor* bia
   std::vector<double> acc(static_cast<size_t>(S));
   for (int64_t b = 0; b < B; ++b)
     for (int64_t co = 0; co < Co; ++co) {
-      std::fill(acc.begin(), acc.end(), bias ? double{bias->data[static_cast<size_t>(co)]} : 0.0);
+      std::fill(acc.begin(), acc.end(), bias ? D(bias->data[static_cast<size_t>(co)]) : 0.0);
       for (int64_t ci = 0; ci < Ci; ++ci) {
-        const double wv = w.data[static_cast<size_t>(co * Ci + ci)];
+        const double wv = D(w.data[static_cast<size_t>(co * Ci + ci)]);
         const float* xp = &x.data[static_cast<size_t>((b * Ci + ci) * S)];
         for (int64_t s = 0; s < S; ++s) acc[static_cast<size_t>(s)] += wv * D(xp[s]);
       }
@@ -64,13 +65,13 @@ CpuTensor conv3d(const CpuTensor& x, const CpuTensor& w, const CpuTensor* bias, 
   std::vector<double> acc(static_cast<size_t>(OX * OY * OZ));
   for (int64_t b = 0; b < B; ++b)
     for (int64_t co = 0; co < Co; ++co) {
-      std::fill(acc.begin(), acc.end(), bias ? double{bias->data[static_cast<size_t>(co)]} : 0.0);
+      std::fill(acc.begin(), acc.end(), bias ? D(bias->data[static_cast<size_t>(co)]) : 0.0);
       for (int64_t ci = 0; ci < Ci; ++ci) {
         const float* xp = &x.data[static_cast<size_t>(((b * Ci + ci) * X) * Y * Z)];
         for (int64_t kx = 0; kx < K; ++kx)
           for (int64_t ky = 0; ky < K; ++ky)
             for (int64_t kz = 0; kz < K; ++kz) {
-              const double wv = w.data[static_cast<size_t>((((co * Ci + ci) * K + kx) * K + ky) * K + kz)];
+              const double wv = D(w.data[static_cast<size_t>((((co * Ci + ci) * K + kx) * K + ky) * K + kz)]);
               for (int64_t ox = 0; ox < OX; ++ox) {
                 const int64_t ix = ox * stride - padding + kx;
                 if (ix < 0 || ix >= X) continue;
@@ -112,7 +113,7 @@ CpuTensor group_norm(const CpuTensor& x, int groups, const CpuTensor& weight, co
       var /= static_cast<double>(n);
       const double inv = 1.0 / std::sqrt(var + eps);
       for (int64_t c = 0; c < cg; ++c) {
-        const double wv = weight.data[static_cast<size_t>(g * cg + c)], bv = bias.data[static_cast<size_t>(g * cg + c)];
+        const double wv = D(weight.data[static_cast<size_t>(g * cg + c)]), bv = D(bias.data[static_cast<size_t>(g * cg + c)]);
         for (int64_t s = 0; s < S; ++s) {
           const size_t i = base + static_cast<size_t>(c * S + s);
           y.data[i] = static_cast<float>((D(x.data[i]) - mean) * inv * wv + bv);
@@ -150,7 +151,7 @@ CpuTensor linear(const CpuTensor& x, const CpuTensor& w, const CpuTensor* bias) 
   CpuTensor y(shape);
   for (int64_t r = 0; r < rows; ++r)
     for (int64_t o = 0; o < Out; ++o) {
-      double acc = bias ? double{bias->data[static_cast<size_t>(o)]} : 0.0;
+      double acc = bias ? D(bias->data[static_cast<size_t>(o)]) : 0.0;
       const float* xp = &x.data[static_cast<size_t>(r * In)];
       const float* wp = &w.data[static_cast<size_t>(o * In)];
       for (int64_t i = 0; i < In; ++i) acc += D(xp[i]) * D(wp[i]);
@@ -168,7 +169,7 @@ CpuTensor attention(const CpuTensor& q, const CpuTensor& k, const CpuTensor& v) 
   for (int64_t h = 0; h < BH; ++h) {
     const size_t base = static_cast<size_t>(h * N * Dh);
     for (int64_t i = 0; i < N; ++i) {
-      double mx = -INFINITY;
+      double mx = -std::numeric_limits<double>::infinity();
       for (int64_t j = 0; j < N; ++j) {
         double dot = 0.0;
         for (int64_t d = 0; d < Dh; ++d)
@@ -189,7 +190,7 @@ CpuTensor attention(const CpuTensor& q, const CpuTensor& k, const CpuTensor& v) 
 }
 
 CpuTensor silu(CpuTensor x) {
-  for (float& v : x.data) v = static_cast<float>(double{v} / (1.0 + std::exp(-double{v})));
+  for (float& v : x.data) v = static_cast<float>(D(v) / (1.0 + std::exp(-D(v))));
   return x;
 }
 

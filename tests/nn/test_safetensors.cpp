@@ -68,20 +68,18 @@ nn::TensorToWrite tensor16(const char* name, DType dtype, std::vector<int64_t> s
 TEST_CASE("safetensors: F32, F16 and BF16 tensors round trip, with metadata, empty and scalar shapes") {
   std::vector<nn::TensorToWrite> ts;
   ts.push_back(nn::f32_tensor("input_blocks.0.0.weight", {2, 1, 3}, {1.f, -2.f, 3.5f, 0.f, 1e30f, -1e-30f}));
-  nn::TensorToWrite h = tensor16("h", DType::F16, {3}, {});
-  for (const float f : {1.0f, -0.5f, 65504.0f}) {
-    const uint16_t v = nn::float_to_half(f);
-    h.bytes.push_back(static_cast<uint8_t>(v & 0xFF));
-    h.bytes.push_back(static_cast<uint8_t>(v >> 8));
-  }
-  ts.push_back(h);
-  nn::TensorToWrite b = tensor16("b", DType::BF16, {3}, {});
-  for (const float f : {1.0f, -3.0f, 1e38f}) {
-    const uint16_t v = nn::float_to_bf16(f);
-    b.bytes.push_back(static_cast<uint8_t>(v & 0xFF));
-    b.bytes.push_back(static_cast<uint8_t>(v >> 8));
-  }
-  ts.push_back(b);
+  // 16-bit tensors from floats, little-endian.
+  auto encode16 = [](DType dtype, std::initializer_list<float> values) {
+    std::vector<uint8_t> bytes;
+    for (const float f : values) {
+      const uint16_t v = dtype == DType::F16 ? nn::float_to_half(f) : nn::float_to_bf16(f);
+      bytes.push_back(static_cast<uint8_t>(v & 0xFF));
+      bytes.push_back(static_cast<uint8_t>(v >> 8));
+    }
+    return bytes;
+  };
+  ts.push_back(tensor16("h", DType::F16, {3}, encode16(DType::F16, {1.0f, -0.5f, 65504.0f})));
+  ts.push_back(tensor16("b", DType::BF16, {3}, encode16(DType::BF16, {1.0f, -3.0f, 1e38f})));
   ts.push_back(nn::f32_tensor("empty", {0, 4}, {}));
   ts.push_back(nn::f32_tensor("scalar", {}, {2.5f}));
   test::TempDir tmp("safetensors");
