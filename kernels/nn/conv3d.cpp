@@ -4,6 +4,7 @@
 #include "gpu/context.h"
 #include "shared/nn_params.h"
 
+#include <algorithm>
 #include <stdexcept>
 #include <string>
 
@@ -31,40 +32,85 @@ void Conv3d::record(gpu::CommandList& cmd, const Conv3dShape& s, const gpu::Buff
                     const gpu::Buffer* bias, const gpu::Buffer& y) {
   if (s.kernel != 1 && s.kernel != 3) throw std::invalid_argument("conv3d: kernel " + std::to_string(s.kernel) + " (1 or 3)");
   if (s.batch == 0 || s.in_channels == 0 || s.out_channels == 0 || s.voxels() == 0) return;
-  const uint64_t limit = ctx_.info().max_storage_buffer_range;
-  const uint64_t x_bytes = uint64_t{s.batch} * s.in_channels * s.voxels() * 4,
-                 y_bytes = uint64_t{s.batch} * s.out_channels * s.voxels() * 4;
-  const uint64_t co_blocks = gpu::div_up(s.out_channels, NN_CONV_CO_TILE);
-  const uint64_t w_bytes = uint64_t{s.in_channels} * s.kernel * s.kernel * s.kernel * co_blocks * NN_CONV_CO_TILE * 4;
-  auto check = [&](const char* what, uint64_t need, const gpu::Buffer& b) {
-    if (need > limit)
-      throw std::invalid_argument(std::string("conv3d: ") + what + " of " + std::to_string(need) +
-                                  " bytes exceeds one storage binding (" + std::to_string(limit) + ")");
+  const uint64_t S = s.voxels();
+  const uint64_t limit = max_binding_bytes_ ? max_binding_bytes_ : ctx_.info().max_storage_buffer_range;
+  const uint64_t align = std::max<uint64_t>(4, ctx_.info().min_storage_buffer_offset_alignment);
+  const uint64_t x_bytes = uint64_t{s.batch} * s.in_channels * S * 4, y_bytes = uint64_t{s.batch} * s.out_channels * S * 4;
+  const uint64_t co_vec4s = gpu::div_up(s.out_channels, NN_CONV_CO_TILE) * (NN_CONV_CO_TILE / 4);
+  const uint64_t w_bytes = uint64_t{s.in_channels} * s.kernel * s.kernel * s.kernel * co_vec4s * 16;
+  auto fits = [](const char* what, uint64_t need, const gpu::Buffer& b) {
     if (need > b.size())
       throw std::invalid_argument(std::string("conv3d: ") + what + " buffer holds " + std::to_string(b.size()) +
                                   " bytes, needs " + std::to_string(need));
   };
-  check("input", x_bytes, x);
-  check("output", y_bytes, y);
-  check("packed weights", w_bytes, w);
-  if (bias) check("bias", uint64_t{s.out_channels} * 4, *bias);
-  if (uint64_t{s.batch} * s.out_channels * s.voxels() > UINT32_MAX || uint64_t{s.batch} * s.in_channels * s.voxels() > UINT32_MAX)
-    throw std::invalid_argument("conv3d: tensor exceeds 2^32 elements");
+  fits("input", x_bytes, x);
+  fits("output", y_bytes, y);
+  fits("packed weights", w_bytes, w);
+  if (bias) fits("bias", uint64_t{s.out_channels} * 4, *bias);
+  if (w_bytes > ctx_.info().max_storage_buffer_range)
+    throw std::invalid_argument("conv3d: packed weights of " + std::to_string(w_bytes) +
+                                " bytes exceed one storage binding");
+  if (S > UINT32_MAX / 4) throw std::invalid_argument("conv3d: grid of " + std::to_string(S) + " voxels is too large");
+
   shader::Conv3dParams pc{};
-  pc.batch = s.batch;
   pc.in_channels = s.in_channels;
-  pc.out_channels = s.out_channels;
-  pc.co_blocks = static_cast<uint32_t>(co_blocks);
+  pc.co_vec4s = static_cast<uint32_t>(co_vec4s);
   pc.size_x = s.x;
   pc.size_y = s.y;
   pc.size_z = s.z;
   pc.kernel = s.kernel;
-  pc.voxel_tiles = static_cast<uint32_t>(gpu::div_up(s.voxels(), NN_CONV_GROUP * NN_CONV_VOXELS));
+  pc.voxel_tiles = static_cast<uint32_t>(gpu::div_up(S, NN_CONV_GROUP * NN_CONV_VOXELS));
   pc.has_bias = bias ? 1u : 0u;
-  const uint64_t groups = uint64_t{pc.voxel_tiles} * co_blocks * s.batch;
-  cmd.dispatch(program_, gpu::Threads{groups * NN_CONV_GROUP}, pc,
-               {x.binding(0, x_bytes), w.binding(0, w_bytes), bias ? bias->binding(0, uint64_t{s.out_channels} * 4) : gpu::null_binding(),
-                y.binding(0, y_bytes)});
+  const gpu::BufferBinding wb = w.binding(0, w_bytes);
+  const gpu::BufferBinding bb = bias ? bias->binding(0, uint64_t{s.out_channels} * 4) : gpu::null_binding();
+  auto dispatch = [&](uint32_t batch, const gpu::BufferBinding& xb, const gpu::BufferBinding& yb) {
+    pc.batch = batch;
+    pc.co_blocks = static_cast<uint32_t>(gpu::div_up(pc.co_count, NN_CONV_CO_TILE));
+    const uint64_t groups = uint64_t{pc.voxel_tiles} * pc.co_blocks * batch;
+    cmd.dispatch(program_, gpu::Threads{groups * NN_CONV_GROUP}, pc, {xb, wb, bb, yb});
+  };
+  if (x_bytes <= limit && y_bytes <= limit) {  // one dispatch for everything
+    pc.co_begin = 0;
+    pc.co_count = s.out_channels;
+    pc.ci_begin = 0;
+    pc.ci_count = s.in_channels;
+    pc.accumulate = 0;
+    pc.x_offset = pc.y_offset = 0;
+    pc.x_batch_stride = static_cast<uint32_t>(s.in_channels * S);
+    pc.y_batch_stride = static_cast<uint32_t>(s.out_channels * S);
+    dispatch(s.batch, x.binding(0, x_bytes), y.binding(0, y_bytes));
+    return;
+  }
+  // Windows: one batch element at a time, output channels in whole 8-channel
+  // blocks, input channels as many as fit; each window bound at its offset
+  // aligned down (the rest goes to *_offset), so a window needs `align` spare bytes.
+  const uint64_t usable = limit > align ? limit - align : 0;
+  const uint64_t ci_window = usable / (S * 4);
+  const uint64_t co_window = usable / (S * 4) / NN_CONV_CO_TILE * NN_CONV_CO_TILE;
+  if (ci_window == 0 || co_window == 0)
+    throw std::invalid_argument("conv3d: " + std::to_string(NN_CONV_CO_TILE) + " channels of " + std::to_string(S) +
+                                " voxels exceed one storage binding (" + std::to_string(limit) + " bytes)");
+  auto window = [&](const gpu::Buffer& buf, uint64_t first_element, uint64_t elements, uint32_t& offset) {
+    const uint64_t byte = first_element * 4, base = byte / align * align;
+    offset = static_cast<uint32_t>((byte - base) / 4);
+    return buf.binding(base, byte - base + elements * 4);
+  };
+  pc.x_batch_stride = pc.y_batch_stride = 0;  // one batch element per dispatch
+  for (uint32_t b = 0; b < s.batch; ++b)
+    for (uint64_t co0 = 0; co0 < s.out_channels; co0 += co_window) {
+      pc.co_begin = static_cast<uint32_t>(co0);
+      pc.co_count = static_cast<uint32_t>(std::min<uint64_t>(co_window, s.out_channels - co0));
+      const gpu::BufferBinding yb = window(y, (uint64_t{b} * s.out_channels + co0) * S, uint64_t{pc.co_count} * S, pc.y_offset);
+      for (uint64_t ci0 = 0; ci0 < s.in_channels; ci0 += ci_window) {
+        pc.ci_begin = static_cast<uint32_t>(ci0);
+        pc.ci_count = static_cast<uint32_t>(std::min<uint64_t>(ci_window, s.in_channels - ci0));
+        pc.accumulate = ci0 > 0 ? 1u : 0u;
+        // Later input windows read-modify-write the same y window.
+        if (ci0 > 0) cmd.barrier(gpu::deps::kComputeToCompute);
+        const gpu::BufferBinding xb = window(x, (uint64_t{b} * s.in_channels + ci0) * S, uint64_t{pc.ci_count} * S, pc.x_offset);
+        dispatch(1, xb, yb);
+      }
+    }
 }
 
 }  // namespace icube::kernels::nn

@@ -5,10 +5,13 @@
 // [in_channels * k^3][out_channels padded to 8] so a workgroup reads its 8 output
 // channels of one tap as two vec4s.
 //
-// Each of x, y and the packed weights must fit one storage-buffer binding
-// (lavapipe: 128 MiB; the released model's 64^3 x 192 activations do not, and
-// will be split by the network engine); record() throws std::invalid_argument
-// naming the tensor otherwise.
+// x and y may exceed one storage-buffer binding (lavapipe: 128 MiB; the
+// released model's 64^3 x 192 activations are 192 MiB): record() then splits
+// the work into windows of one batch element, whole 8-channel output blocks
+// and as many input channels as fit, each bound at its (alignment-rounded)
+// offset, later input windows accumulating into y after an explicit
+// compute-to-compute barrier inside record(). The packed weights must fit one
+// binding (768 -> 768 channels, 3^3: 64 MiB).
 // CPU reference: nn::cpu::conv3d (layers_cpu.h). Tests: tests/nn/test_conv3d_gpu.cpp.
 #pragma once
 
@@ -36,13 +39,18 @@ class Conv3d {
  public:
   explicit Conv3d(gpu::Context& ctx);
   // Records y = conv3d(x, w) + bias; `bias` may be nullptr. The caller orders
-  // x / weights before and y after (no barrier inside).
+  // x / weights before and y after; the only barriers inside are those between
+  // input-channel windows (above).
   void record(gpu::CommandList& cmd, const Conv3dShape& s, const gpu::Buffer& x, const gpu::Buffer& packed_weights,
               const gpu::Buffer* bias, const gpu::Buffer& y);
+
+  // Tests: pretend one binding holds at most `bytes` (0 = the device's limit), to exercise the windows cheaply.
+  void set_max_binding_bytes(uint64_t bytes) { max_binding_bytes_ = bytes; }
 
  private:
   gpu::Context& ctx_;
   gpu::Program& program_;
+  uint64_t max_binding_bytes_ = 0;
 };
 
 }  // namespace icube::kernels::nn

@@ -8,6 +8,8 @@
 // consecutive across the workgroup's lanes, so input loads are contiguous, and
 // the weights (packed [ci * k^3 + tap][co padded to 8], two vec4 loads per
 // tap) are uniform across the workgroup.
+// Tensors beyond one storage binding run as windows of batch elements, output
+// and input channels (Conv3dParams); later input windows accumulate into y.
 // Host module: kernels/nn/conv3d.{h,cpp}; CPU reference: kernels/nn/layers_cpu.h.
 // Tests: tests/nn/test_conv3d_gpu.cpp.
 #include "shared/nn_params.h"
@@ -18,7 +20,7 @@ layout(push_constant) uniform Push { Conv3dParams p; };
 layout(std430, binding = 0) readonly buffer In { float x_in[]; };
 layout(std430, binding = 1) readonly buffer Weights { vec4 w_packed[]; };
 layout(std430, binding = 2) readonly buffer Bias { float bias[]; };
-layout(std430, binding = 3) writeonly buffer Out { float y_out[]; };
+layout(std430, binding = 3) buffer Out { float y_out[]; };
 
 void main() {
   const uint g = icube_group_linear();
@@ -31,7 +33,6 @@ void main() {
   const int X = int(p.size_x), Y = int(p.size_y), Z = int(p.size_z);
   const int half_k = int(p.kernel) / 2;
   const uint taps = p.kernel * p.kernel * p.kernel;
-  const uint co_vec4s = p.co_blocks * (NN_CONV_CO_TILE / 4);
 
   // Per voxel slot: its linear index and which taps fall inside the grid (a
   // bit per tap; k <= 3 gives at most 27), fixed for every input channel.
@@ -52,12 +53,13 @@ void main() {
     acc_lo[k] = vec4(0.0);
     acc_hi[k] = vec4(0.0);
   }
-  for (uint ci = 0u; ci < p.in_channels; ++ci) {
-    const uint x_base = (b * p.in_channels + ci) * S;
+  for (uint cl = 0u; cl < p.ci_count; ++cl) {
+    const uint ci = p.ci_begin + cl;
+    const uint x_base = p.x_offset + b * p.x_batch_stride + cl * S;
     for (uint tap = 0u; tap < taps; ++tap) {
       const ivec3 off = ivec3(int(tap / (p.kernel * p.kernel)), int((tap / p.kernel) % p.kernel), int(tap % p.kernel)) - half_k;
       const int shift = (off.x * Y + off.y) * Z + off.z;  // linear offset of the tap
-      const uint wi = (ci * taps + tap) * co_vec4s + cob * (NN_CONV_CO_TILE / 4);
+      const uint wi = (ci * taps + tap) * p.co_vec4s + (p.co_begin / 4u) + cob * (NN_CONV_CO_TILE / 4);
       const vec4 w_lo = w_packed[wi];
       const vec4 w_hi = w_packed[wi + 1u];
       for (int k = 0; k < NN_CONV_VOXELS; ++k) {
@@ -71,10 +73,12 @@ void main() {
     const uint v = tile * (NN_CONV_GROUP * NN_CONV_VOXELS) + uint(k) * NN_CONV_GROUP + gl_LocalInvocationID.x;
     if (v >= S) continue;
     for (uint c = 0u; c < NN_CONV_CO_TILE; ++c) {
-      const uint co = cob * NN_CONV_CO_TILE + c;
-      if (co >= p.out_channels) break;
+      const uint cl = cob * NN_CONV_CO_TILE + c;  // channel within the window
+      if (cl >= p.co_count) break;
       const float a = c < 4u ? acc_lo[k][c] : acc_hi[k][c - 4u];
-      y_out[(b * p.out_channels + co) * S + v] = a + (p.has_bias != 0u ? bias[co] : 0.0);
+      const uint yi = p.y_offset + b * p.y_batch_stride + cl * S + v;
+      if (p.accumulate != 0u) y_out[yi] += a;
+      else y_out[yi] = a + (p.has_bias != 0u ? bias[p.co_begin + cl] : 0.0);
     }
   }
 }

@@ -14,26 +14,42 @@
 ICUBE_SHADER_NAMESPACE_BEGIN
 
 // conv3d: dense NCDHW float32, stride 1, padding kernel / 2 (sizes kept).
+// One dispatch covers `batch` batch elements, output channels
+// [co_begin, co_begin + co_count) and input channels [ci_begin, ci_begin +
+// ci_count): tensors larger than one storage binding are split into such
+// windows by the host, each bound at an aligned offset; *_offset are the
+// remaining element offsets inside the bound ranges. accumulate = 1 adds to y
+// (later input-channel windows) instead of writing acc + bias.
 // Workgroup g: voxel tile g % voxel_tiles, then channel block, then batch.
 struct Conv3dParams {
   uint batch;
-  uint in_channels;
-  uint out_channels;
-  uint co_blocks;    // ceil(out_channels / NN_CONV_CO_TILE)
+  uint in_channels;   // the whole tensor's (weight layout)
+  uint co_begin;      // multiple of NN_CONV_CO_TILE
+  uint co_count;
+  uint ci_begin;
+  uint ci_count;
+  uint co_blocks;     // ceil(co_count / NN_CONV_CO_TILE)
+  uint co_vec4s;      // packed weight row length in vec4s: ceil(out_channels / 8) * 2
   uint size_x;
   uint size_y;
   uint size_z;
-  uint kernel;       // 1 or 3
-  uint voxel_tiles;  // ceil(X*Y*Z / (NN_CONV_GROUP * NN_CONV_VOXELS))
+  uint kernel;        // 1 or 3
+  uint voxel_tiles;   // ceil(X*Y*Z / (NN_CONV_GROUP * NN_CONV_VOXELS))
   uint has_bias;
+  uint accumulate;
+  uint x_offset;      // elements: channel ci_begin of the first batch element
+  uint x_batch_stride;
+  uint y_offset;      // elements: channel co_begin of the first batch element
+  uint y_batch_stride;
   uint pad0;
-  uint pad1;
 };
 
 ICUBE_SHADER_NAMESPACE_END
 
-ICUBE_CHECK_SIZE(Conv3dParams, 48);
-ICUBE_CHECK_LAYOUT(Conv3dParams, kernel, 28);
-ICUBE_CHECK_LAYOUT(Conv3dParams, has_bias, 36);
+ICUBE_CHECK_SIZE(Conv3dParams, 80);
+ICUBE_CHECK_LAYOUT(Conv3dParams, co_vec4s, 28);
+ICUBE_CHECK_LAYOUT(Conv3dParams, kernel, 44);
+ICUBE_CHECK_LAYOUT(Conv3dParams, x_offset, 60);
+ICUBE_CHECK_LAYOUT(Conv3dParams, y_batch_stride, 72);
 
 #endif

@@ -10,6 +10,7 @@
 #include "nn/conv3d.h"
 #include "nn/layers_cpu.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <random>
@@ -31,7 +32,8 @@ nn::CpuTensor abs_of(nn::CpuTensor t) {
   return t;
 }
 
-void check_conv(const kernels::nn::Conv3dShape& s, bool with_bias, float x_scale, uint32_t seed) {
+void check_conv(const kernels::nn::Conv3dShape& s, bool with_bias, float x_scale, uint32_t seed,
+                uint64_t max_binding_bytes = 0) {
   CAPTURE(s.batch);
   CAPTURE(s.in_channels);
   CAPTURE(s.out_channels);
@@ -50,6 +52,7 @@ void check_conv(const kernels::nn::Conv3dShape& s, bool with_bias, float x_scale
   gpu::Buffer bb = gpu::upload_vector(ctx, b.data, "conv-b");
   gpu::Buffer yb(ctx, want.data.size() * 4, gpu::MemoryUsage::DeviceLocal, "conv-y");
   kernels::nn::Conv3d conv(ctx);
+  conv.set_max_binding_bytes(max_binding_bytes);
   ctx.submit_and_wait([&](gpu::CommandList& cmd) { conv.record(cmd, s, xb, wb, with_bias ? &bb : nullptr, yb); });
   const std::vector<float> got = gpu::download_vector<float>(ctx, yb, want.data.size());
   const double n = static_cast<double>(s.in_channels) * static_cast<double>(k * k * k);
@@ -72,6 +75,24 @@ TEST_CASE("conv3d gpu: 3x3x3 and 1x1 against the CPU reference at odd sizes and 
   check_conv({1, 7, 9, 3, 5, 2, 1}, true, 1.0f, 31);      // 1x1 skip
   check_conv({1, 4, 8, 1, 1, 1, 3}, false, 1.0f, 41);     // a single voxel: only the centre tap
   check_conv({1, 8, 16, 9, 3, 33, 3}, true, 3e4f, 51);    // large activations, more than one voxel tile
+}
+
+TEST_CASE("conv3d gpu: tensors larger than one binding run as channel windows and accumulate") {
+  // Binding limit pretended small: x (2 x 19 channels) and y (2 x 21) both exceed it; each window holds
+  // 9 input channels or one 8-channel output block, bound at offsets that are not multiples of the alignment.
+  const uint64_t per_channel = 5 * 6 * 7 * 4;
+  const uint64_t align = std::max<uint64_t>(4, test::gpu_context().info().min_storage_buffer_offset_alignment);
+  check_conv({2, 19, 21, 5, 6, 7, 3}, true, 1.0f, 61, per_channel * 9 + align);
+  check_conv({1, 10, 17, 5, 6, 7, 1}, false, 1.0f, 71, per_channel * 8 + align);
+  // Not even one 8-channel output block fits: a clear error.
+  gpu::Context& ctx = test::gpu_context();
+  gpu::Buffer big(ctx, per_channel * 64, gpu::MemoryUsage::DeviceLocal, "big");
+  kernels::nn::Conv3d conv(ctx);
+  conv.set_max_binding_bytes(per_channel * 4);
+  ctx.submit_and_wait([&](gpu::CommandList& cmd) {
+    CHECK_THROWS_WITH_AS(conv.record(cmd, {1, 16, 16, 5, 6, 7, 1}, big, big, nullptr, big),
+                         doctest::Contains("8 channels of 210 voxels exceed one storage binding"), std::invalid_argument);
+  });
 }
 
 TEST_CASE("conv3d gpu: weight packing and argument errors") {
