@@ -44,6 +44,27 @@ struct Conv3dParams {
   uint pad0;
 };
 
+// group_norm_partials / group_norm_stats / group_norm_apply: GroupNorm over
+// NCDHW float32 with fp32 statistics. A group's channels are contiguous
+// (count = channels / groups * spatial elements); partials: `chunks` Welford
+// triples (mean, M2, count) per (batch, group), chunk c taking elements c,
+// c + chunks, ..., of x minus the group's first element; stats: (shift,
+// mean - shift, 1 / sqrt(var + eps), 0) per (batch, group).
+#define NN_GN_GROUP 64
+#define NN_GN_FLAG_SILU 1u
+#define NN_GN_FLAG_MODULATE 2u  // y * (1 + scale[b, c]) + shift[b, c], modulation [B, 2C] = (scale, shift)
+
+struct GroupNormParams {
+  uint batch;
+  uint channels;
+  uint groups;
+  uint spatial;
+  uint chunks;  // partials per (batch, group)
+  float eps;
+  uint flags;
+  uint pad0;
+};
+
 ICUBE_SHADER_NAMESPACE_END
 
 ICUBE_CHECK_SIZE(Conv3dParams, 80);
@@ -51,5 +72,8 @@ ICUBE_CHECK_LAYOUT(Conv3dParams, co_vec4s, 28);
 ICUBE_CHECK_LAYOUT(Conv3dParams, kernel, 44);
 ICUBE_CHECK_LAYOUT(Conv3dParams, x_offset, 60);
 ICUBE_CHECK_LAYOUT(Conv3dParams, y_batch_stride, 72);
+
+ICUBE_CHECK_SIZE(GroupNormParams, 32);
+ICUBE_CHECK_LAYOUT(GroupNormParams, eps, 20);
 
 #endif

@@ -1,0 +1,47 @@
+// GroupNorm on the GPU with fp32 statistics (torch.nn.GroupNorm: biased
+// variance, eps inside the square root, per-channel affine), optionally fused
+// with the ResBlock scale-shift modulation h * (1 + scale) + shift and SiLU:
+// three dispatches (shaders/nn/group_norm_partials, _stats, _apply) with the
+// two barriers between them recorded inside record(); the caller orders x
+// before and y after. Statistics are Welford partials over interleaved chunks
+// of x minus the group's first element, combined with Chan's update, so a
+// constant group normalises to exactly its bias and a large common offset
+// costs no precision beyond x's own.
+//
+// x and y must each fit one storage binding (windows as in conv3d are still to
+// do); record() throws std::invalid_argument otherwise.
+// CPU reference: nn::cpu::group_norm / scale_shift / silu (layers_cpu.h).
+// Tests: tests/nn/test_group_norm_gpu.cpp.
+#pragma once
+
+#include "gpu/buffer.h"
+#include "gpu/commands.h"
+
+#include <cstdint>
+
+namespace icube::kernels::nn {
+
+struct GroupNormShape {
+  uint32_t batch = 1, channels = 32, groups = 32;
+  uint64_t spatial = 1;  // X * Y * Z
+  float eps = 1e-5f;
+  bool silu = false;
+  bool modulate = false;  // needs a [batch, 2 * channels] (scale, shift) modulation buffer
+};
+
+class GroupNorm {
+ public:
+  explicit GroupNorm(gpu::Context& ctx);
+  // Bytes of scratch record() needs (partials and statistics).
+  static uint64_t scratch_bytes(const GroupNormShape& s);
+  void record(gpu::CommandList& cmd, const GroupNormShape& s, const gpu::Buffer& x, const gpu::Buffer& weight,
+              const gpu::Buffer& bias, const gpu::Buffer* modulation, const gpu::Buffer& scratch, const gpu::Buffer& y);
+
+ private:
+  gpu::Context& ctx_;
+  gpu::Program& partials_;
+  gpu::Program& stats_;
+  gpu::Program& apply_;
+};
+
+}  // namespace icube::kernels::nn

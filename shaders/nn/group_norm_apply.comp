@@ -1,0 +1,32 @@
+#version 460
+#extension GL_GOOGLE_include_directive : require
+// group_norm_apply: pass 3 of GroupNorm, one thread per element:
+// y = ((x - shift) - (mean - shift)) * rstd * weight[c] + bias[c], then optionally the ResBlock's
+// scale-shift modulation y * (1 + scale[b, c]) + shift[b, c] and SiLU
+// y / (1 + exp(-y)) (NN_GN_FLAG_*), fused so the tensor is read and written once.
+// Host module: kernels/nn/group_norm.{h,cpp}. Tests: tests/nn/test_group_norm_gpu.cpp.
+#include "shared/nn_params.h"
+#include "common/dispatch.glsl"
+
+layout(local_size_x = NN_GN_GROUP) in;
+layout(push_constant) uniform Push { GroupNormParams p; };
+layout(std430, binding = 0) readonly buffer In { float x_in[]; };
+layout(std430, binding = 1) readonly buffer Stats { vec4 stats[]; };
+layout(std430, binding = 2) readonly buffer Weight { float gn_weight[]; };
+layout(std430, binding = 3) readonly buffer Bias { float gn_bias[]; };
+layout(std430, binding = 4) readonly buffer Modulation { float modulation[]; };
+layout(std430, binding = 5) writeonly buffer Out { float y_out[]; };
+
+void main() {
+  const uint i = ICUBE_THREAD_LINEAR();
+  const uint total = p.batch * p.channels * p.spatial;
+  if (i >= total) return;
+  const uint bc = i / p.spatial;
+  const uint c = bc % p.channels, b = bc / p.channels;
+  const vec4 st = stats[b * p.groups + c / (p.channels / p.groups)];  // (shift, mean - shift, rstd)
+  float y = ((x_in[i] - st.x) - st.y) * st.z * gn_weight[c] + gn_bias[c];
+  if ((p.flags & NN_GN_FLAG_MODULATE) != 0u)
+    y = y * (1.0 + modulation[b * 2u * p.channels + c]) + modulation[b * 2u * p.channels + p.channels + c];
+  if ((p.flags & NN_GN_FLAG_SILU) != 0u) y = y / (1.0 + exp(-y));
+  y_out[i] = y;
+}
