@@ -1,11 +1,12 @@
 // icube-bench-nn: the network layer's kernels against their CPU references,
-// side by side in one run. So far conv3d (dense NCDHW, 3x3x3 and 1x1) at the
-// diffusion UNet's level shapes: GPU time per dispatch (submit + wait, after a
-// warm-up) and GFLOP/s, the plain CPU reference (double accumulation, one
-// thread) on the shapes where it finishes in seconds, and the max relative
-// difference between them in the same run. See bench/README.md.
+// side by side in one run: conv3d (dense NCDHW, 3x3x3 and 1x1) and GroupNorm
+// (+ scale-shift + SiLU) at the diffusion UNet's level shapes. GPU time per
+// record (submit + wait, after a warm-up), GFLOP/s or GB/s, the plain CPU
+// reference (double accumulation, one thread) where it finishes in seconds,
+// and the max relative difference between them in the same run. See bench/README.md.
 #include "gpu/context.h"
 #include "nn/conv3d.h"
+#include "nn/group_norm.h"
 #include "nn/layers_cpu.h"
 
 #include <CLI/CLI.hpp>
@@ -108,6 +109,46 @@ int main(int argc, char** argv) {
     }
     std::printf("%-30s %9.2f %10.2f %10.2f %9.2f %12s %10s\n", c.what, gflop, st.min, st.median, gflop / (st.min * 1e-3),
                 cpu_ms.c_str(), rel.c_str());
+  }
+
+  std::printf("\n%-30s %9s %10s %10s %9s %12s %10s\n", "group_norm+ss+silu", "MB", "gpu min", "gpu med", "GB/s",
+              "cpu ref ms", "max abs");
+  struct GnCase {
+    const char* what;
+    kernels::nn::GroupNormShape s;
+  };
+  std::vector<GnCase> gcases = {{"unet_small L0 32ch, 8x16x24", {1, 32, 32, 8 * 16 * 24, 1e-5f, true, true}},
+                                {"C64, 32^3", {1, 64, 32, 32 * 32 * 32, 1e-5f, true, true}}};
+  if (!quick) gcases.push_back({"released L0 C192, 64^3 / 2", {1, 96, 32, 64 * 64 * 64, 1e-5f, true, true}});
+  kernels::nn::GroupNorm gn(ctx);
+  for (const GnCase& c : gcases) {
+    const auto& s = c.s;
+    std::mt19937 rng(3);
+    std::uniform_real_distribution<float> u(-1.f, 1.f);
+    nn::CpuTensor x({s.batch, s.channels, static_cast<int64_t>(s.spatial)});
+    for (float& v : x.data) v = u(rng);
+    nn::CpuTensor w({s.channels}, 1.0f), b({s.channels}, 0.0f), mod({s.batch, 2 * static_cast<int64_t>(s.channels)});
+    for (float& v : mod.data) v = 0.1f * u(rng);
+    gpu::Buffer xb = gpu::upload_vector(ctx, x.data), wb = gpu::upload_vector(ctx, w.data),
+                bb = gpu::upload_vector(ctx, b.data), mb = gpu::upload_vector(ctx, mod.data);
+    gpu::Buffer scratch(ctx, kernels::nn::GroupNorm::scratch_bytes(s)), yb(ctx, x.data.size() * 4);
+    std::vector<double> samples;
+    for (int r = 0; r < warmup + runs; ++r) {
+      const auto t0 = Clock::now();
+      ctx.submit_and_wait([&](gpu::CommandList& cmd) { gn.record(cmd, s, xb, wb, bb, &mb, scratch, yb); });
+      if (r >= warmup) samples.push_back(ms_since(t0));
+    }
+    const Stats st = stats(samples);
+    const double mb_moved = static_cast<double>(x.data.size()) * 4 * 3 * 1e-6;  // read twice, write once
+    const auto t0 = Clock::now();
+    const nn::CpuTensor want =
+        nn::cpu::silu(nn::cpu::scale_shift(nn::cpu::group_norm(x, static_cast<int>(s.groups), w, b, 1e-5), mod));
+    const double cpu = ms_since(t0);
+    const std::vector<float> got = gpu::download_vector<float>(ctx, yb, x.data.size());
+    double mx = 0;
+    for (size_t i = 0; i < got.size(); ++i) mx = std::max(mx, std::abs(static_cast<double>(got[i]) - static_cast<double>(want.data[i])));
+    std::printf("%-30s %9.1f %10.2f %10.2f %9.2f %12.0f %10.1e\n", c.what, mb_moved, st.min, st.median,
+                mb_moved * 1e-3 / (st.min * 1e-3), cpu, mx);
   }
   return 0;
 }

@@ -65,6 +65,18 @@ struct GroupNormParams {
   uint pad0;
 };
 
+// layer_norm_channels: LayerNorm over the channels of every token of a
+// channels-first [batch, channels, tokens] tensor (the transformer's tokens
+// kept in the UNet's NCDHW layout), biased variance, eps inside the sqrt.
+#define NN_LN_GROUP 64
+
+struct LayerNormParams {
+  uint batch;
+  uint channels;
+  uint tokens;
+  float eps;
+};
+
 ICUBE_SHADER_NAMESPACE_END
 
 ICUBE_CHECK_SIZE(Conv3dParams, 80);
@@ -74,6 +86,7 @@ ICUBE_CHECK_LAYOUT(Conv3dParams, x_offset, 60);
 ICUBE_CHECK_LAYOUT(Conv3dParams, y_batch_stride, 72);
 
 ICUBE_CHECK_SIZE(GroupNormParams, 32);
+ICUBE_CHECK_SIZE(LayerNormParams, 16);
 ICUBE_CHECK_LAYOUT(GroupNormParams, eps, 20);
 
 #endif

@@ -1,0 +1,34 @@
+// LayerNorm over channels on the GPU (shaders/nn/layer_norm_channels.comp):
+// the transformer blocks' norm1/2/3 on tokens kept channels-first
+// ([batch, channels, tokens], the UNet's NCDHW with tokens = X*Y*Z), so the
+// transformer's linears run as 1x1 convolutions (conv3d.h) without transposes.
+// One dispatch, no barrier inside; x and y must fit one storage binding.
+// CPU reference: nn::cpu::layer_norm on the transposed tensor (layers_cpu.h).
+// Tests: tests/nn/test_layer_norm_gpu.cpp.
+#pragma once
+
+#include "gpu/buffer.h"
+#include "gpu/commands.h"
+
+#include <cstdint>
+
+namespace icube::kernels::nn {
+
+struct LayerNormShape {
+  uint32_t batch = 1, channels = 1;
+  uint64_t tokens = 1;
+  float eps = 1e-5f;
+};
+
+class LayerNorm {
+ public:
+  explicit LayerNorm(gpu::Context& ctx);
+  void record(gpu::CommandList& cmd, const LayerNormShape& s, const gpu::Buffer& x, const gpu::Buffer& weight,
+              const gpu::Buffer& bias, const gpu::Buffer& y);
+
+ private:
+  gpu::Context& ctx_;
+  gpu::Program& program_;
+};
+
+}  // namespace icube::kernels::nn
