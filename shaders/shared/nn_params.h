@@ -65,6 +65,36 @@ struct GroupNormParams {
   uint pad0;
 };
 
+// elementwise: one thread per output element. OP_SILU y = a / (1 + e^-a);
+// OP_ADD y = a + b; OP_GEGLU on channels-first [batch, 2F, n]: y[b, f, t] =
+// a[b, f, t] * gelu(a[b, F + f, t]) (exact erf GELU; F = channels).
+#define NN_EW_GROUP 64
+#define NN_EW_SILU 0u
+#define NN_EW_ADD 1u
+#define NN_EW_GEGLU 2u
+// resample: NN_RS_AVGPOOL2 (2x2x2 mean, sizes floored) or NN_RS_UPSAMPLE2
+// (nearest x2) of [batch * channels, X, Y, Z] (input sizes given).
+#define NN_RS_AVGPOOL2 0u
+#define NN_RS_UPSAMPLE2 1u
+
+struct ElementwiseParams {
+  uint count;     // output elements
+  uint op;
+  uint channels;  // GEGLU: output channels F
+  uint tokens;    // GEGLU: elements per channel
+};
+
+struct ResampleParams {
+  uint planes;  // batch * channels
+  uint size_x;  // input sizes
+  uint size_y;
+  uint size_z;
+  uint op;
+  uint pad0;
+  uint pad1;
+  uint pad2;
+};
+
 // layer_norm_channels: LayerNorm over the channels of every token of a
 // channels-first [batch, channels, tokens] tensor (the transformer's tokens
 // kept in the UNet's NCDHW layout), biased variance, eps inside the sqrt.
@@ -87,6 +117,8 @@ ICUBE_CHECK_LAYOUT(Conv3dParams, y_batch_stride, 72);
 
 ICUBE_CHECK_SIZE(GroupNormParams, 32);
 ICUBE_CHECK_SIZE(LayerNormParams, 16);
+ICUBE_CHECK_SIZE(ElementwiseParams, 16);
+ICUBE_CHECK_SIZE(ResampleParams, 32);
 ICUBE_CHECK_LAYOUT(GroupNormParams, eps, 20);
 
 #endif
