@@ -95,6 +95,29 @@ struct ResampleParams {
   uint pad2;
 };
 
+// attention: softmax(q k^T * scale) v per (batch, head) on channels-first
+// tensors: element (b, h, d, t) of q is q[b * in_batch_stride + q_offset +
+// (h * head_dim + d) * tokens + t] (same for k, v; so one qkv buffer chunked
+// into thirds works as three views), out[b * out_batch_stride + (h * head_dim
+// + d) * tokens + t]. One thread per (batch, head, query); online softmax in fp32.
+#define NN_ATTN_GROUP 64
+#define NN_ATTN_MAX_HEAD_DIM 128
+
+struct AttentionParams {
+  uint batch;
+  uint heads;
+  uint head_dim;
+  uint tokens;
+  uint q_offset;
+  uint k_offset;
+  uint v_offset;
+  uint in_batch_stride;
+  uint out_batch_stride;
+  float scale;
+  uint pad0;
+  uint pad1;
+};
+
 // layer_norm_channels: LayerNorm over the channels of every token of a
 // channels-first [batch, channels, tokens] tensor (the transformer's tokens
 // kept in the UNet's NCDHW layout), biased variance, eps inside the sqrt.
@@ -117,6 +140,8 @@ ICUBE_CHECK_LAYOUT(Conv3dParams, y_batch_stride, 72);
 
 ICUBE_CHECK_SIZE(GroupNormParams, 32);
 ICUBE_CHECK_SIZE(LayerNormParams, 16);
+ICUBE_CHECK_SIZE(AttentionParams, 48);
+ICUBE_CHECK_LAYOUT(AttentionParams, scale, 36);
 ICUBE_CHECK_SIZE(ElementwiseParams, 16);
 ICUBE_CHECK_SIZE(ResampleParams, 32);
 ICUBE_CHECK_LAYOUT(GroupNormParams, eps, 20);

@@ -1,0 +1,61 @@
+// Multi-head attention host module; see attention.h.
+#include "nn/attention.h"
+
+#include "gpu/context.h"
+#include "shared/nn_params.h"
+
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+namespace icube::kernels::nn {
+
+Attention::Attention(gpu::Context& ctx) : ctx_(ctx), program_(ctx.program("nn/attention")) {}
+
+void Attention::dispatch(gpu::CommandList& cmd, const AttentionShape& s, const gpu::Buffer& q, const gpu::Buffer& k,
+                         const gpu::Buffer& v, uint64_t in_elements, uint64_t q_off, uint64_t k_off, uint64_t v_off,
+                         uint64_t in_stride, const gpu::Buffer& out) {
+  if (s.head_dim == 0 || s.head_dim > NN_ATTN_MAX_HEAD_DIM)
+    throw std::invalid_argument("attention: head_dim " + std::to_string(s.head_dim) + " (1.." +
+                                std::to_string(NN_ATTN_MAX_HEAD_DIM) + ")");
+  if (s.batch == 0 || s.heads == 0 || s.tokens == 0) return;
+  const uint64_t out_elements = uint64_t{s.batch} * s.channels() * s.tokens;
+  const uint64_t limit = ctx_.info().max_storage_buffer_range;
+  for (const auto& [what, elements, buf] : {std::tuple<const char*, uint64_t, const gpu::Buffer*>{"input", in_elements, &q},
+                                            {"input", in_elements, &k}, {"input", in_elements, &v},
+                                            {"output", out_elements, &out}}) {
+    if (elements * 4 > limit || elements > UINT32_MAX)
+      throw std::invalid_argument(std::string("attention: ") + what + " of " + std::to_string(elements * 4) +
+                                  " bytes exceeds one storage binding");
+    if (elements * 4 > buf->size())
+      throw std::invalid_argument(std::string("attention: ") + what + " buffer holds " + std::to_string(buf->size()) +
+                                  " bytes, needs " + std::to_string(elements * 4));
+  }
+  shader::AttentionParams pc{};
+  pc.batch = s.batch;
+  pc.heads = s.heads;
+  pc.head_dim = s.head_dim;
+  pc.tokens = static_cast<uint32_t>(s.tokens);
+  pc.q_offset = static_cast<uint32_t>(q_off);
+  pc.k_offset = static_cast<uint32_t>(k_off);
+  pc.v_offset = static_cast<uint32_t>(v_off);
+  pc.in_batch_stride = static_cast<uint32_t>(in_stride);
+  pc.out_batch_stride = static_cast<uint32_t>(s.channels() * s.tokens);
+  pc.scale = static_cast<float>(1.0 / std::sqrt(static_cast<double>(s.head_dim)));
+  cmd.dispatch(program_, gpu::Threads{uint64_t{s.batch} * s.heads * s.tokens}, pc,
+               {q.binding(0, in_elements * 4), k.binding(0, in_elements * 4), v.binding(0, in_elements * 4),
+                out.binding(0, out_elements * 4)});
+}
+
+void Attention::record(gpu::CommandList& cmd, const AttentionShape& s, const gpu::Buffer& q, const gpu::Buffer& k,
+                       const gpu::Buffer& v, const gpu::Buffer& out) {
+  const uint64_t n = uint64_t{s.batch} * s.channels() * s.tokens;
+  dispatch(cmd, s, q, k, v, n, 0, 0, 0, s.channels() * s.tokens, out);
+}
+
+void Attention::record_qkv(gpu::CommandList& cmd, const AttentionShape& s, const gpu::Buffer& qkv, const gpu::Buffer& out) {
+  const uint64_t per = s.channels() * s.tokens;
+  dispatch(cmd, s, qkv, qkv, qkv, uint64_t{s.batch} * 3 * per, 0, per, 2 * per, 3 * per, out);
+}
+
+}  // namespace icube::kernels::nn

@@ -1,0 +1,41 @@
+// Multi-head attention on the GPU (shaders/nn/attention.comp) over
+// channels-first tensors [batch, heads * head_dim, tokens]: the UNet's
+// AttentionBlock (one qkv buffer, q / k / v its channel thirds) and the
+// transformer's self-attention (three buffers). Scale 1 / sqrt(head_dim) as
+// F.scaled_dot_product_attention. One dispatch, no barrier inside; every
+// tensor must fit one storage binding; head_dim <= 128.
+// CPU reference: nn::cpu::attention on [B, H, N, D] (layers_cpu.h).
+// Tests: tests/nn/test_attention_gpu.cpp.
+#pragma once
+
+#include "gpu/buffer.h"
+#include "gpu/commands.h"
+
+#include <cstdint>
+
+namespace icube::kernels::nn {
+
+struct AttentionShape {
+  uint32_t batch = 1, heads = 1, head_dim = 1;
+  uint64_t tokens = 1;
+  uint64_t channels() const { return uint64_t{heads} * head_dim; }
+};
+
+class Attention {
+ public:
+  explicit Attention(gpu::Context& ctx);
+  // q, k, v: separate [batch, C, tokens] buffers.
+  void record(gpu::CommandList& cmd, const AttentionShape& s, const gpu::Buffer& q, const gpu::Buffer& k,
+              const gpu::Buffer& v, const gpu::Buffer& out);
+  // qkv: one [batch, 3C, tokens] buffer (q, k, v = channels [0, C), [C, 2C), [2C, 3C)).
+  void record_qkv(gpu::CommandList& cmd, const AttentionShape& s, const gpu::Buffer& qkv, const gpu::Buffer& out);
+
+ private:
+  void dispatch(gpu::CommandList& cmd, const AttentionShape& s, const gpu::Buffer& q, const gpu::Buffer& k,
+                const gpu::Buffer& v, uint64_t in_elements, uint64_t q_off, uint64_t k_off, uint64_t v_off,
+                uint64_t in_stride, const gpu::Buffer& out);
+  gpu::Context& ctx_;
+  gpu::Program& program_;
+};
+
+}  // namespace icube::kernels::nn
