@@ -2,16 +2,16 @@
 //
 //   icube nn info WEIGHTS.safetensors [--model CONFIG|PRESET [--ema]] [--check-finite] [--limit N]
 //   icube nn forward --model CONFIG|PRESET --weights W.safetensors --input x.npy --timestep t.npy
-//                    [--ema] [--check-finite] [--dump-layers FILE.safetensors] -o y.npy
+//                    [--backend gpu|cpu] [--ema] [--check-finite] [--dump-layers FILE.safetensors] -o y.npy
 //
 // info validates the file (engine/nn/safetensors.h: header, dtypes, shapes,
 // ranges), lists its tensors and the totals per name prefix (`unet.`,
 // `unet_ema.`, `vae.` in a converted Lightning checkpoint), and with --model
 // checks it holds exactly the model's parameters (engine/nn/weights.h).
 // forward runs the dense diffusion UNet on .npy inputs (x [B, C, X, Y, Z]
-// float32, t [B] int64) with the CPU reference (engine/nn/unet_reference.h:
-// exact, double accumulation, slow: a development and checking path until the
-// GPU network engine lands); --dump-layers writes every block's output under
+// float32, t [B] int64) on the GPU (engine/nn/unet_gpu.h, default) or with the
+// CPU reference (--backend cpu, engine/nn/unet_reference.h: double
+// accumulation, slow); --dump-layers writes every block's output under
 // the names of unet_small/*.intermediates.safetensors. Outputs are written
 // atomically. Any NaN/Inf with --check-finite, missing or extra tensor, or
 // wrong shape is a one-line error naming the file and the tensor.
@@ -19,7 +19,9 @@
 #include "command_registry.h"
 
 #include "nn/safetensors.h"
+#include "gpu/context.h"
 #include "nn/unet_config.h"
+#include "nn/unet_gpu.h"
 #include "nn/unet_reference.h"
 #include "nn/weights.h"
 #include "scene/input_error.h"
@@ -28,6 +30,7 @@
 #include <CLI/CLI.hpp>
 
 #include <cmath>
+#include <optional>
 #include <cstdio>
 #include <map>
 #include <memory>
@@ -43,7 +46,7 @@ struct NnInfoArgs {
 };
 
 struct NnForwardArgs {
-  std::string model, weights, input, timestep, dump, output;
+  std::string model, weights, input, timestep, dump, output, backend = "gpu";
   bool ema = false, check_finite = false;
 };
 
@@ -55,7 +58,15 @@ void cmd_nn_forward(const NnForwardArgs& a) {
     nn::WeightOptions wo;
     wo.ema = a.ema;
     wo.check_finite = a.check_finite;
-    net.set_weights(nn::load_weights_cpu(file, net.parameters(), wo));
+    std::map<std::string, nn::CpuTensor> weights = nn::load_weights_cpu(file, net.parameters(), wo);
+    std::optional<gpu::Context> ctx;
+    std::unique_ptr<nn::UNetGpu> gpu_net;
+    if (a.backend == "gpu") {
+      ctx.emplace(gpu::ContextOptions::from_env());
+      gpu_net = std::make_unique<nn::UNetGpu>(*ctx, cfg, weights);
+    } else {
+      net.set_weights(std::move(weights));
+    }
     const world::NpyArray x = world::read_npy(a.input);
     if (x.dtype != world::NpyDtype::F4 || x.shape.size() != 5 || x.shape[1] != static_cast<uint64_t>(cfg.in_channels))
       throw scene::InputError(a.input, "", "expected float32 [B, " + std::to_string(cfg.in_channels) + ", X, Y, Z]");
@@ -69,12 +80,17 @@ void cmd_nn_forward(const NnForwardArgs& a) {
     const nn::UNetReference::Capture capture = [&](const std::string& name, const nn::CpuTensor& v) {
       dumped.push_back(nn::f32_tensor(name, v.shape, v.data));
     };
-    std::fprintf(stderr, "nn forward: %llu parameters, input [%llu, %llu, %llu, %llu, %llu], CPU reference\n",
+    std::fprintf(stderr, "nn forward: %llu parameters, input [%llu, %llu, %llu, %llu, %llu], %s\n",
                  static_cast<unsigned long long>(net.parameter_count()), static_cast<unsigned long long>(x.shape[0]),
                  static_cast<unsigned long long>(x.shape[1]), static_cast<unsigned long long>(x.shape[2]),
-                 static_cast<unsigned long long>(x.shape[3]), static_cast<unsigned long long>(x.shape[4]));
-    const nn::CpuTensor y = net.forward(nn::CpuTensor(std::vector<int64_t>(x.shape.begin(), x.shape.end()), xv),
-                                        t.values<int64_t>(), a.dump.empty() ? nn::UNetReference::Capture{} : capture);
+                 static_cast<unsigned long long>(x.shape[3]), static_cast<unsigned long long>(x.shape[4]),
+                 gpu_net ? ("GPU: " + ctx->info().name).c_str() : "CPU reference");
+    const nn::CpuTensor xin(std::vector<int64_t>(x.shape.begin(), x.shape.end()), xv);
+    const nn::UNetReference::Capture cap = a.dump.empty() ? nn::UNetReference::Capture{} : capture;
+    const nn::CpuTensor y = gpu_net ? gpu_net->forward(xin, t.values<int64_t>(), cap) : net.forward(xin, t.values<int64_t>(), cap);
+    if (gpu_net)
+      std::fprintf(stderr, "nn forward: %.1f MiB of activations on the device\n",
+                   static_cast<double>(gpu_net->last_activation_bytes()) / (1024.0 * 1024.0));
     std::vector<uint64_t> ys(y.shape.begin(), y.shape.end());
     if (!a.dump.empty()) nn::write_safetensors(a.dump, dumped, {{"layout", "block outputs [B, C, X, Y, Z]"}});
     world::write_npy(a.output, world::NpyArray::make<float>(ys, y.data));
@@ -142,7 +158,7 @@ void add_nn_commands(CLI::App& app) {
   cmd->callback([a] { cmd_nn_info(*a); });
 
   auto f = std::make_shared<NnForwardArgs>();
-  CLI::App* fwd = group.add_subcommand("forward", "Run the diffusion UNet on .npy inputs (CPU reference)");
+  CLI::App* fwd = group.add_subcommand("forward", "Run the diffusion UNet on .npy inputs (GPU, or the CPU reference)");
   fwd->add_option("--model", f->model, "UNet config JSON (official UNetModel kwargs) or preset infinicube-diffusion")
       ->required()
       ->type_name("CONFIG");
@@ -150,6 +166,9 @@ void add_nn_commands(CLI::App& app) {
   fwd->add_option("--input", f->input, "x: float32 [B, C, X, Y, Z]")->required()->type_name("X.npy");
   fwd->add_option("--timestep", f->timestep, "t: int64 [B]")->required()->type_name("T.npy");
   fwd->add_flag("--ema", f->ema, "Use the EMA copy of the weights");
+  fwd->add_option("--backend", f->backend, "gpu (Vulkan kernels) or cpu (the exact double-accumulation reference)")
+      ->check(CLI::IsMember({"gpu", "cpu"}))
+      ->capture_default_str();
   fwd->add_flag("--check-finite", f->check_finite, "Fail on a NaN or infinity in the weights");
   fwd->add_option("--dump-layers", f->dump, "Write every block's output (official names) to this .safetensors")
       ->type_name("FILE");

@@ -41,6 +41,11 @@ class UNetReference {
   // x [B, in_channels, X, Y, Z], t [B] -> [B, out_channels, X, Y, Z].
   CpuTensor forward(const CpuTensor& x, const std::vector<int64_t>& t, const Capture& capture = {}) const;
 
+  struct Layer;
+  const std::vector<std::vector<Layer>>& input_blocks() const { return input_blocks_; }
+  const std::vector<Layer>& middle_block() const { return middle_block_; }
+  const std::vector<std::vector<Layer>>& output_blocks() const { return output_blocks_; }
+
   struct Layer {
     enum class Kind { Conv, Res, Attn, Transformer, Down, Up } kind = Kind::Conv;
     std::string prefix;  // e.g. "input_blocks.1.0"

@@ -1,0 +1,93 @@
+// The dense diffusion UNet on the GPU (engine/nn/unet_gpu.h) against the
+// official PyTorch module's reference case (unet_small: output and every block
+// within max |y - y_ref| / std(y_ref) <= 1e-4) and against the CPU reference on
+// a second configuration (batch 2, a non-cubic grid, a 2-block transformer with
+// its first self-attention on). Validation on.
+#include <doctest/doctest.h>
+
+#include "gpu_test_context.h"
+#include "nn/safetensors.h"
+#include "nn/unet_config.h"
+#include "nn/unet_gpu.h"
+#include "nn/unet_reference.h"
+#include "nn/weights.h"
+#include "world/npy.h"
+
+#include <algorithm>
+#include <cmath>
+#include <random>
+
+using namespace icube;
+
+namespace {
+
+double max_over_std(const std::vector<float>& a, const std::vector<float>& b) {
+  double mean = 0.0, var = 0.0, mx = 0.0;
+  for (float v : b) mean += static_cast<double>(v);
+  mean /= static_cast<double>(b.size());
+  for (float v : b) var += (static_cast<double>(v) - mean) * (static_cast<double>(v) - mean);
+  for (size_t i = 0; i < a.size(); ++i) mx = std::max(mx, std::abs(static_cast<double>(a[i]) - static_cast<double>(b[i])));
+  return mx / std::max(std::sqrt(var / static_cast<double>(b.size())), 1e-30);
+}
+
+}  // namespace
+
+TEST_CASE("unet gpu: unet_small matches the official PyTorch module, output and every block") {
+  const std::string cfg_path = test::test_data_file("models/unet_small/config.json");
+  if (cfg_path.empty()) return;
+  const std::string m = cfg_path.substr(0, cfg_path.size() - std::string("config.json").size());
+  const nn::UNetConfig cfg = nn::load_unet_config(cfg_path);
+  const nn::UNetReference spec(cfg);
+  const nn::SafetensorsFile weights(m + "weights.safetensors");
+  nn::UNetGpu net(test::gpu_context(), cfg, nn::load_weights_cpu(weights, spec.parameters(), {}));
+  const world::NpyArray x = world::read_npy(m + "case_1.x.npy"), t = world::read_npy(m + "case_1.t.npy"),
+                        y = world::read_npy(m + "case_1.out.npy");
+  const nn::SafetensorsFile inter(m + "case_1.intermediates.safetensors");
+  double worst = 0.0;
+  size_t compared = 0;
+  const nn::CpuTensor out = net.forward(
+      nn::CpuTensor(std::vector<int64_t>(x.shape.begin(), x.shape.end()), x.values<float>()), t.values<int64_t>(),
+      [&](const std::string& name, const nn::CpuTensor& v) {
+        const nn::TensorInfo* ref = inter.find(name);
+        REQUIRE_MESSAGE(ref != nullptr, name);
+        CHECK(ref->shape == v.shape);
+        const double e = max_over_std(v.data, inter.to_f32(*ref));
+        INFO(name << ": " << e);
+        CHECK(e <= 1e-4);
+        worst = std::max(worst, e);
+        ++compared;
+      });
+  const double e = max_over_std(out.data, y.values<float>());
+  MESSAGE("unet gpu, unet_small: output max |y - y_ref| / std = " << e << "; worst of " << compared
+                                                                   << " intermediates " << worst << "; activations "
+                                                                   << net.last_activation_bytes() / 1024 << " KiB");
+  CHECK(compared == inter.tensors().size());
+  CHECK(e <= 1e-4);
+}
+
+TEST_CASE("unet gpu: a second configuration agrees with the CPU reference (batch 2, self-attention middle)") {
+  const nn::UNetConfig cfg = nn::parse_unet_config(R"({"image_size": 8, "num_input_channels": 5, "out_channels": 3,
+    "model_channels": 32, "num_res_blocks": 1, "attention_resolutions": [2], "channel_mult": [1, 2], "num_heads": 4,
+    "use_scale_shift_norm": true, "resblock_updown": true, "transformer_depth": 2,
+    "middile_force_spatial_transformer": true, "middle_disable_first_sa": false})",
+                                                   "second.json");
+  nn::UNetReference ref(cfg);
+  std::mt19937 rng(17);
+  std::normal_distribution<float> nd(0.0f, 0.2f);
+  std::map<std::string, nn::CpuTensor> w;
+  for (const nn::ParamSpec& p : ref.parameters()) {
+    nn::CpuTensor t(p.shape);
+    for (float& f : t.data) f = nd(rng);
+    w.emplace(p.name, std::move(t));
+  }
+  ref.set_weights(w);
+  nn::UNetGpu gpu_net(test::gpu_context(), cfg, w);
+  nn::CpuTensor x({2, 5, 6, 2, 4});
+  for (float& f : x.data) f = nd(rng) * 5.0f;
+  const nn::CpuTensor want = ref.forward(x, {3, 977});
+  const nn::CpuTensor got = gpu_net.forward(x, {3, 977});
+  REQUIRE(got.shape == want.shape);
+  const double e = max_over_std(got.data, want.data);
+  MESSAGE("unet gpu vs CPU reference, second configuration: max |y - y_ref| / std = " << e);
+  CHECK(e <= 1e-4);
+}
