@@ -7,6 +7,9 @@
 #include "gpu/context.h"
 #include "nn/conv3d.h"
 #include "nn/group_norm.h"
+#include "nn/unet_config.h"
+#include "nn/unet_gpu.h"
+#include "nn/unet_reference.h"
 #include "nn/layers_cpu.h"
 
 #include <CLI/CLI.hpp>
@@ -16,6 +19,7 @@
 #include <cmath>
 #include <cstdio>
 #include <random>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -41,11 +45,16 @@ int main(int argc, char** argv) {
   int runs = 5, warmup = 1;
   double cpu_limit_gflop = 3.0;
   bool quick = false;
+  std::string unet_config;
+  std::vector<int64_t> unet_grid{8, 16, 24};
   app.add_option("--runs", runs, "Timed runs per shape (min 5 for the tables)")->capture_default_str();
   app.add_option("--warmup", warmup, "Untimed runs first")->capture_default_str();
   app.add_option("--cpu-limit", cpu_limit_gflop, "Run the CPU reference only on shapes up to this many GFLOP")
       ->capture_default_str();
   app.add_flag("--quick", quick, "Only the small shapes");
+  app.add_option("--unet", unet_config, "Also time one whole UNet forward of this config JSON (random weights)")
+      ->type_name("CONFIG");
+  app.add_option("--unet-grid", unet_grid, "Grid of the UNet forward")->expected(3)->capture_default_str();
   CLI11_PARSE(app, argc, argv);
 
   gpu::Context ctx(gpu::ContextOptions::from_env());
@@ -149,6 +158,47 @@ int main(int argc, char** argv) {
     for (size_t i = 0; i < got.size(); ++i) mx = std::max(mx, std::abs(static_cast<double>(got[i]) - static_cast<double>(want.data[i])));
     std::printf("%-30s %9.1f %10.2f %10.2f %9.2f %12.0f %10.1e\n", c.what, mb_moved, st.min, st.median,
                 mb_moved * 1e-3 / (st.min * 1e-3), cpu, mx);
+  }
+
+  if (!unet_config.empty()) {
+    const nn::UNetConfig cfg = nn::load_unet_config(unet_config);
+    nn::UNetReference ref(cfg);
+    std::mt19937 rng(5);
+    std::normal_distribution<float> nd(0.0f, 0.05f);
+    std::map<std::string, nn::CpuTensor> w;
+    for (const nn::ParamSpec& p : ref.parameters()) {
+      nn::CpuTensor t(p.shape);
+      for (float& f : t.data) f = nd(rng);
+      w.emplace(p.name, std::move(t));
+    }
+    nn::UNetGpu net(ctx, cfg, w);
+    nn::CpuTensor x({1, cfg.in_channels, unet_grid[0], unet_grid[1], unet_grid[2]});
+    for (float& f : x.data) f = nd(rng) * 20.0f;
+    std::vector<double> samples;
+    nn::CpuTensor y;
+    for (int r = 0; r < warmup + runs; ++r) {
+      const auto t0 = Clock::now();
+      y = net.forward(x, {500});
+      if (r >= warmup) samples.push_back(ms_since(t0));
+    }
+    const Stats st = stats(samples);
+    ref.set_weights(std::move(w));
+    const auto t0 = Clock::now();
+    const nn::CpuTensor want = ref.forward(x, {500});
+    const double cpu = ms_since(t0);
+    double mean = 0, var = 0, mx = 0;
+    for (float v : want.data) mean += static_cast<double>(v);
+    mean /= static_cast<double>(want.data.size());
+    for (float v : want.data) var += (static_cast<double>(v) - mean) * (static_cast<double>(v) - mean);
+    for (size_t i = 0; i < y.data.size(); ++i)
+      mx = std::max(mx, std::abs(static_cast<double>(y.data[i]) - static_cast<double>(want.data[i])));
+    std::printf("\nUNet forward (%s, %llu parameters, grid %lldx%lldx%lld): gpu min %.1f ms, median %.1f ms "
+                "(activations %.1f MiB, no memory plan); CPU reference %.0f ms; max |gpu - cpu| / std %.1e\n",
+                unet_config.c_str(), static_cast<unsigned long long>(ref.parameter_count()),
+                static_cast<long long>(unet_grid[0]), static_cast<long long>(unet_grid[1]),
+                static_cast<long long>(unet_grid[2]), st.min, st.median,
+                static_cast<double>(net.last_activation_bytes()) / 1048576.0, cpu,
+                mx / std::sqrt(var / static_cast<double>(want.data.size())));
   }
   return 0;
 }
