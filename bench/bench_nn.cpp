@@ -186,19 +186,14 @@ int main(int argc, char** argv) {
     const auto t0 = Clock::now();
     const nn::CpuTensor want = ref.forward(x, {500});
     const double cpu = ms_since(t0);
-    double mean = 0, var = 0, mx = 0;
-    for (float v : want.data) mean += static_cast<double>(v);
-    mean /= static_cast<double>(want.data.size());
-    for (float v : want.data) var += (static_cast<double>(v) - mean) * (static_cast<double>(v) - mean);
-    for (size_t i = 0; i < y.data.size(); ++i)
-      mx = std::max(mx, std::abs(static_cast<double>(y.data[i]) - static_cast<double>(want.data[i])));
+    const double agreement = nn::cpu::max_abs_over_std(y.data, want.data);
     std::printf("\nUNet forward (%s, %llu parameters, grid %lldx%lldx%lld): gpu min %.1f ms, median %.1f ms "
                 "(activations %.1f MiB, no memory plan); CPU reference %.0f ms; max |gpu - cpu| / std %.1e\n",
                 unet_config.c_str(), static_cast<unsigned long long>(ref.parameter_count()),
                 static_cast<long long>(unet_grid[0]), static_cast<long long>(unet_grid[1]),
                 static_cast<long long>(unet_grid[2]), st.min, st.median,
                 static_cast<double>(net.last_activation_bytes()) / 1048576.0, cpu,
-                mx / std::sqrt(var / static_cast<double>(want.data.size())));
+                agreement);
   }
   return 0;
 }

@@ -2,11 +2,13 @@
 #include "nn/attention.h"
 
 #include "gpu/context.h"
+#include "nn/buffer_checks.h"
 #include "shared/nn_params.h"
 
 #include <cmath>
 #include <stdexcept>
 #include <string>
+#include <tuple>
 
 namespace icube::kernels::nn {
 
@@ -20,16 +22,11 @@ void Attention::dispatch(gpu::CommandList& cmd, const AttentionShape& s, const g
                                 std::to_string(NN_ATTN_MAX_HEAD_DIM) + ")");
   if (s.batch == 0 || s.heads == 0 || s.tokens == 0) return;
   const uint64_t out_elements = uint64_t{s.batch} * s.channels() * s.tokens;
-  const uint64_t limit = ctx_.info().max_storage_buffer_range;
-  for (const auto& [what, elements, buf] : {std::tuple<const char*, uint64_t, const gpu::Buffer*>{"input", in_elements, &q},
-                                            {"input", in_elements, &k}, {"input", in_elements, &v},
+  for (const auto& [what, elements, buf] : {std::tuple<const char*, uint64_t, const gpu::Buffer*>{"q", in_elements, &q},
+                                            {"k", in_elements, &k}, {"v", in_elements, &v},
                                             {"output", out_elements, &out}}) {
-    if (elements * 4 > limit || elements > UINT32_MAX)
-      throw std::invalid_argument(std::string("attention: ") + what + " of " + std::to_string(elements * 4) +
-                                  " bytes exceeds one storage binding");
-    if (elements * 4 > buf->size())
-      throw std::invalid_argument(std::string("attention: ") + what + " buffer holds " + std::to_string(buf->size()) +
-                                  " bytes, needs " + std::to_string(elements * 4));
+    require_one_binding(ctx_, "attention", what, elements);
+    require_buffer("attention", what, elements * 4, *buf);
   }
   shader::AttentionParams pc{};
   pc.batch = s.batch;

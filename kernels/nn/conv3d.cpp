@@ -2,6 +2,7 @@
 #include "nn/conv3d.h"
 
 #include "gpu/context.h"
+#include "nn/buffer_checks.h"
 #include "shared/nn_params.h"
 
 #include <algorithm>
@@ -38,15 +39,10 @@ void Conv3d::record(gpu::CommandList& cmd, const Conv3dShape& s, const gpu::Buff
   const uint64_t x_bytes = uint64_t{s.batch} * s.in_channels * S * 4, y_bytes = uint64_t{s.batch} * s.out_channels * S * 4;
   const uint64_t co_vec4s = gpu::div_up(s.out_channels, NN_CONV_CO_TILE) * (NN_CONV_CO_TILE / 4);
   const uint64_t w_bytes = uint64_t{s.in_channels} * s.kernel * s.kernel * s.kernel * co_vec4s * 16;
-  auto fits = [](const char* what, uint64_t need, const gpu::Buffer& b) {
-    if (need > b.size())
-      throw std::invalid_argument(std::string("conv3d: ") + what + " buffer holds " + std::to_string(b.size()) +
-                                  " bytes, needs " + std::to_string(need));
-  };
-  fits("input", x_bytes, x);
-  fits("output", y_bytes, y);
-  fits("packed weights", w_bytes, w);
-  if (bias) fits("bias", uint64_t{s.out_channels} * 4, *bias);
+  require_buffer("conv3d", "input", x_bytes, x);
+  require_buffer("conv3d", "output", y_bytes, y);
+  require_buffer("conv3d", "packed weights", w_bytes, w);
+  if (bias) require_buffer("conv3d", "bias", uint64_t{s.out_channels} * 4, *bias);
   if (w_bytes > ctx_.info().max_storage_buffer_range)
     throw std::invalid_argument("conv3d: packed weights of " + std::to_string(w_bytes) +
                                 " bytes exceed one storage binding");

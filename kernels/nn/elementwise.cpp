@@ -2,6 +2,7 @@
 #include "nn/elementwise.h"
 
 #include "gpu/context.h"
+#include "nn/buffer_checks.h"
 #include "shared/nn_params.h"
 
 #include <stdexcept>
@@ -12,13 +13,8 @@ namespace icube::kernels::nn {
 namespace {
 
 void check_fits(const gpu::Context& ctx, const char* what, uint64_t elements, const gpu::Buffer& b) {
-  const uint64_t bytes = elements * 4;
-  if (bytes > ctx.info().max_storage_buffer_range || elements > UINT32_MAX)
-    throw std::invalid_argument(std::string("nn ") + what + ": " + std::to_string(bytes) +
-                                " bytes exceed one storage binding");
-  if (bytes > b.size())
-    throw std::invalid_argument(std::string("nn ") + what + ": buffer holds " + std::to_string(b.size()) +
-                                " bytes, needs " + std::to_string(bytes));
+  require_one_binding(ctx, "nn elementwise", what, elements);
+  require_buffer("nn elementwise", what, elements * 4, b);
 }
 
 }  // namespace

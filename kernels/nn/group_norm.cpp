@@ -2,6 +2,7 @@
 #include "nn/group_norm.h"
 
 #include "gpu/context.h"
+#include "nn/buffer_checks.h"
 #include "shared/nn_params.h"
 
 #include <algorithm>
@@ -40,20 +41,13 @@ void GroupNorm::record(gpu::CommandList& cmd, const GroupNormShape& s, const gpu
   if (s.modulate && !modulation) throw std::invalid_argument("group_norm: modulate without a modulation buffer");
   if (s.batch == 0 || s.spatial == 0) return;
   const uint64_t elements = uint64_t{s.batch} * s.channels * s.spatial, bytes = elements * 4;
-  const uint64_t limit = ctx_.info().max_storage_buffer_range;
-  if (bytes > limit || elements > UINT32_MAX)
-    throw std::invalid_argument("group_norm: tensor of " + std::to_string(bytes) + " bytes exceeds one storage binding");
-  auto fits = [](const char* what, uint64_t need, const gpu::Buffer& b) {
-    if (need > b.size())
-      throw std::invalid_argument(std::string("group_norm: ") + what + " buffer holds " + std::to_string(b.size()) +
-                                  " bytes, needs " + std::to_string(need));
-  };
-  fits("input", bytes, x);
-  fits("output", bytes, y);
-  fits("weight", uint64_t{s.channels} * 4, weight);
-  fits("bias", uint64_t{s.channels} * 4, bias);
-  fits("scratch", scratch_bytes(s), scratch);
-  if (s.modulate) fits("modulation", uint64_t{s.batch} * 2 * s.channels * 4, *modulation);
+  require_one_binding(ctx_, "group_norm", "tensor", elements);
+  require_buffer("group_norm", "input", bytes, x);
+  require_buffer("group_norm", "output", bytes, y);
+  require_buffer("group_norm", "weight", uint64_t{s.channels} * 4, weight);
+  require_buffer("group_norm", "bias", uint64_t{s.channels} * 4, bias);
+  require_buffer("group_norm", "scratch", scratch_bytes(s), scratch);
+  if (s.modulate) require_buffer("group_norm", "modulation", uint64_t{s.batch} * 2 * s.channels * 4, *modulation);
 
   shader::GroupNormParams pc{};
   pc.batch = s.batch;

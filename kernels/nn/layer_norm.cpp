@@ -2,6 +2,7 @@
 #include "nn/layer_norm.h"
 
 #include "gpu/context.h"
+#include "nn/buffer_checks.h"
 #include "shared/nn_params.h"
 
 #include <stdexcept>
@@ -15,17 +16,11 @@ void LayerNorm::record(gpu::CommandList& cmd, const LayerNormShape& s, const gpu
                        const gpu::Buffer& bias, const gpu::Buffer& y) {
   if (s.batch == 0 || s.channels == 0 || s.tokens == 0) return;
   const uint64_t elements = uint64_t{s.batch} * s.channels * s.tokens, bytes = elements * 4;
-  if (bytes > ctx_.info().max_storage_buffer_range || elements > UINT32_MAX)
-    throw std::invalid_argument("layer_norm: tensor of " + std::to_string(bytes) + " bytes exceeds one storage binding");
-  auto fits = [](const char* what, uint64_t need, const gpu::Buffer& b) {
-    if (need > b.size())
-      throw std::invalid_argument(std::string("layer_norm: ") + what + " buffer holds " + std::to_string(b.size()) +
-                                  " bytes, needs " + std::to_string(need));
-  };
-  fits("input", bytes, x);
-  fits("output", bytes, y);
-  fits("weight", uint64_t{s.channels} * 4, weight);
-  fits("bias", uint64_t{s.channels} * 4, bias);
+  require_one_binding(ctx_, "layer_norm", "tensor", elements);
+  require_buffer("layer_norm", "input", bytes, x);
+  require_buffer("layer_norm", "output", bytes, y);
+  require_buffer("layer_norm", "weight", uint64_t{s.channels} * 4, weight);
+  require_buffer("layer_norm", "bias", uint64_t{s.channels} * 4, bias);
   const shader::LayerNormParams pc{s.batch, s.channels, static_cast<uint32_t>(s.tokens), s.eps};
   cmd.dispatch(program_, gpu::Threads{uint64_t{s.batch} * s.tokens}, pc,
                {x.binding(0, bytes), weight.binding(0, uint64_t{s.channels} * 4), bias.binding(0, uint64_t{s.channels} * 4),

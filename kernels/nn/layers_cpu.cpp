@@ -289,4 +289,14 @@ CpuTensor timestep_embedding(const std::vector<int64_t>& t, int dim, double max_
   return e;  // an odd dim keeps its last entry 0, as upstream pads
 }
 
+double max_abs_over_std(const std::vector<float>& got, const std::vector<float>& ref) {
+  require(got.size() == ref.size() && !ref.empty(), "max_abs_over_std: sizes differ or are empty");
+  double mean = 0.0, var = 0.0, mx = 0.0;
+  for (float v : ref) mean += D(v);
+  mean /= static_cast<double>(ref.size());
+  for (float v : ref) var += (D(v) - mean) * (D(v) - mean);
+  for (size_t i = 0; i < got.size(); ++i) mx = std::max(mx, std::abs(D(got[i]) - D(ref[i])));
+  return mx / std::max(std::sqrt(var / static_cast<double>(ref.size())), 1e-30);
+}
+
 }  // namespace icube::nn::cpu

@@ -38,4 +38,7 @@ CpuTensor upsample2(const CpuTensor& x);
 CpuTensor concat_channels(const CpuTensor& a, const CpuTensor& b);
 CpuTensor timestep_embedding(const std::vector<int64_t>& t, int dim, double max_period = 10000.0);
 
+// The project's agreement metric for networks: max |got - ref| / std(ref) (population std, in double).
+double max_abs_over_std(const std::vector<float>& got, const std::vector<float>& ref);
+
 }  // namespace icube::nn::cpu

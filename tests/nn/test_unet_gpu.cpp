@@ -6,6 +6,7 @@
 #include <doctest/doctest.h>
 
 #include "gpu_test_context.h"
+#include "nn/layers_cpu.h"
 #include "nn/safetensors.h"
 #include "nn/unet_config.h"
 #include "nn/unet_gpu.h"
@@ -20,15 +21,6 @@
 using namespace icube;
 
 namespace {
-
-double max_over_std(const std::vector<float>& a, const std::vector<float>& b) {
-  double mean = 0.0, var = 0.0, mx = 0.0;
-  for (float v : b) mean += static_cast<double>(v);
-  mean /= static_cast<double>(b.size());
-  for (float v : b) var += (static_cast<double>(v) - mean) * (static_cast<double>(v) - mean);
-  for (size_t i = 0; i < a.size(); ++i) mx = std::max(mx, std::abs(static_cast<double>(a[i]) - static_cast<double>(b[i])));
-  return mx / std::max(std::sqrt(var / static_cast<double>(b.size())), 1e-30);
-}
 
 }  // namespace
 
@@ -51,13 +43,13 @@ TEST_CASE("unet gpu: unet_small matches the official PyTorch module, output and 
         const nn::TensorInfo* ref = inter.find(name);
         REQUIRE_MESSAGE(ref != nullptr, name);
         CHECK(ref->shape == v.shape);
-        const double e = max_over_std(v.data, inter.to_f32(*ref));
+        const double e = nn::cpu::max_abs_over_std(v.data, inter.to_f32(*ref));
         INFO(name << ": " << e);
         CHECK(e <= 1e-4);
         worst = std::max(worst, e);
         ++compared;
       });
-  const double e = max_over_std(out.data, y.values<float>());
+  const double e = nn::cpu::max_abs_over_std(out.data, y.values<float>());
   MESSAGE("unet gpu, unet_small: output max |y - y_ref| / std = " << e << "; worst of " << compared
                                                                    << " intermediates " << worst << "; activations "
                                                                    << net.last_activation_bytes() / 1024 << " KiB");
@@ -87,7 +79,7 @@ TEST_CASE("unet gpu: a second configuration agrees with the CPU reference (batch
   const nn::CpuTensor want = ref.forward(x, {3, 977});
   const nn::CpuTensor got = gpu_net.forward(x, {3, 977});
   REQUIRE(got.shape == want.shape);
-  const double e = max_over_std(got.data, want.data);
+  const double e = nn::cpu::max_abs_over_std(got.data, want.data);
   MESSAGE("unet gpu vs CPU reference, second configuration: max |y - y_ref| / std = " << e);
   CHECK(e <= 1e-4);
 }

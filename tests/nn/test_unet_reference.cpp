@@ -8,6 +8,7 @@
 
 #include "cli_test_util.h"
 #include "gpu_test_context.h"
+#include "nn/layers_cpu.h"
 #include "nn/safetensors.h"
 #include "nn/unet_config.h"
 #include "nn/unet_reference.h"
@@ -24,19 +25,6 @@
 using namespace icube;
 
 namespace {
-
-// max |a - b| / std(b).
-double max_over_std(const std::vector<float>& a, const std::vector<float>& b) {
-  double mean = 0.0;
-  for (float v : b) mean += static_cast<double>(v);
-  mean /= static_cast<double>(b.size());
-  double var = 0.0;
-  for (float v : b) var += (static_cast<double>(v) - mean) * (static_cast<double>(v) - mean);
-  const double sd = std::sqrt(var / static_cast<double>(b.size()));
-  double mx = 0.0;
-  for (size_t i = 0; i < a.size(); ++i) mx = std::max(mx, std::abs(double{a[i]} - static_cast<double>(b[i])));
-  return mx / std::max(sd, 1e-30);
-}
 
 nn::UNetConfig tiny_config() {
   return nn::parse_unet_config(R"({"image_size": 8, "num_input_channels": 5, "out_channels": 3, "model_channels": 32,
@@ -70,14 +58,14 @@ TEST_CASE("unet reference: unet_small matches the official PyTorch module, outpu
                                           const nn::TensorInfo* ref = inter.find(name);
                                           REQUIRE_MESSAGE(ref != nullptr, name);
                                           CHECK(ref->shape == v.shape);
-                                          const double e = max_over_std(v.data, inter.to_f32(*ref));
+                                          const double e = nn::cpu::max_abs_over_std(v.data, inter.to_f32(*ref));
                                           INFO(name << ": max |y - y_ref| / std = " << e);
                                           CHECK(e <= 1e-4);
                                           worst = std::max(worst, e);
                                           ++compared;
                                         });
   CHECK(compared == inter.tensors().size());
-  const double e = max_over_std(out.data, y.values<float>());
+  const double e = nn::cpu::max_abs_over_std(out.data, y.values<float>());
   MESSAGE("unet_small: output max |y - y_ref| / std(y_ref) = " << e << " (bound 1e-4); worst of " << compared
                                                                 << " intermediates " << worst);
   CHECK(out.shape == std::vector<int64_t>(y.shape.begin(), y.shape.end()));
