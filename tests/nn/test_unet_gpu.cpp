@@ -6,6 +6,7 @@
 #include <doctest/doctest.h>
 
 #include "gpu_test_context.h"
+#include "nn/unet_case_check.h"
 #include "nn/layers_cpu.h"
 #include "nn/safetensors.h"
 #include "nn/unet_config.h"
@@ -32,29 +33,13 @@ TEST_CASE("unet gpu: unet_small matches the official PyTorch module, output and 
   const nn::UNetReference spec(cfg);
   const nn::SafetensorsFile weights(m + "weights.safetensors");
   nn::UNetGpu net(test::gpu_context(), cfg, nn::load_weights_cpu(weights, spec.parameters(), {}));
-  const world::NpyArray x = world::read_npy(m + "case_1.x.npy"), t = world::read_npy(m + "case_1.t.npy"),
-                        y = world::read_npy(m + "case_1.out.npy");
-  const nn::SafetensorsFile inter(m + "case_1.intermediates.safetensors");
-  double worst = 0.0;
-  size_t compared = 0;
-  const nn::CpuTensor out = net.forward(
-      nn::CpuTensor(std::vector<int64_t>(x.shape.begin(), x.shape.end()), x.values<float>()), t.values<int64_t>(),
-      [&](const std::string& name, const nn::CpuTensor& v) {
-        const nn::TensorInfo* ref = inter.find(name);
-        REQUIRE_MESSAGE(ref != nullptr, name);
-        CHECK(ref->shape == v.shape);
-        const double e = nn::cpu::max_abs_over_std(v.data, inter.to_f32(*ref));
-        INFO(name << ": " << e);
-        CHECK(e <= 1e-4);
-        worst = std::max(worst, e);
-        ++compared;
+  const test::UNetCaseResult r = test::check_unet_small_case(
+      m, [&](const nn::CpuTensor& x, const std::vector<int64_t>& t, const nn::UNetReference::Capture& c) {
+        return net.forward(x, t, c);
       });
-  const double e = nn::cpu::max_abs_over_std(out.data, y.values<float>());
-  MESSAGE("unet gpu, unet_small: output max |y - y_ref| / std = " << e << "; worst of " << compared
-                                                                   << " intermediates " << worst << "; activations "
+  MESSAGE("unet gpu, unet_small: output max |y - y_ref| / std = " << r.output << "; worst of " << r.blocks
+                                                                   << " blocks " << r.worst_block << "; activations "
                                                                    << net.last_activation_bytes() / 1024 << " KiB");
-  CHECK(compared == inter.tensors().size());
-  CHECK(e <= 1e-4);
 }
 
 TEST_CASE("unet gpu: a second configuration agrees with the CPU reference (batch 2, self-attention middle)") {

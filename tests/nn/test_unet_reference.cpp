@@ -8,6 +8,7 @@
 
 #include "cli_test_util.h"
 #include "gpu_test_context.h"
+#include "nn/unet_case_check.h"
 #include "nn/layers_cpu.h"
 #include "nn/safetensors.h"
 #include "nn/unet_config.h"
@@ -46,30 +47,12 @@ TEST_CASE("unet reference: unet_small matches the official PyTorch module, outpu
   CHECK(net.parameter_count() == 6982600);
   const nn::SafetensorsFile weights(m + "weights.safetensors");
   net.set_weights(nn::load_weights_cpu(weights, net.parameters(), {}));
-  const world::NpyArray x = world::read_npy(m + "case_1.x.npy");
-  const world::NpyArray t = world::read_npy(m + "case_1.t.npy");
-  const world::NpyArray y = world::read_npy(m + "case_1.out.npy");
-  std::vector<int64_t> xs(x.shape.begin(), x.shape.end());
-  const nn::SafetensorsFile inter(m + "case_1.intermediates.safetensors");
-  size_t compared = 0;
-  double worst = 0.0;
-  const nn::CpuTensor out = net.forward(nn::CpuTensor(xs, x.values<float>()), t.values<int64_t>(),
-                                        [&](const std::string& name, const nn::CpuTensor& v) {
-                                          const nn::TensorInfo* ref = inter.find(name);
-                                          REQUIRE_MESSAGE(ref != nullptr, name);
-                                          CHECK(ref->shape == v.shape);
-                                          const double e = nn::cpu::max_abs_over_std(v.data, inter.to_f32(*ref));
-                                          INFO(name << ": max |y - y_ref| / std = " << e);
-                                          CHECK(e <= 1e-4);
-                                          worst = std::max(worst, e);
-                                          ++compared;
-                                        });
-  CHECK(compared == inter.tensors().size());
-  const double e = nn::cpu::max_abs_over_std(out.data, y.values<float>());
-  MESSAGE("unet_small: output max |y - y_ref| / std(y_ref) = " << e << " (bound 1e-4); worst of " << compared
-                                                                << " intermediates " << worst);
-  CHECK(out.shape == std::vector<int64_t>(y.shape.begin(), y.shape.end()));
-  CHECK(e <= 1e-4);
+  const test::UNetCaseResult r = test::check_unet_small_case(
+      m, [&](const nn::CpuTensor& x, const std::vector<int64_t>& t, const nn::UNetReference::Capture& c) {
+        return net.forward(x, t, c);
+      });
+  MESSAGE("unet_small: output max |y - y_ref| / std(y_ref) = " << r.output << " (bound 1e-4); worst of " << r.blocks
+                                                                << " blocks " << r.worst_block);
 }
 
 TEST_CASE("unet reference: the released configuration's parameters and the preset") {
