@@ -11,7 +11,8 @@
 // and as many input channels as fit, each bound at its (alignment-rounded)
 // offset, later input windows accumulating into y after an explicit
 // compute-to-compute barrier inside record(). The packed weights must fit one
-// binding (768 -> 768 channels, 3^3: 64 MiB).
+// binding (768 -> 768 channels, 3^3: 64 MiB). Tested with a forced small limit
+// and with real 136 MB tensors over lavapipe's 128 MiB binding.
 // CPU reference: nn::cpu::conv3d (layers_cpu.h). Tests: tests/nn/test_conv3d_gpu.cpp.
 #pragma once
 

@@ -110,3 +110,43 @@ TEST_CASE("conv3d gpu: weight packing and argument errors") {
                          doctest::Contains("kernel 5"), std::invalid_argument);
   });
 }
+
+TEST_CASE("conv3d gpu: a 1x1 convolution whose input and output both exceed one storage binding") {
+  // 130 channels of 64^3 voxels = 136 MB each way, over lavapipe's 128 MiB binding: the real windows.
+  gpu::Context& ctx = test::gpu_context();
+  const uint32_t C = 130, N = 64;
+  const uint64_t S = uint64_t{N} * N * N;
+  std::mt19937 rng(99);
+  std::uniform_real_distribution<float> u(-1.f, 1.f);
+  std::vector<float> x(C * S), w(size_t{C} * C), b(C);
+  for (float& v : x) v = u(rng);
+  for (float& v : w) v = u(rng) * 0.1f;
+  for (float& v : b) v = u(rng);
+  MESSAGE("conv3d windows: tensors of " << C * S * 4 / 1000000 << " MB, binding limit "
+                                        << ctx.info().max_storage_buffer_range / 1000000 << " MB");
+  gpu::Buffer xb = gpu::upload_vector(ctx, x, "big-x");
+  gpu::Buffer wb = gpu::upload_vector(ctx, kernels::nn::pack_conv3d_weights(w, C, C, 1), "big-w");
+  gpu::Buffer bb = gpu::upload_vector(ctx, b, "big-b");
+  gpu::Buffer yb(ctx, C * S * 4, gpu::MemoryUsage::DeviceLocal, "big-y");
+  kernels::nn::Conv3d conv(ctx);
+  ctx.submit_and_wait([&](gpu::CommandList& cmd) { conv.record(cmd, {1, C, C, N, N, N, 1}, xb, wb, &bb, yb); });
+  const std::vector<float> y = gpu::download_vector<float>(ctx, yb, C * S);
+  // 4,000 sampled outputs against the definition (double sums).
+  std::uniform_int_distribution<uint64_t> pick_v(0, S - 1);
+  std::uniform_int_distribution<uint32_t> pick_c(0, C - 1);
+  size_t bad = 0;
+  for (int i = 0; i < 4000; ++i) {
+    const uint64_t v = i < 2 ? (i == 0 ? 0 : S - 1) : pick_v(rng);
+    const uint32_t co = i < 2 ? (i == 0 ? 0 : C - 1) : pick_c(rng);
+    double want = static_cast<double>(b[co]), bound = 0.0;
+    for (uint32_t ci = 0; ci < C; ++ci) {
+      const double t = static_cast<double>(w[size_t{co} * C + ci]) * static_cast<double>(x[ci * S + v]);
+      want += t;
+      bound += std::abs(t);
+    }
+    const double err = std::abs(static_cast<double>(y[co * S + v]) - want);
+    if (!(err <= 1e-6 + C * std::ldexp(1.0, -23) * bound) && ++bad <= 5)
+      MESSAGE("voxel " << v << " channel " << co << ": got " << y[co * S + v] << " want " << want);
+  }
+  CHECK(bad == 0);
+}
