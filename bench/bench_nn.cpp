@@ -188,7 +188,7 @@ int main(int argc, char** argv) {
     const double cpu = ms_since(t0);
     const double agreement = nn::cpu::max_abs_over_std(y.data, want.data);
     std::printf("\nUNet forward (%s, %llu parameters, grid %lldx%lldx%lld): gpu min %.1f ms, median %.1f ms "
-                "(activations %.1f MiB, no memory plan); CPU reference %.0f ms; max |gpu - cpu| / std %.1e\n",
+                "(activation pool peak %.1f MiB); CPU reference %.0f ms; max |gpu - cpu| / std %.1e\n",
                 unet_config.c_str(), static_cast<unsigned long long>(ref.parameter_count()),
                 static_cast<long long>(unet_grid[0]), static_cast<long long>(unet_grid[1]),
                 static_cast<long long>(unet_grid[2]), st.min, st.median,

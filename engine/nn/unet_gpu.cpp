@@ -8,6 +8,7 @@
 #include "nn/layer_norm.h"
 #include "nn/layers_cpu.h"
 
+#include <map>
 #include <stdexcept>
 
 namespace icube::nn {
@@ -42,7 +43,14 @@ struct UNetGpu::Impl {
   kernels::nn::Attention attn;
   std::map<std::string, std::unique_ptr<gpu::Buffer>> params;  // packed conv / linear weights, raw vectors
   std::map<std::string, std::vector<int64_t>> param_shapes;
-  std::vector<std::shared_ptr<gpu::Buffer>> alive;
+  // Activation memory plan: buffers are pooled; a tensor's buffer returns to the
+  // free list when its last handle dies during recording and is reused by a
+  // later tensor that fits (best fit, at most twice the size). Recording order
+  // is execution order and every op ends with a barrier, so the reuse is safe
+  // (write-after-read needs only the execution dependency the barriers give).
+  std::vector<std::unique_ptr<gpu::Buffer>> pool;
+  std::multimap<uint64_t, gpu::Buffer*> free_list;
+  std::vector<std::shared_ptr<gpu::Buffer>> alive;  // inputs, kept until the forward ends
   uint64_t bytes = 0;
   gpu::CommandList* cmd = nullptr;
 
@@ -58,9 +66,17 @@ struct UNetGpu::Impl {
     GT t;
     t.shape = std::move(shape);
     const uint64_t n = std::max<uint64_t>(t.numel(), 1) * 4;
-    t.buf = std::make_shared<gpu::Buffer>(ctx, n, gpu::MemoryUsage::DeviceLocal, "unet-activation");
-    alive.push_back(t.buf);
-    bytes += n;
+    gpu::Buffer* b = nullptr;
+    const auto it = free_list.lower_bound(n);
+    if (it != free_list.end() && it->first <= 2 * n) {
+      b = it->second;
+      free_list.erase(it);
+    } else {
+      pool.push_back(std::make_unique<gpu::Buffer>(ctx, n, gpu::MemoryUsage::DeviceLocal, "unet-activation"));
+      b = pool.back().get();
+      bytes += n;
+    }
+    t.buf = std::shared_ptr<gpu::Buffer>(b, [this](gpu::Buffer* r) { free_list.emplace(r->size(), r); });
     return t;
   }
   void barrier() { cmd->barrier(gpu::deps::kComputeToCompute); }
@@ -254,6 +270,8 @@ CpuTensor UNetGpu::forward(const CpuTensor& x, const std::vector<int64_t>& t, co
   if (static_cast<int64_t>(t.size()) != x.dim(0))
     throw std::invalid_argument("UNet: " + std::to_string(t.size()) + " timesteps for a batch of " + std::to_string(x.dim(0)));
   m.alive.clear();
+  m.free_list.clear();
+  m.pool.clear();
   m.bytes = 0;
   const CpuTensor t_emb = cpu::timestep_embedding(t, c.model_channels);
   auto upload = [&](const CpuTensor& v, std::vector<int64_t> shape) {
@@ -270,21 +288,21 @@ CpuTensor UNetGpu::forward(const CpuTensor& x, const std::vector<int64_t>& t, co
     m.cmd = &cmd;
     const GT emb = m.convolve(m.silu(m.convolve(temb, "time_embed.0")), "time_embed.2");
     const GT emb_silu = m.silu(emb);  // every ResBlock's emb_layers start with SiLU
-    captured.emplace_back("emb", emb);
+    if (capture) captured.emplace_back("emb", emb);
     std::vector<GT> hs;
     GT h = xin;
     for (size_t i = 0; i < m.tree.input_blocks().size(); ++i) {
       for (const auto& l : m.tree.input_blocks()[i]) h = m.run(l, h, emb_silu);
-      captured.emplace_back("input_blocks." + std::to_string(i), h);
+      if (capture) captured.emplace_back("input_blocks." + std::to_string(i), h);
       hs.push_back(h);
     }
     for (const auto& l : m.tree.middle_block()) h = m.run(l, h, emb_silu);
-    captured.emplace_back("middle_block", h);
+    if (capture) captured.emplace_back("middle_block", h);
     for (size_t i = 0; i < m.tree.output_blocks().size(); ++i) {
       h = m.concat(h, hs.back());
       hs.pop_back();
       for (const auto& l : m.tree.output_blocks()[i]) h = m.run(l, h, emb_silu);
-      captured.emplace_back("output_blocks." + std::to_string(i), h);
+      if (capture) captured.emplace_back("output_blocks." + std::to_string(i), h);
     }
     out = m.convolve(m.group_norm(h, "out.0", 1e-5f, true), "out.2");
     cmd.barrier(gpu::deps::kComputeToTransfer);
@@ -305,7 +323,11 @@ CpuTensor UNetGpu::forward(const CpuTensor& x, const std::vector<int64_t>& t, co
     }
   }
   CpuTensor y = download(out);
+  captured.clear();
+  out = GT{};
   m.alive.clear();
+  m.free_list.clear();
+  m.pool.clear();
   return y;
 }
 

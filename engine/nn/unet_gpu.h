@@ -4,8 +4,10 @@
 // attention, elementwise, resample; linears as 1x1 convolutions on
 // channels-first tensors, the time-embedding sinusoid on the host), with a
 // barrier after every dispatch. fp32 storage. Weights are packed and uploaded
-// once. Intermediates get their own buffers for now (the liveness memory plan
-// is to come); block outputs can be captured under the names of
+// once. Activations live in a pool: a buffer is reused as soon as the tensor
+// in it is dead (liveness from the handles the recording holds), so the peak
+// is near the largest live set (the skip connections and the current block),
+// not the sum of all layers. Block outputs can be captured under the names of
 // unet_small/*.intermediates.safetensors. Every tensor must fit one storage
 // binding except conv3d's (which windows).
 // Tests: tests/nn/test_unet_gpu.cpp (against the official reference case and
@@ -33,7 +35,7 @@ class UNetGpu {
 
   // x [B, in_channels, X, Y, Z], t [B] -> [B, out_channels, X, Y, Z]; capture as UNetReference::forward.
   CpuTensor forward(const CpuTensor& x, const std::vector<int64_t>& t, const UNetReference::Capture& capture = {});
-  // Device bytes of the intermediates of the last forward (all kept alive; no memory plan yet).
+  // Peak device bytes of the activation pool in the last forward (inputs and weights not counted).
   uint64_t last_activation_bytes() const { return activation_bytes_; }
 
  private:
