@@ -34,22 +34,12 @@ void main() {
   const int half_k = int(p.kernel) / 2;
   const uint taps = p.kernel * p.kernel * p.kernel;
 
-  // Per voxel slot: its linear index and which taps fall inside the grid (a
-  // bit per tap; k <= 3 gives at most 27), fixed for every input channel.
-  uint vox[NN_CONV_VOXELS];
-  uint inside[NN_CONV_VOXELS];
+  ivec3 pos[NN_CONV_VOXELS];
   vec4 acc_lo[NN_CONV_VOXELS], acc_hi[NN_CONV_VOXELS];
   for (int k = 0; k < NN_CONV_VOXELS; ++k) {
     const uint v = tile * (NN_CONV_GROUP * NN_CONV_VOXELS) + uint(k) * NN_CONV_GROUP + gl_LocalInvocationID.x;
     const int vi = int(min(v, S - 1u));
-    const ivec3 pos = ivec3(vi / (Y * Z), (vi / Z) % Y, vi % Z);
-    vox[k] = uint(vi);
-    uint mask = 0u;
-    for (uint tap = 0u; tap < taps; ++tap) {
-      const ivec3 q = pos + ivec3(int(tap / (p.kernel * p.kernel)), int((tap / p.kernel) % p.kernel), int(tap % p.kernel)) - half_k;
-      if (v < S && all(greaterThanEqual(q, ivec3(0))) && q.x < X && q.y < Y && q.z < Z) mask |= 1u << tap;
-    }
-    inside[k] = mask;
+    pos[k] = ivec3(vi / (Y * Z), (vi / Z) % Y, vi % Z);
     acc_lo[k] = vec4(0.0);
     acc_hi[k] = vec4(0.0);
   }
@@ -58,12 +48,14 @@ void main() {
     const uint x_base = p.x_offset + b * p.x_batch_stride + cl * S;
     for (uint tap = 0u; tap < taps; ++tap) {
       const ivec3 off = ivec3(int(tap / (p.kernel * p.kernel)), int((tap / p.kernel) % p.kernel), int(tap % p.kernel)) - half_k;
-      const int shift = (off.x * Y + off.y) * Z + off.z;  // linear offset of the tap
       const uint wi = (ci * taps + tap) * p.co_vec4s + (p.co_begin / 4u) + cob * (NN_CONV_CO_TILE / 4);
       const vec4 w_lo = w_packed[wi];
       const vec4 w_hi = w_packed[wi + 1u];
       for (int k = 0; k < NN_CONV_VOXELS; ++k) {
-        const float xv = (inside[k] & (1u << tap)) != 0u ? x_in[x_base + uint(int(vox[k]) + shift)] : 0.0;
+        const ivec3 q = pos[k] + off;
+        float xv = 0.0;
+        if (all(greaterThanEqual(q, ivec3(0))) && q.x < X && q.y < Y && q.z < Z)
+          xv = x_in[x_base + uint((q.x * Y + q.y) * Z + q.z)];
         acc_lo[k] = fma(w_lo, vec4(xv), acc_lo[k]);
         acc_hi[k] = fma(w_hi, vec4(xv), acc_hi[k]);
       }
