@@ -46,8 +46,14 @@ for shot in "$out"/frame_p*_f*.png; do
   p=${name#frame_p}
   p=${p%%_*}
   f=$((10#${name##*_f}))
-  ref=$(printf '%s/buffers/replay/pass_%s/semantic_buffer/%06d.png' "$out" "$p" "$f")
-  [ -s "$ref" ] || { echo "check_session: icube buffers wrote no $ref" >&2; exit 1; }
+  # Buffers number their frames 0..N-1; buffers_meta.json maps each to its source frame.
+  meta="$out/buffers/replay/pass_$p/buffers_meta.json"
+  sources=$(sed -n 's/.*"source_frame_indices": *\[\([^]]*\)\].*/\1/p' "$meta" 2>/dev/null | tr -d ' ')
+  i=0; n=-1
+  for s in ${sources//,/ }; do [ "$s" -eq "$f" ] && n=$i; i=$((i + 1)); done
+  [ "$n" -ge 0 ] || { echo "check_session: $meta lists no source frame $f" >&2; exit 1; }
+  ref=$(printf '%s/buffers/replay/pass_%s/semantic_buffer/%06d.png' "$out" "$p" "$n")
+  [ -s "$ref" ] || { echo "check_session: icube buffers wrote no $ref (source frame $f)" >&2; exit 1; }
   "$build/icube-view" --compare-semantic "$shot" "$ref" >/dev/null ||
     { "$build/icube-view" --compare-semantic "$shot" "$ref"; exit 1; }
   compared=$((compared + 1))
