@@ -12,6 +12,11 @@
 
 namespace icube::kernels::nn {
 
+uint64_t Attention::loop_iterations(const AttentionShape& s) {
+  const uint64_t d_blocks = gpu::div_up(uint64_t{s.head_dim}, 8);
+  return gpu::div_up(s.tokens, 4) * (2 * d_blocks + 1) + 2 * d_blocks + 2;
+}
+
 Attention::Attention(gpu::Context& ctx) : ctx_(ctx), program_(ctx.program("nn/attention")) {}
 
 void Attention::dispatch(gpu::CommandList& cmd, const AttentionShape& s, const gpu::Buffer& q, const gpu::Buffer& k,
@@ -21,6 +26,14 @@ void Attention::dispatch(gpu::CommandList& cmd, const AttentionShape& s, const g
     throw std::invalid_argument("attention: head_dim " + std::to_string(s.head_dim) + " (1.." +
                                 std::to_string(NN_ATTN_MAX_HEAD_DIM) + ")");
   if (s.batch == 0 || s.heads == 0 || s.tokens == 0) return;
+  if (ctx_.info().type == VK_PHYSICAL_DEVICE_TYPE_CPU) {
+    const uint64_t iterations = loop_iterations(s);
+    if (iterations > NN_ATTN_LOOP_BUDGET)
+      throw std::invalid_argument("attention: " + std::to_string(s.tokens) + " tokens at head_dim " +
+                                  std::to_string(s.head_dim) + " need " + std::to_string(iterations) +
+                                  " loop iterations per query, over a CPU device's budget of " +
+                                  std::to_string(NN_ATTN_LOOP_BUDGET) + " (lavapipe stops a shader at 65,535)");
+  }
   const uint64_t out_elements = uint64_t{s.batch} * s.channels() * s.tokens;
   for (const auto& [what, elements, buf] : {std::tuple<const char*, uint64_t, const gpu::Buffer*>{"q", in_elements, &q},
                                             {"k", in_elements, &k}, {"v", in_elements, &v},

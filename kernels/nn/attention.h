@@ -3,7 +3,8 @@
 // AttentionBlock (one qkv buffer, q / k / v its channel thirds) and the
 // transformer's self-attention (three buffers). Scale 1 / sqrt(head_dim) as
 // F.scaled_dot_product_attention. One dispatch, no barrier inside; every
-// tensor must fit one storage binding; head_dim <= 128.
+// tensor must fit one storage binding; head_dim <= 128; on CPU devices at
+// most NN_ATTN_LOOP_BUDGET loop iterations per query (about 9,500 tokens at head_dim 96).
 // CPU reference: nn::cpu::attention on [B, H, N, D] (layers_cpu.h).
 // Tests: tests/nn/test_attention_gpu.cpp.
 #pragma once
@@ -29,6 +30,8 @@ class Attention {
               const gpu::Buffer& v, const gpu::Buffer& out);
   // qkv: one [batch, 3C, tokens] buffer (q, k, v = channels [0, C), [C, 2C), [2C, 3C)).
   void record_qkv(gpu::CommandList& cmd, const AttentionShape& s, const gpu::Buffer& qkv, const gpu::Buffer& out);
+  // Loop iterations one query's invocation makes (CPU devices refuse more than NN_ATTN_LOOP_BUDGET).
+  static uint64_t loop_iterations(const AttentionShape& s);
 
  private:
   void dispatch(gpu::CommandList& cmd, const AttentionShape& s, const gpu::Buffer& q, const gpu::Buffer& k,

@@ -13,10 +13,11 @@ namespace icube::kernels::nn {
 
 namespace {
 
-// Partials per (batch, group): enough threads to fill a device, each with at least ~64 elements.
+// Partials per (batch, group): enough threads to fill a device, each with at least ~64 elements,
+// and at most 32,768 elements per partial (lavapipe stops an invocation after 65,535 loop iterations).
 uint32_t chunks_for(const GroupNormShape& s) {
   const uint64_t n = uint64_t{s.channels} / s.groups * s.spatial;
-  return static_cast<uint32_t>(std::clamp<uint64_t>(n / 64, 1, 256));
+  return static_cast<uint32_t>(std::max<uint64_t>(std::clamp<uint64_t>(n / 64, 1, 256), gpu::div_up(n, 32768)));
 }
 
 }  // namespace

@@ -77,11 +77,19 @@ TEST_CASE("attention gpu: against the CPU reference, separate and chunked qkv, h
   check_attention(2, 3, 8, 33, 1.0f, false, 1);
   check_attention(1, 8, 8, 6, 1.0f, true, 2);    // unet_small's level-3 blocks
   check_attention(1, 2, 96, 17, 1.0f, true, 3);  // the released model's head size
+  // Past lavapipe's 65,535 loop iterations per invocation for a one-key-per-iteration loop
+  // (512 x (2 x 96 + 1) and 5,001 x (2 x 8 + 1)): keys 4 and head dims 8 per iteration keep under it.
+  check_attention(1, 2, 96, 512, 1.0f, false, 5);
+  check_attention(1, 1, 8, 5001, 1.0f, true, 6);
+  check_attention(1, 1, 100, 37, 1.0f, false, 7);  // head_dim not a multiple of 8
   check_attention(1, 2, 4, 9, 200.0f, false, 4); // logits up to ~4e4: one key takes all the weight
   kernels::nn::Attention attn(test::gpu_context());
   gpu::Buffer tiny(test::gpu_context(), 64);
   test::gpu_context().submit_and_wait([&](gpu::CommandList& cmd) {
     CHECK_THROWS_WITH_AS(attn.record(cmd, {1, 1, 200, 1}, tiny, tiny, tiny, tiny), doctest::Contains("head_dim 200"),
                          std::invalid_argument);
+    if (test::gpu_context().info().type == VK_PHYSICAL_DEVICE_TYPE_CPU)
+      CHECK_THROWS_WITH_AS(attn.record(cmd, {1, 1, 96, 20000}, tiny, tiny, tiny, tiny),
+                           doctest::Contains("over a CPU device's budget"), std::invalid_argument);
   });
 }
