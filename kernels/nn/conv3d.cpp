@@ -55,7 +55,7 @@ void Conv3d::record(gpu::CommandList& cmd, const Conv3dShape& s, const gpu::Buff
   pc.size_y = s.y;
   pc.size_z = s.z;
   pc.kernel = s.kernel;
-  pc.voxel_tiles = static_cast<uint32_t>(gpu::div_up(S, NN_CONV_GROUP * NN_CONV_VOXELS));
+  pc.voxel_tiles = static_cast<uint32_t>(gpu::div_up(uint64_t{s.x} * s.y * gpu::div_up(s.z, NN_CONV_ZRUN), NN_CONV_GROUP));
   pc.has_bias = bias ? 1u : 0u;
   const gpu::BufferBinding wb = w.binding(0, w_bytes);
   const gpu::BufferBinding bb = bias ? bias->binding(0, uint64_t{s.out_channels} * 4) : gpu::null_binding();
@@ -65,7 +65,10 @@ void Conv3d::record(gpu::CommandList& cmd, const Conv3dShape& s, const gpu::Buff
     const uint64_t groups = uint64_t{pc.voxel_tiles} * pc.co_blocks * batch;
     cmd.dispatch(program_, gpu::Threads{groups * NN_CONV_GROUP}, pc, {xb, wb, bb, yb});
   };
-  if (x_bytes <= limit && y_bytes <= limit) {  // one dispatch for everything
+  // An invocation makes about ci_count * (1 + k + k^2) loop iterations (the z-taps unroll); lavapipe
+  // stops one after 65,535, so input channels go in windows of at most kMaxChannelsPerDispatch.
+  constexpr uint64_t kMaxChannelsPerDispatch = 4096;
+  if (x_bytes <= limit && y_bytes <= limit && s.in_channels <= kMaxChannelsPerDispatch) {  // one dispatch for everything
     pc.co_begin = 0;
     pc.co_count = s.out_channels;
     pc.ci_begin = 0;
@@ -81,7 +84,7 @@ void Conv3d::record(gpu::CommandList& cmd, const Conv3dShape& s, const gpu::Buff
   // blocks, input channels as many as fit; each window bound at its offset
   // aligned down (the rest goes to *_offset), so a window needs `align` spare bytes.
   const uint64_t usable = limit > align ? limit - align : 0;
-  const uint64_t ci_window = usable / (S * 4);
+  const uint64_t ci_window = std::min(usable / (S * 4), kMaxChannelsPerDispatch);
   const uint64_t co_window = usable / (S * 4) / NN_CONV_CO_TILE * NN_CONV_CO_TILE;
   if (ci_window == 0 || co_window == 0)
     throw std::invalid_argument("conv3d: " + std::to_string(NN_CONV_CO_TILE) + " channels of " + std::to_string(S) +

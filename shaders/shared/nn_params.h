@@ -5,10 +5,11 @@
 #include "gpu_types.h"
 
 // conv3d register tile: each invocation computes NN_CONV_CO_TILE output
-// channels at NN_CONV_VOXELS voxels (strided by the workgroup width, so a
-// warp's / SIMD row's loads of one input row are contiguous).
+// channels at a run of NN_CONV_ZRUN consecutive voxels along z (neighbouring
+// invocations hold neighbouring runs, so a warp's / SIMD row's loads of one
+// input row cover contiguous memory).
 #define NN_CONV_GROUP 64
-#define NN_CONV_VOXELS 4
+#define NN_CONV_ZRUN 8
 #define NN_CONV_CO_TILE 8
 
 ICUBE_SHADER_NAMESPACE_BEGIN
@@ -34,7 +35,7 @@ struct Conv3dParams {
   uint size_y;
   uint size_z;
   uint kernel;        // 1 or 3
-  uint voxel_tiles;   // ceil(X*Y*Z / (NN_CONV_GROUP * NN_CONV_VOXELS))
+  uint voxel_tiles;   // ceil(X * Y * ceil(Z / NN_CONV_ZRUN) / NN_CONV_GROUP)
   uint has_bias;
   uint accumulate;
   uint x_offset;      // elements: channel ci_begin of the first batch element
@@ -101,7 +102,10 @@ struct ResampleParams {
 // into thirds works as three views), out[b * out_batch_stride + (h * head_dim
 // + d) * tokens + t]. One thread per (batch, head, query); online softmax in fp32.
 #define NN_ATTN_GROUP 64
-#define NN_ATTN_MAX_HEAD_DIM 128
+#define NN_ATTN_MAX_HEAD_DIM 128  // a multiple of 8
+// Loop iterations one attention invocation may make on CPU devices (lavapipe's
+// gallivm: 65,535 in all per invocation), with a margin.
+#define NN_ATTN_LOOP_BUDGET 60000u
 
 struct AttentionParams {
   uint batch;

@@ -74,6 +74,10 @@ TEST_CASE("conv3d gpu: 3x3x3 and 1x1 against the CPU reference at odd sizes and 
   check_conv({1, 16, 32, 8, 16, 24, 3}, true, 1.0f, 21);  // unet_small's first level
   check_conv({1, 7, 9, 3, 5, 2, 1}, true, 1.0f, 31);      // 1x1 skip
   check_conv({1, 4, 8, 1, 1, 1, 3}, false, 1.0f, 41);     // a single voxel: only the centre tap
+  // The released model's widest input (a 768-channel level concatenated with its skip) and beyond
+  // the per-dispatch channel window: lavapipe stops an invocation after 65,535 loop iterations.
+  check_conv({1, 1536, 8, 3, 2, 9, 3}, true, 1.0f, 51);
+  check_conv({1, 4100, 9, 2, 1, 3, 3}, true, 1.0f, 61);
   check_conv({1, 8, 16, 9, 3, 33, 3}, true, 3e4f, 51);    // large activations, more than one voxel tile
 }
 
