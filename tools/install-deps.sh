@@ -13,10 +13,18 @@ packages=(
   xvfb xauth
 )
 
+# Test-only: PyTorch for the checkpoint converter's test and the benchmarks against
+# PyTorch (never the icube runtime; ~120 MB download).
+test_packages=(python3-torch)
+
 case "${1:-}" in
   -h|--help)
-    echo "usage: tools/install-deps.sh    install the Debian 12 packages InfiniCube-VK needs (as root)"
+    echo "usage: tools/install-deps.sh [--test]   install the Debian 12 packages InfiniCube-VK needs (as root);"
+    echo "       --test adds what the test suite and benchmarks use besides (python3-torch)"
     exit 0 ;;
+  --test) packages+=("${test_packages[@]}") ;;
+  "") ;;
+  *) echo "install-deps: unknown argument '$1' (see --help)" >&2; exit 2 ;;
 esac
 
 missing=()

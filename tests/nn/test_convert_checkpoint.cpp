@@ -1,0 +1,197 @@
+// tools/convert_checkpoint.py on small synthetic checkpoints laid out as
+// InfiniCube's Lightning diffusion checkpoint (tests/nn/make_synthetic_checkpoint.py
+// builds them with PyTorch from seeded random weights of a reduced UNet): the
+// EMA or live copy under bare official names that the engine loads against the
+// converted config, scale_factor in the metadata and the config, the VAE's
+// tensors, the config read off the weights, and bad checkpoints refused with
+// one line and no output. The converter needs numpy only; making the checkpoints
+// needs Debian's python3-torch (tools/install-deps.sh --test).
+#include <doctest/doctest.h>
+
+#include "cli_test_util.h"
+#include "nn/safetensors.h"
+#include "nn/unet_config.h"
+#include "nn/unet_reference.h"
+#include "nn/weights.h"
+#include "scene/atomic_file.h"
+
+#include <algorithm>
+#include <cstdio>
+#include <cstring>
+#include <random>
+#include <string>
+
+using namespace icube;
+
+namespace {
+
+std::pair<int, std::string> shell(const std::string& cmd) {
+  std::string out;
+  FILE* p = popen((cmd + " 2>&1").c_str(), "r");
+  if (!p) return {-1, out};
+  char buf[512];
+  while (std::fgets(buf, sizeof buf, p)) out += buf;
+  const int status = pclose(p);
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
+}
+
+// Debian's python3 first (a pyenv shim on PATH may lack torch).
+std::string python_with_torch() {
+  for (const char* py : {"/usr/bin/python3", "python3"})
+    if (shell(std::string(py) + " -c 'import torch, numpy'").first == 0) return py;
+  return {};
+}
+
+const char* kTinyKwargs = R"({"unet_kwargs": {"image_size": 8, "num_input_channels": 5, "out_channels": 3,
+  "model_channels": 32, "num_res_blocks": 1, "attention_resolutions": [2], "channel_mult": [1, 2], "num_heads": 4,
+  "use_scale_shift_norm": true, "resblock_updown": true, "transformer_depth": 2, "legacy": true,
+  "middile_force_spatial_transformer": true, "middle_disable_first_sa": false, "dropout": 0.0}})";
+
+float bf16_round(float f) {  // round to nearest even, as torch's .to(bfloat16)
+  uint32_t u;
+  std::memcpy(&u, &f, 4);
+  u = (u + 0x7fffu + ((u >> 16) & 1u)) & 0xffff0000u;
+  std::memcpy(&f, &u, 4);
+  return f;
+}
+
+}  // namespace
+
+TEST_CASE("convert_checkpoint: Lightning diffusion checkpoints to safetensors + config the engine loads") {
+  const std::string py = python_with_torch();
+  if (py.empty()) {
+    const char* req = std::getenv("ICUBE_REQUIRE_DATA");
+    if (req && std::string(req) == "1") FAIL("python3 with torch is missing (tools/install-deps.sh --test installs python3-torch)");
+    MESSAGE("skipped: no python3 with torch (apt install python3-torch)");
+    return;
+  }
+  const std::string src = ICUBE_SOURCE_DIR;
+  const std::string make = py + " " + src + "/tests/nn/make_synthetic_checkpoint.py ";
+  const std::string convert = py + " " + src + "/tools/convert_checkpoint.py ";
+  test::TempDir tmp("convert-ckpt");
+  const std::string dir = tmp.path.string();
+  scene::write_file_atomic(dir + "/kwargs.json", kTinyKwargs);
+  const nn::UNetConfig tiny = nn::load_unet_config(dir + "/kwargs.json");
+  const nn::UNetReference net(tiny);
+  std::mt19937 rng(17);
+  std::normal_distribution<float> nd(0.0f, 0.1f);
+  std::vector<nn::TensorToWrite> bare;
+  std::map<std::string, std::vector<float>> original;
+  for (const nn::ParamSpec& p : net.parameters()) {
+    std::vector<float> v(static_cast<size_t>(nn::CpuTensor::count(p.shape)));
+    for (float& f : v) f = nd(rng);
+    bare.push_back(nn::f32_tensor(p.name, p.shape, v));
+    original[p.name] = v;
+  }
+  nn::write_safetensors(dir + "/bare.safetensors", bare);
+  const std::string first = net.parameters().front().name;
+
+  SUBCASE("EMA copy by default, hyper_parameters as the config, scale_factor and the VAE") {
+    auto [rc, out] = shell(make + dir + "/bare.safetensors " + dir + "/a.ckpt --kwargs " + dir + "/kwargs.json");
+    INFO(out);
+    REQUIRE(rc == 0);
+    std::tie(rc, out) = shell(convert + dir + "/a.ckpt -o " + dir + "/a");
+    INFO(out);
+    REQUIRE(rc == 0);
+    CHECK(out.find("(ema weights)") != std::string::npos);
+    CHECK(out.find("left out: 3 entries (cond_stage_model, unet_ema)") != std::string::npos);
+    const nn::UNetConfig c = nn::load_unet_config(dir + "/a/unet_config.json");
+    CHECK(c.model_channels == tiny.model_channels);
+    CHECK(c.channel_mult == tiny.channel_mult);
+    CHECK(c.attention_resolutions == tiny.attention_resolutions);
+    CHECK(c.num_heads == 4);
+    CHECK(c.transformer_depth == 2);
+    CHECK(c.middle_disable_first_sa == false);
+    CHECK(c.in_channels == 5);
+    CHECK(c.outputs() == 3);
+    const nn::SafetensorsFile f(dir + "/a/unet.safetensors");
+    CHECK(f.metadata().at("weights") == "ema");
+    CHECK(std::stod(f.metadata().at("scale_factor")) == doctest::Approx(0.73).epsilon(1e-7));
+    const auto w = nn::load_weights_cpu(f, net.parameters(), {});
+    for (const nn::ParamSpec& p : net.parameters()) {
+      std::vector<float> want = original[p.name];
+      for (float& v : want) v *= 2.0f;  // the helper's EMA copy
+      CHECK_MESSAGE(w.at(p.name).data == want, p.name);
+    }
+    const nn::SafetensorsFile vae(dir + "/a/vae.safetensors");
+    REQUIRE(vae.find("encoder.mix_fc.weight"));
+    CHECK(vae.find("encoder.mix_fc.weight")->shape == std::vector<int64_t>{32, 65});
+    CHECK(scene::read_file(dir + "/a/unet_config.json").find("\"scale_factor\": 0.73") != std::string::npos);
+  }
+
+  SUBCASE("--weights live keeps bfloat16 as stored; hparams as a Namespace; foreign classes stay inert") {
+    auto [rc, out] = shell(make + dir + "/bare.safetensors " + dir + "/b.ckpt --bf16 --namespace-hparams --kwargs " +
+                           dir + "/kwargs.json --foreign-object");
+    INFO(out);
+    REQUIRE(rc == 0);
+    std::tie(rc, out) = shell(convert + dir + "/b.ckpt -o " + dir + "/b --weights live");
+    INFO(out);
+    REQUIRE(rc == 0);
+    CHECK(out.find("pickled objects not built (inert placeholders): __main__.ForeignObject") != std::string::npos);
+    CHECK(nn::load_unet_config(dir + "/b/unet_config.json").num_heads == 4);  // from the Namespace
+    const nn::SafetensorsFile f(dir + "/b/unet.safetensors");
+    CHECK(f.find(first)->dtype == nn::DType::BF16);
+    const auto w = nn::load_weights_cpu(f, net.parameters(), {});
+    std::vector<float> want = original[first];
+    for (float& v : want) v = bf16_round(v);
+    CHECK(w.at(first).data == want);
+  }
+
+  SUBCASE("no hyper_parameters and no EMA: the config is read off the weights, the rest named as assumed") {
+    auto [rc, out] = shell(make + dir + "/bare.safetensors " + dir + "/c.ckpt --no-ema");
+    INFO(out);
+    REQUIRE(rc == 0);
+    std::tie(rc, out) = shell(convert + dir + "/c.ckpt -o " + dir + "/c");
+    INFO(out);
+    REQUIRE(rc == 0);
+    CHECK(out.find("(live weights)") != std::string::npos);
+    CHECK(out.find("from the released model (not in the checkpoint): num_heads") != std::string::npos);
+    const nn::UNetConfig c = nn::load_unet_config(dir + "/c/unet_config.json");
+    CHECK(c.model_channels == 32);
+    CHECK(c.num_res_blocks == 1);
+    CHECK(c.channel_mult == std::vector<int>{1, 2});
+    CHECK(c.attention_resolutions == std::vector<int>{2});
+    CHECK(c.transformer_depth == 2);
+    CHECK(c.middle_disable_first_sa == false);
+    CHECK(c.use_scale_shift_norm);
+    CHECK(c.num_heads == 8);  // not in the weights: the released model's
+    const nn::UNetReference again(c);
+    CHECK(again.parameters().size() == net.parameters().size());
+    CHECK(nn::load_weights_cpu(nn::SafetensorsFile(dir + "/c/unet.safetensors"), again.parameters(), {}).at(first).data ==
+          original[first]);
+  }
+
+  SUBCASE("bad checkpoints: one line naming the file and place, exit 1, no output") {
+    struct Bad {
+      std::string make_args, convert_args, message;
+    };
+    scene::write_file_atomic(dir + "/junk.ckpt", std::string("PK\x03\x04 this is no checkpoint", 28));
+    const std::string wrong_kwargs = std::string(kTinyKwargs).replace(std::string(kTinyKwargs).find("\"model_channels\": 32"),
+                                                                       20, "\"model_channels\": 64");
+    scene::write_file_atomic(dir + "/wrong.json", wrong_kwargs);
+    const std::vector<Bad> cases = {
+        {"--nan " + first, "--weights live", "tensor 'unet." + first + "': holds NaN or infinity"},
+        {"--kwargs " + dir + "/wrong.json", "", "hyper_parameters network.diffuser.model_channels: says 64, the weights hold 32"},
+        {"", "", "not a PyTorch checkpoint in torch.save's zip format"},
+        {"--no-ema", "--weights ema", "--weights ema: the checkpoint has no EMA copy"},
+    };
+    for (size_t i = 0; i < cases.size(); ++i) {
+      const Bad& b = cases[i];
+      std::string ckpt = dir + "/junk.ckpt";
+      if (!b.message.starts_with("not a PyTorch checkpoint")) {
+        ckpt = dir + "/bad" + std::to_string(i) + ".ckpt";
+        const auto [mrc, mout] = shell(make + dir + "/bare.safetensors " + ckpt + " " + b.make_args);
+        INFO(mout);
+        REQUIRE(mrc == 0);
+      }
+      const std::string outdir = dir + "/bad" + std::to_string(i);
+      const auto [rc, out] = shell(convert + ckpt + " -o " + outdir + " " + b.convert_args);
+      INFO(i, ": ", out);
+      CHECK(rc == 1);
+      CHECK(out.find(ckpt + ": ") != std::string::npos);
+      CHECK(out.find(b.message) != std::string::npos);
+      CHECK(std::count(out.begin(), out.end(), '\n') == 1);
+      CHECK_FALSE(std::filesystem::exists(outdir));
+    }
+  }
+}

@@ -1,0 +1,525 @@
+#!/usr/bin/env python3
+"""Converts an official InfiniCube PyTorch Lightning checkpoint (.ckpt) into the
+files `icube` loads: .safetensors weights under the official state-dict names,
+the UNet configuration as JSON, and the latent scale factor.
+
+  tools/convert_checkpoint.py diffusion.ckpt -o models/diffusion
+  tools/convert_checkpoint.py vae.ckpt -o models/vae
+
+A diffusion checkpoint (state_dict keys `unet.*`, `unet_ema.*`, `scale_factor`,
+optionally `vae.*`) gives
+  unet.safetensors     the UNet's parameters under their bare official names:
+                       the EMA copy when the checkpoint has one (the inference
+                       scripts sample with --use_ema), the live weights with
+                       --weights live; its __metadata__ holds scale_factor,
+                       the copy taken and the source file
+  unet_config.json     {"unet_kwargs": UNetModel's keyword arguments, "scale_factor": ...}:
+                       channels, levels, attention levels and transformer depth read
+                       off the weights, the rest from the checkpoint's hyper_parameters
+                       (network.diffuser) or else the released model's values
+  vae.safetensors      the VAE's parameters (when the checkpoint carries `vae.*`)
+A standalone VAE checkpoint (keys `encoder.*`, `unet.encoders.*`, ...) gives
+vae.safetensors alone. Everything else (optimizer state, condition encoders)
+is left out and listed.
+
+Then:  icube nn info OUT/unet.safetensors --model OUT/unet_config.json
+
+Needs numpy only: not PyTorch, Lightning or the InfiniCube sources. The
+checkpoint (torch.save's zip format: data.pkl + one record per storage) is read
+here with an unpickler that builds tensors, containers and plain values and
+nothing else, so no code from the file ever runs; any other pickled class
+(OmegaConf configs, callbacks) becomes an inert placeholder and is reported.
+hyper_parameters are read when they are plain dicts, argparse.Namespace or
+Lightning's AttributeDict.
+Outputs are written to temporary names and renamed, so a failure leaves none.
+"""
+
+import argparse
+import json
+import os
+import re
+import struct
+import sys
+import tempfile
+
+# The released model's UNetModel keyword arguments (shared/reference/models/diffusion_unet.tsv).
+RELEASED_UNET_KWARGS = {
+    "image_size": 64, "num_input_channels": 16, "out_channels": 8, "model_channels": 192,
+    "num_res_blocks": 2, "attention_resolutions": [4, 8], "dropout": 0, "channel_mult": [1, 2, 4, 4],
+    "conv_resample": True, "dims": 3, "num_classes": None, "use_checkpoint": False, "use_fp16": False,
+    "num_heads": 8, "num_head_channels": -1, "num_heads_upsample": -1, "use_scale_shift_norm": True,
+    "resblock_updown": True, "use_spatial_transformer": False, "transformer_depth": 12, "context_dim": None,
+    "n_embed": None, "legacy": True, "middile_force_spatial_transformer": True, "middle_disable_first_sa": True,
+}
+# Keyword arguments the weights cannot tell; taken from hyper_parameters or the released model.
+NOT_IN_WEIGHTS = ["image_size", "num_heads", "num_head_channels", "num_heads_upsample", "legacy", "dims",
+                  "conv_resample", "dropout", "use_checkpoint", "use_fp16"]
+CHANGE_INFERENCE = {"num_heads", "num_head_channels", "num_heads_upsample", "legacy", "conv_resample", "dims",
+                    "transformer_depth", "middle_disable_first_sa"}
+LEFT_OUT_BUFFERS = {"unet_ema.decay", "unet_ema.num_updates"}
+
+
+class ConvertError(Exception):
+    """A one-line error naming the file and the place."""
+
+
+def fail(path, where, what):
+    raise ConvertError(f"{path}: {where + ': ' if where else ''}{what}")
+
+
+# torch storage class -> (numpy dtype, safetensors dtype or None when not a float)
+STORAGES = {
+    "FloatStorage": ("<f4", "F32"), "HalfStorage": ("<u2", "F16"), "BFloat16Storage": ("<u2", "BF16"),
+    "DoubleStorage": ("<f8", None), "LongStorage": ("<i8", None), "IntStorage": ("<i4", None),
+    "ShortStorage": ("<i2", None), "CharStorage": ("i1", None), "ByteStorage": ("u1", None),
+    "BoolStorage": ("?", None),
+}
+
+
+class Tensor:
+    """A tensor read from a checkpoint: a C-ordered numpy array plus its safetensors dtype.
+
+    F16 and BF16 keep their raw 16-bit patterns (uint16), written back unchanged."""
+
+    def __init__(self, array, dtype):
+        self.array, self.dtype = array, dtype
+
+    @property
+    def shape(self):
+        return list(self.array.shape)
+
+    @property
+    def is_float(self):
+        return self.dtype is not None
+
+    def numel(self):
+        return int(self.array.size)
+
+    def as_f32(self):
+        import numpy as np
+        if self.dtype == "BF16":
+            return (self.array.astype(np.uint32) << 16).view(np.float32)
+        if self.dtype == "F16":
+            return self.array.view(np.float16).astype(np.float32)
+        return self.array.astype(np.float32)
+
+    def finite(self):
+        import numpy as np
+        return bool(np.isfinite(self.as_f32()).all()) if self.is_float else True
+
+    def item(self):
+        if self.numel() != 1:
+            raise ValueError(f"{self.numel()} elements")
+        return float(self.as_f32().reshape(-1)[0]) if self.is_float else float(self.array.reshape(-1)[0])
+
+    def tobytes(self):
+        return self.array.tobytes()
+
+
+class Storage:
+    def __init__(self, kind, data):
+        self.kind, self.data = kind, data  # data: 1-D numpy array of the storage's elements
+
+
+class Placeholder:
+    """An inert stand-in for any pickled class the reader does not build."""
+    seen = set()
+
+    def __init__(self, *args, **kwargs):
+        pass
+
+    def __setstate__(self, state):
+        pass
+
+    def __setitem__(self, key, value):
+        pass
+
+    def append(self, value):
+        pass
+
+    def extend(self, values):
+        pass
+
+
+def placeholder_class(module, name):
+    Placeholder.seen.add(f"{module}.{name}")
+    return type(name, (Placeholder,), {"__module__": "placeholder." + module})
+
+
+def read_checkpoint(path):
+    """torch.save's zip format read without torch and without running code from the file."""
+    import collections
+    import io
+    import pickle
+    import zipfile
+
+    import numpy as np
+
+    if not os.path.isfile(path):
+        fail(path, "", "no such file")
+    try:
+        z = zipfile.ZipFile(path)
+    except (zipfile.BadZipFile, OSError) as e:
+        fail(path, "", f"not a PyTorch checkpoint in torch.save's zip format ({' '.join(str(e).split())[:120]}); "
+             "checkpoints from PyTorch older than 1.6 are not read")
+    with z:
+        pkl = [n for n in z.namelist() if n.endswith("data.pkl") and n.count("/") == 1]
+        if len(pkl) != 1:
+            fail(path, "", "not a PyTorch checkpoint (no single <archive>/data.pkl)")
+        prefix = pkl[0][: -len("data.pkl")]
+        if prefix + "byteorder" in z.namelist() and z.read(prefix + "byteorder").strip() != b"little":
+            fail(path, "byteorder", "big-endian checkpoints are not read")
+        storages = {}
+
+        def persistent_load(pid):
+            if not (isinstance(pid, tuple) and len(pid) == 5 and pid[0] == "storage"):
+                raise pickle.UnpicklingError(f"unknown persistent id {str(pid)[:60]}")
+            _, kind, key, _location, numel = pid
+            if key not in storages:
+                name = kind.__name__ if isinstance(kind, type) else str(kind)
+                if name not in STORAGES:
+                    raise pickle.UnpicklingError(f"storage type {name} is not read")
+                np_dtype = np.dtype(STORAGES[name][0])
+                try:
+                    raw = z.read(f"{prefix}data/{key}")
+                except KeyError:
+                    raise pickle.UnpicklingError(f"storage record data/{key} is missing")
+                if len(raw) < numel * np_dtype.itemsize:
+                    raise pickle.UnpicklingError(f"storage record data/{key} holds {len(raw)} bytes, "
+                                                 f"{numel} elements need {numel * np_dtype.itemsize}")
+                storages[key] = Storage(name, np.frombuffer(raw, dtype=np_dtype, count=numel))
+            return storages[key]
+
+        def rebuild_tensor(storage, offset, size, stride, *_):
+            if not isinstance(storage, Storage):
+                raise pickle.UnpicklingError("a tensor without a storage")
+            size, stride = tuple(int(v) for v in size), tuple(int(v) for v in stride)
+            data = storage.data
+            end = offset + sum((n - 1) * st for n, st in zip(size, stride)) + 1 if all(size) else offset
+            if offset < 0 or any(st < 0 for st in stride) or end > data.size:
+                raise pickle.UnpicklingError(f"a tensor of size {list(size)} reaches past its storage")
+            view = np.lib.stride_tricks.as_strided(data[offset:], shape=size,
+                                                   strides=[st * data.itemsize for st in stride])
+            return Tensor(np.ascontiguousarray(view), STORAGES[storage.kind][1])
+
+        def rebuild_parameter(data, *_):
+            return data
+
+        class AttributeDict(dict):
+            """Lightning's AttributeDict, as a plain dict."""
+
+        allowed = {
+            ("collections", "OrderedDict"): collections.OrderedDict,
+            ("torch._utils", "_rebuild_tensor_v2"): rebuild_tensor,
+            ("torch._utils", "_rebuild_parameter"): rebuild_parameter,
+            ("argparse", "Namespace"): argparse.Namespace,
+            ("builtins", "set"): set, ("builtins", "frozenset"): frozenset, ("builtins", "dict"): dict,
+            ("builtins", "list"): list, ("builtins", "tuple"): tuple,
+        }
+
+        class Unpickler(pickle.Unpickler):
+            def find_class(self, module, name):
+                if (module, name) in allowed:
+                    return allowed[(module, name)]
+                if module == "torch" and name.endswith("Storage"):
+                    return type(name, (), {})  # the storage kind, read by persistent_load
+                if name == "AttributeDict" and module.split(".")[0] in ("pytorch_lightning", "lightning",
+                                                                       "lightning_fabric"):
+                    return AttributeDict
+                if (module, name) == ("copyreg", "_reconstructor"):
+                    return lambda cls, base, state: cls.__new__(cls) if isinstance(cls, type) and \
+                        issubclass(cls, (Placeholder, dict)) else Placeholder()
+                return placeholder_class(module, name)
+
+        up = Unpickler(io.BytesIO(z.read(pkl[0])), encoding="utf-8")
+        up.persistent_load = persistent_load
+        try:
+            return up.load()
+        except Exception as e:  # malformed pickles raise many kinds
+            fail(path, "data.pkl", f"not readable ({type(e).__name__}: {' '.join(str(e).split())[:160]})")
+
+
+def state_dict_of(ckpt, path):
+    sd = ckpt.get("state_dict") if isinstance(ckpt, dict) else None
+    if sd is None and isinstance(ckpt, dict) and ckpt and all(isinstance(k, str) for k in ckpt):
+        sd = ckpt  # a bare state dict
+    if not isinstance(sd, dict) or not sd:
+        fail(path, "state_dict", "missing or empty (not a Lightning checkpoint or state dict)")
+    return sd
+
+
+def as_plain(obj):
+    """hyper_parameters as plain dicts/lists (AttributeDict, OmegaConf containers, Namespace)."""
+    try:
+        from omegaconf import OmegaConf  # only present when the user has it; never required
+        if OmegaConf.is_config(obj):
+            return OmegaConf.to_container(obj, resolve=True)
+    except ImportError:
+        pass
+    if isinstance(obj, argparse.Namespace):
+        obj = vars(obj)
+    if isinstance(obj, dict):
+        return {str(k): as_plain(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [as_plain(v) for v in obj]
+    return obj
+
+
+def diffuser_hparams(ckpt):
+    hp = as_plain(ckpt.get("hyper_parameters")) if isinstance(ckpt, dict) else None
+    if isinstance(hp, dict):
+        net = hp.get("network")
+        if isinstance(net, dict) and isinstance(net.get("diffuser"), dict):
+            return net["diffuser"]
+    return {}
+
+
+def shape(sd, key):
+    return list(sd[key].shape)
+
+
+def infer_unet_kwargs(unet, path, hparams):
+    """UNetModel kwargs from the bare-named UNet parameters, checked against hyper_parameters."""
+    def need(key):
+        if key not in unet:
+            fail(path, f"tensor 'unet.{key}'", "missing: not an InfiniCube dense diffusion UNet")
+        return shape(unet, key)
+
+    conv_in, conv_out = need("input_blocks.0.0.weight"), need("out.2.weight")
+    if len(conv_in) != 5 or len(conv_out) != 5:
+        fail(path, "tensor 'unet.input_blocks.0.0.weight'", f"shape {conv_in}: not a 3-D convolution")
+    mc = conv_in[0]
+    blocks_in = {int(m.group(1)) for k in unet for m in [re.match(r"input_blocks\.(\d+)\.", k)] if m}
+    n_in = max(blocks_in) + 1
+    # Upsamplers: a sub-module after the first in an output block that is a ResBlock or an Upsample conv.
+    ups = {(m.group(1), m.group(2)) for k in unet
+           for m in [re.match(r"output_blocks\.(\d+)\.([1-9])\.(in_layers|conv)\.", k)] if m}
+    levels = len(ups) + 1
+    if n_in % levels != 0:
+        fail(path, "input_blocks", f"{n_in} blocks do not split into {levels} levels")
+    res = n_in // levels - 1
+    if res < 1:
+        fail(path, "input_blocks", f"{n_in} blocks for {levels} levels leave no ResBlocks")
+    mult, attn = [], []
+    for level in range(levels):
+        first = 1 + level * (res + 1)
+        ch = need(f"input_blocks.{first}.0.out_layers.3.weight")[0]
+        if ch % mc != 0:
+            fail(path, f"tensor 'unet.input_blocks.{first}.0.out_layers.3.weight'",
+                 f"{ch} channels are not a multiple of model_channels {mc}")
+        mult.append(ch // mc)
+        if any(k.startswith(f"input_blocks.{first}.1.") for k in unet):
+            attn.append(2 ** level)
+    kw = {
+        "num_input_channels": conv_in[1], "out_channels": conv_out[0], "model_channels": mc,
+        "num_res_blocks": res, "channel_mult": mult, "attention_resolutions": attn,
+        "use_scale_shift_norm": need("input_blocks.1.0.emb_layers.1.weight")[0] == 2 * mc * mult[0],
+        "resblock_updown": any(k.startswith("output_blocks.") and ".in_layers." in k and
+                               re.match(r"output_blocks\.\d+\.[1-9]\.in_layers", k) for k in unet),
+    }
+    depth = {int(m.group(1)) for k in unet for m in [re.match(r"middle_block\.1\.transformer_blocks\.(\d+)\.", k)] if m}
+    kw["middile_force_spatial_transformer"] = bool(depth)
+    if depth:
+        kw["transformer_depth"] = max(depth) + 1
+        kw["middle_disable_first_sa"] = not any(".attn1." in k for k in unet if k.startswith("middle_block.1."))
+    out = dict(RELEASED_UNET_KWARGS)
+    assumed = []
+    for key in NOT_IN_WEIGHTS + ["transformer_depth", "middle_disable_first_sa"]:
+        if key in hparams:
+            out[key] = hparams[key]
+        elif key not in kw and key in CHANGE_INFERENCE:
+            assumed.append(key)
+    for key, value in kw.items():
+        if key in hparams and hparams[key] != value and key not in ("num_input_channels", "out_channels"):
+            fail(path, f"hyper_parameters network.diffuser.{key}",
+                 f"says {json.dumps(hparams[key])}, the weights hold {json.dumps(value)}")
+        out[key] = value
+    return out, assumed
+
+
+def write_safetensors(path, tensors, metadata):
+    """safetensors: 8-byte little-endian header length, JSON header, then the tensors' bytes."""
+    header, blobs, offset = {"__metadata__": {k: str(v) for k, v in metadata.items()}}, [], 0
+    for name in sorted(tensors):
+        t = tensors[name]
+        data = t.tobytes()
+        header[name] = {"dtype": t.dtype, "shape": t.shape,
+                        "data_offsets": [offset, offset + len(data)]}
+        blobs.append(data)
+        offset += len(data)
+    text = json.dumps(header, separators=(",", ":")).encode()
+    text += b" " * (-len(text) % 8)
+    with open(path, "wb") as f:
+        f.write(struct.pack("<Q", len(text)))
+        f.write(text)
+        for b in blobs:
+            f.write(b)
+
+
+def float_tensors(path, items, prefix_in_file):
+    out = {}
+    for name, t in items:
+        if not isinstance(t, Tensor):
+            fail(path, f"'{prefix_in_file}{name}'", f"is a {type(t).__name__}, not a tensor")
+        if not t.is_float:
+            fail(path, f"tensor '{prefix_in_file}{name}'", "is not float32, float16 or bfloat16")
+        if not t.finite():
+            fail(path, f"tensor '{prefix_in_file}{name}'", "holds NaN or infinity")
+        out[name] = t
+    return out
+
+
+def convert(args):
+    Placeholder.seen.clear()
+    ckpt = read_checkpoint(args.checkpoint)
+    sd = state_dict_of(ckpt, args.checkpoint)
+    src = os.path.basename(args.checkpoint)
+    is_vae = any(k.startswith("encoder.") or k.startswith("unet.encoders.") or k.startswith("unet.decoders.")
+                 for k in sd)
+    outputs, used = {}, set()
+    report = []
+    if is_vae:
+        vae = float_tensors(args.checkpoint, [(k, v) for k, v in sd.items() if isinstance(v, Tensor) and
+                                              v.is_float], "")
+        used.update(vae)
+        outputs["vae.safetensors"] = ("safetensors", vae, {"source": src, "model": "vae"})
+        report.append(f"vae.safetensors: {len(vae)} tensors")
+    else:
+        live = {k[5:]: v for k, v in sd.items() if k.startswith("unet.")}
+        ema_flat = {k[9:]: v for k, v in sd.items() if k.startswith("unet_ema.") and k not in LEFT_OUT_BUFFERS}
+        if not live and not ema_flat:
+            fail(args.checkpoint, "state_dict", "has neither unet.* nor unet_ema.* nor a VAE's encoder.* keys")
+        if not live:
+            fail(args.checkpoint, "state_dict", "has unet_ema.* but no unet.*: the EMA names cannot be mapped back")
+        # LitEma's buffer names drop every '.', so map them through the live names.
+        flat_to_name = {}
+        for name in live:
+            flat = name.replace(".", "")
+            if flat in flat_to_name:
+                fail(args.checkpoint, f"tensor 'unet.{name}'", f"collides with 'unet.{flat_to_name[flat]}' without dots")
+            flat_to_name[flat] = name
+        take = args.weights
+        if take == "auto":
+            take = "ema" if ema_flat else "live"
+        if take == "ema":
+            if not ema_flat:
+                fail(args.checkpoint, "--weights ema", "the checkpoint has no EMA copy (no unet_ema.* tensors)")
+            items = []
+            for flat, t in ema_flat.items():
+                if flat not in flat_to_name:
+                    fail(args.checkpoint, f"tensor 'unet_ema.{flat}'", "matches no unet.* parameter")
+                items.append((flat_to_name[flat], t))
+            missing = sorted(set(n for n, t in live.items() if isinstance(t, Tensor) and t.is_float) -
+                             {n for n, _ in items})
+            if missing:
+                fail(args.checkpoint, f"tensor 'unet_ema.{missing[0].replace('.', '')}'",
+                     f"missing (the EMA copy lacks unet.{missing[0]})")
+            used.update("unet_ema." + f for f in ema_flat)
+        else:
+            items = list(live.items())
+        used.update("unet." + k for k in live)
+        unet = float_tensors(args.checkpoint, items, "unet." if take == "live" else "unet_ema.")
+        for n in live:
+            if n not in unet:
+                fail(args.checkpoint, f"tensor 'unet.{n}'", "is not a floating-point parameter")
+        kwargs, assumed = infer_unet_kwargs(unet, args.checkpoint, diffuser_hparams(ckpt))
+        scale = None
+        if "scale_factor" in sd:
+            s = sd["scale_factor"]
+            try:
+                scale = float(s.item() if isinstance(s, Tensor) else s)
+            except (TypeError, ValueError) as e:
+                fail(args.checkpoint, "tensor 'scale_factor'", f"is not one number ({e})")
+            used.add("scale_factor")
+            if not (scale == scale and abs(scale) != float("inf") and scale > 0):
+                fail(args.checkpoint, "tensor 'scale_factor'", f"{scale} is not a positive finite number")
+        meta = {"source": src, "model": "diffusion_unet", "weights": take}
+        if scale is not None:
+            meta["scale_factor"] = repr(scale)
+        outputs["unet.safetensors"] = ("safetensors", unet, meta)
+        config = {"description": f"InfiniCube dense diffusion UNet converted from {src} ({take} weights)",
+                  "unet_kwargs": kwargs, "scale_factor": scale, "weights": take,
+                  "assumed_from_released_model": assumed}
+        outputs["unet_config.json"] = ("json", config, None)
+        report.append(f"unet.safetensors: {len(unet)} tensors ({take} weights), "
+                      f"{sum(t.numel() for t in unet.values()):,} parameters")
+        report.append("unet_config.json: model_channels {model_channels}, channel_mult {channel_mult}, "
+                      "num_res_blocks {num_res_blocks}, attention_resolutions {attention_resolutions}, "
+                      "transformer_depth {transformer_depth}".format(**kwargs) +
+                      (f"; from the released model (not in the checkpoint): {', '.join(assumed)}" if assumed else ""))
+        report.append("scale_factor: " + (repr(scale) if scale is not None else
+                                          "not in the checkpoint (icube uses 1 with a warning unless --scale-factor)"))
+        vae = {k[4:]: v for k, v in sd.items() if k.startswith("vae.")}
+        if vae:
+            vae = float_tensors(args.checkpoint, [(k, v) for k, v in vae.items() if isinstance(v, Tensor) and
+                                                  v.is_float], "vae.")
+            used.update("vae." + k for k in vae)
+            outputs["vae.safetensors"] = ("safetensors", vae, {"source": src, "model": "vae"})
+            report.append(f"vae.safetensors: {len(vae)} tensors")
+    if Placeholder.seen:
+        report.append("pickled objects not built (inert placeholders): " + ", ".join(sorted(Placeholder.seen)))
+    left = sorted(k for k in sd if k not in used)
+    if left:
+        groups = sorted({k.split(".")[0] for k in left})
+        report.append(f"left out: {len(left)} entries ({', '.join(groups)})")
+    return outputs, report
+
+
+def current_umask():
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+def write_outputs(out_dir, outputs):
+    os.makedirs(out_dir, exist_ok=True)
+    staged = []
+    try:
+        for name, (kind, payload, meta) in outputs.items():
+            fd, tmp = tempfile.mkstemp(prefix="." + name + ".", dir=out_dir)
+            os.close(fd)
+            staged.append((tmp, os.path.join(out_dir, name)))
+            if kind == "safetensors":
+                write_safetensors(tmp, payload, meta)
+            else:
+                with open(tmp, "w") as f:
+                    json.dump(payload, f, indent=1)
+                    f.write("\n")
+        mode = 0o666 & ~current_umask()
+        for tmp, final in staged:
+            os.chmod(tmp, mode)
+            os.replace(tmp, final)
+    finally:
+        for tmp, _ in staged:
+            if os.path.exists(tmp):
+                os.remove(tmp)
+
+
+def main(argv=None):
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+                                formatter_class=argparse.RawDescriptionHelpFormatter,
+                                epilog="\n\n".join(__doc__.split("\n\n")[1:]))
+    p.add_argument("checkpoint", help="official Lightning .ckpt (diffusion or VAE), or a bare state dict")
+    p.add_argument("-o", "--output", required=True, help="output folder (created)")
+    p.add_argument("--weights", choices=["auto", "ema", "live"], default="auto",
+                   help="the UNet copy to write: auto = EMA when present (default), else live")
+    args = p.parse_args(argv)
+    try:
+        import numpy  # noqa: F401
+    except ImportError:
+        print("convert_checkpoint: needs numpy (apt install python3-numpy)", file=sys.stderr)
+        return 2
+    try:
+        outputs, report = convert(args)
+        write_outputs(args.output, outputs)
+    except ConvertError as e:
+        print(f"convert_checkpoint: {e}", file=sys.stderr)
+        return 1
+    for line in report:
+        print(f"convert_checkpoint: {line}")
+    print(f"convert_checkpoint: wrote {', '.join(sorted(outputs))} to {args.output}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
