@@ -11,6 +11,17 @@
 #include "nn/unet_gpu.h"
 #include "nn/unet_reference.h"
 #include "nn/layers_cpu.h"
+#include "nn/attention.h"
+#include "world/npy.h"
+
+#include <nlohmann/json.hpp>
+#include <sys/wait.h>
+#include <unistd.h>
+#include <filesystem>
+#include <cstdlib>
+#include <fstream>
+#include <limits>
+#include <thread>
 
 #include <CLI/CLI.hpp>
 
@@ -38,6 +49,67 @@ Stats stats(std::vector<double> v) {
   return {v.front(), v[v.size() / 2]};
 }
 
+void save(const std::string& path, const nn::CpuTensor& t) {
+  std::vector<uint64_t> shape(t.shape.begin(), t.shape.end());
+  world::write_npy(path, world::NpyArray::make<float>(shape, t.data));
+}
+
+// The PyTorch side (bench/torch_nn.py) run on the same tensors: its times and its output.
+struct TorchSide {
+  std::string python;  // empty: not run
+  int threads = 1, runs = 5, warmup = 1;
+  std::filesystem::path dir;
+
+  struct Result {
+    bool ok = false;
+    double min_ms = 0, median_ms = 0;
+    std::vector<float> y;
+    std::string error;
+  };
+
+  Result run(const nlohmann::json& c, const std::map<std::string, const nn::CpuTensor*>& inputs) const {
+    Result r;
+    std::filesystem::remove_all(dir);
+    std::filesystem::create_directories(dir);
+    std::ofstream(dir / "case.json") << c.dump();
+    for (const auto& [name, t] : inputs) save((dir / (name + ".npy")).string(), *t);
+    const std::string cmd = python + " " + ICUBE_SOURCE_DIR + "/bench/torch_nn.py --threads " + std::to_string(threads) +
+                            " --runs " + std::to_string(runs) + " --warmup " + std::to_string(warmup) + " " +
+                            dir.string() + " 2>&1";
+    FILE* p = popen(cmd.c_str(), "r");
+    std::string out;
+    char buf[512];
+    while (p && std::fgets(buf, sizeof buf, p)) out += buf;
+    const int status = p ? pclose(p) : -1;
+    if (status != 0) {
+      r.error = out;
+      return r;
+    }
+    const nlohmann::json j = nlohmann::json::parse(out.substr(out.rfind('{')));
+    r.min_ms = j.at("min_ms").get<double>();
+    r.median_ms = j.at("median_ms").get<double>();
+    r.y = world::read_npy((dir / "y.npy").string()).values<float>();
+    r.ok = true;
+    return r;
+  }
+};
+
+// Debian's python3 first (a pyenv shim on PATH may lack torch).
+std::string python_with_torch() {
+  for (const char* py : {"/usr/bin/python3", "python3"})
+    if (std::system((std::string(py) + " -c 'import torch, numpy' >/dev/null 2>&1").c_str()) == 0) return py;
+  return {};
+}
+
+double max_rel(const std::vector<float>& got, const std::vector<float>& want) {
+  double mx = 0, ref = 0;
+  for (size_t i = 0; i < std::min(got.size(), want.size()); ++i) {
+    mx = std::max(mx, std::abs(static_cast<double>(got[i]) - static_cast<double>(want[i])));
+    ref = std::max(ref, std::abs(static_cast<double>(want[i])));
+  }
+  return got.size() == want.size() ? mx / std::max(ref, 1e-30) : std::numeric_limits<double>::infinity();
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -52,6 +124,14 @@ int main(int argc, char** argv) {
   app.add_option("--cpu-limit", cpu_limit_gflop, "Run the CPU reference only on shapes up to this many GFLOP")
       ->capture_default_str();
   app.add_flag("--quick", quick, "Only the small shapes");
+  bool released_levels = false;
+  app.add_flag("--released-levels", released_levels,
+               "Also conv3d at the released model's level shapes (64^3 x 192, 32^3 x 384, 16^3 x 768: "
+               "130-520 GFLOP each, minutes per run on lavapipe)");
+  bool with_torch = false;
+  app.add_flag("--torch", with_torch,
+               "Also run PyTorch's CPU ops (bench/torch_nn.py, Debian python3-torch) on the same tensors, "
+               "torch threads = LP_NUM_THREADS");
   app.add_option("--unet", unet_config, "Also time one whole UNet forward of this config JSON (random weights)")
       ->type_name("CONFIG");
   app.add_option("--unet-grid", unet_grid, "Grid of the UNet forward")->expected(3)->capture_default_str();
@@ -59,6 +139,20 @@ int main(int argc, char** argv) {
 
   gpu::Context ctx(gpu::ContextOptions::from_env());
   std::printf("device: %s\n", ctx.info().name.c_str());
+  TorchSide torch_side;
+  if (with_torch) {
+    torch_side.python = python_with_torch();
+    if (torch_side.python.empty()) {
+      std::fprintf(stderr, "icube-bench-nn: --torch needs python3 with torch and numpy (apt install python3-torch)\n");
+      return 2;
+    }
+    const char* lp = std::getenv("LP_NUM_THREADS");
+    torch_side.threads = lp ? std::max(1, std::atoi(lp)) : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+    torch_side.runs = runs;
+    torch_side.warmup = warmup;
+    torch_side.dir = std::filesystem::temp_directory_path() / ("icube-bench-nn-" + std::to_string(getpid()));
+    std::printf("PyTorch side: %d threads (LP_NUM_THREADS%s)\n", torch_side.threads, lp ? "" : " unset: all cores");
+  }
   struct Case {
     const char* what;
     kernels::nn::Conv3dShape s;
@@ -74,8 +168,12 @@ int main(int argc, char** argv) {
     cases.push_back({"C192->192, 16^3", {1, 192, 192, 16, 16, 16, 3}});
     cases.push_back({"released L2 C768->768, 16^3", {1, 768, 768, 16, 16, 16, 3}});
   }
-  std::printf("%-30s %9s %10s %10s %9s %12s %10s\n", "conv3d", "GFLOP", "gpu min", "gpu med", "GFLOP/s", "cpu ref ms",
-              "max rel");
+  if (released_levels) {
+    cases.push_back({"released L1 C384->384, 32^3", {1, 384, 384, 32, 32, 32, 3}});
+    cases.push_back({"released L0 C192->192, 64^3", {1, 192, 192, 64, 64, 64, 3}});
+  }
+  std::printf("%-30s %9s %10s %10s %9s %12s %10s %10s %10s %9s %10s\n", "conv3d", "GFLOP", "gpu min", "gpu med",
+              "GFLOP/s", "cpu ref ms", "max rel", "torch min", "torch med", "GFLOP/s", "vs torch");
   kernels::nn::Conv3d conv(ctx);
   for (const Case& c : cases) {
     const auto& s = c.s;
@@ -116,12 +214,30 @@ int main(int argc, char** argv) {
       std::snprintf(buf, sizeof buf, "%.1e", mx / std::max(ref, 1e-30));
       rel = buf;
     }
-    std::printf("%-30s %9.2f %10.2f %10.2f %9.2f %12s %10s\n", c.what, gflop, st.min, st.median, gflop / (st.min * 1e-3),
-                cpu_ms.c_str(), rel.c_str());
+    std::string t_min = "-", t_med = "-", t_rate = "-", t_rel = "-";
+    if (!torch_side.python.empty()) {
+      const TorchSide::Result tr = torch_side.run({{"op", "conv3d"}}, {{"x", &x}, {"w", &w}, {"b", &b}});
+      if (!tr.ok) {
+        std::fprintf(stderr, "icube-bench-nn: torch side failed: %s\n", tr.error.c_str());
+        return 1;
+      }
+      char buf[64];
+      std::snprintf(buf, sizeof buf, "%.2f", tr.min_ms);
+      t_min = buf;
+      std::snprintf(buf, sizeof buf, "%.2f", tr.median_ms);
+      t_med = buf;
+      std::snprintf(buf, sizeof buf, "%.1f", gflop / (tr.min_ms * 1e-3));
+      t_rate = buf;
+      std::snprintf(buf, sizeof buf, "%.1e", max_rel(gpu::download_vector<float>(ctx, yb, ny), tr.y));
+      t_rel = buf;
+    }
+    std::printf("%-30s %9.2f %10.2f %10.2f %9.2f %12s %10s %10s %10s %9s %10s\n", c.what, gflop, st.min, st.median,
+                gflop / (st.min * 1e-3), cpu_ms.c_str(), rel.c_str(), t_min.c_str(), t_med.c_str(), t_rate.c_str(),
+                t_rel.c_str());
   }
 
-  std::printf("\n%-30s %9s %10s %10s %9s %12s %10s\n", "group_norm+ss+silu", "MB", "gpu min", "gpu med", "GB/s",
-              "cpu ref ms", "max abs");
+  std::printf("\n%-30s %9s %10s %10s %9s %12s %10s%s\n", "group_norm+ss+silu", "MB", "gpu min", "gpu med", "GB/s",
+              "cpu ref ms", "max abs", torch_side.python.empty() ? "" : "  torch min  torch med      GB/s   vs torch");
   struct GnCase {
     const char* what;
     kernels::nn::GroupNormShape s;
@@ -156,8 +272,97 @@ int main(int argc, char** argv) {
     const std::vector<float> got = gpu::download_vector<float>(ctx, yb, x.data.size());
     double mx = 0;
     for (size_t i = 0; i < got.size(); ++i) mx = std::max(mx, std::abs(static_cast<double>(got[i]) - static_cast<double>(want.data[i])));
-    std::printf("%-30s %9.1f %10.2f %10.2f %9.2f %12.0f %10.1e\n", c.what, mb_moved, st.min, st.median,
-                mb_moved * 1e-3 / (st.min * 1e-3), cpu, mx);
+    std::string torch_cols;
+    if (!torch_side.python.empty()) {
+      const TorchSide::Result tr = torch_side.run(
+          {{"op", "group_norm"}, {"groups", s.groups}, {"eps", 1e-5}}, {{"x", &x}, {"mod", &mod}});
+      if (!tr.ok) {
+        std::fprintf(stderr, "icube-bench-nn: torch side failed: %s\n", tr.error.c_str());
+        return 1;
+      }
+      char buf[96];
+      std::snprintf(buf, sizeof buf, " %10.2f %10.2f %9.2f %10.1e", tr.min_ms, tr.median_ms,
+                    mb_moved * 1e-3 / (tr.min_ms * 1e-3), max_rel(got, tr.y));
+      torch_cols = buf;
+    }
+    std::printf("%-30s %9.1f %10.2f %10.2f %9.2f %12.0f %10.1e%s\n", c.what, mb_moved, st.min, st.median,
+                mb_moved * 1e-3 / (st.min * 1e-3), cpu, mx, torch_cols.c_str());
+  }
+
+  std::printf("\n%-30s %9s %10s %10s %9s %12s %10s%s\n", "attention", "GFLOP", "gpu min", "gpu med", "GFLOP/s",
+              "cpu ref ms", "max rel", torch_side.python.empty() ? "" : "  torch min  torch med   GFLOP/s   vs torch");
+  struct AttnCase {
+    const char* what;
+    kernels::nn::AttentionShape s;
+  };
+  std::vector<AttnCase> acases = {{"unet_small L2 C64 h8, 384 tok", {1, 8, 8, 4 * 8 * 12}},
+                                  {"C256 h8, 512 tokens", {1, 8, 32, 512}}};
+  if (!quick) {
+    acases.push_back({"released ds8 C768 h8, 8^3 tok", {1, 8, 96, 512}});
+    acases.push_back({"released ds4 C768 h8, 16^3 tok", {1, 8, 96, 4096}});
+  }
+  kernels::nn::Attention attn(ctx);
+  for (const AttnCase& c : acases) {
+    const auto& s = c.s;
+    std::mt19937 rng(11);
+    std::normal_distribution<float> nd(0.0f, 1.0f);
+    const int64_t C = static_cast<int64_t>(s.channels()), N = static_cast<int64_t>(s.tokens);
+    nn::CpuTensor q({s.batch, C, N}), k({s.batch, C, N}), v({s.batch, C, N});
+    for (nn::CpuTensor* t : {&q, &k, &v})
+      for (float& f : t->data) f = nd(rng);
+    gpu::Buffer qb = gpu::upload_vector(ctx, q.data), kb = gpu::upload_vector(ctx, k.data),
+                vb = gpu::upload_vector(ctx, v.data), ob(ctx, q.data.size() * 4);
+    std::vector<double> samples;
+    for (int r = 0; r < warmup + runs; ++r) {
+      const auto t0 = Clock::now();
+      ctx.submit_and_wait([&](gpu::CommandList& cmd) { attn.record(cmd, s, qb, kb, vb, ob); });
+      if (r >= warmup) samples.push_back(ms_since(t0));
+    }
+    const Stats st = stats(samples);
+    const double gflop = 4.0 * s.batch * s.heads * static_cast<double>(N) * static_cast<double>(N) * s.head_dim * 1e-9;
+    const std::vector<float> got = gpu::download_vector<float>(ctx, ob, q.data.size());
+    // CPU reference on [B, H, N, D].
+    auto heads_last = [&](const nn::CpuTensor& t) {
+      nn::CpuTensor o({s.batch, s.heads, N, s.head_dim});
+      for (int64_t b = 0; b < s.batch; ++b)
+        for (int64_t h = 0; h < s.heads; ++h)
+          for (int64_t n = 0; n < N; ++n)
+            for (int64_t d = 0; d < s.head_dim; ++d)
+              o.data[static_cast<size_t>(((b * s.heads + h) * N + n) * s.head_dim + d)] =
+                  t.data[static_cast<size_t>((b * C + h * s.head_dim + d) * N + n)];
+      return o;
+    };
+    std::string cpu_ms = "-", rel = "-";
+    if (gflop <= cpu_limit_gflop) {
+      const auto t0 = Clock::now();
+      const nn::CpuTensor o = nn::cpu::attention(heads_last(q), heads_last(k), heads_last(v));
+      cpu_ms = std::to_string(static_cast<int>(ms_since(t0)));
+      std::vector<float> want(got.size());
+      for (int64_t b = 0; b < s.batch; ++b)
+        for (int64_t h = 0; h < s.heads; ++h)
+          for (int64_t n = 0; n < N; ++n)
+            for (int64_t d = 0; d < s.head_dim; ++d)
+              want[static_cast<size_t>((b * C + h * s.head_dim + d) * N + n)] =
+                  o.data[static_cast<size_t>(((b * s.heads + h) * N + n) * s.head_dim + d)];
+      char buf[32];
+      std::snprintf(buf, sizeof buf, "%.1e", max_rel(got, want));
+      rel = buf;
+    }
+    std::string torch_cols;
+    if (!torch_side.python.empty()) {
+      const TorchSide::Result tr =
+          torch_side.run({{"op", "attention"}, {"heads", s.heads}}, {{"q", &q}, {"k", &k}, {"v", &v}});
+      if (!tr.ok) {
+        std::fprintf(stderr, "icube-bench-nn: torch side failed: %s\n", tr.error.c_str());
+        return 1;
+      }
+      char buf[96];
+      std::snprintf(buf, sizeof buf, " %10.2f %10.2f %9.2f %10.1e", tr.min_ms, tr.median_ms, gflop / (tr.min_ms * 1e-3),
+                    max_rel(got, tr.y));
+      torch_cols = buf;
+    }
+    std::printf("%-30s %9.2f %10.2f %10.2f %9.2f %12s %10s%s\n", c.what, gflop, st.min, st.median,
+                gflop / (st.min * 1e-3), cpu_ms.c_str(), rel.c_str(), torch_cols.c_str());
   }
 
   if (!unet_config.empty()) {
