@@ -124,6 +124,8 @@ int main(int argc, char** argv) {
   app.add_option("--cpu-limit", cpu_limit_gflop, "Run the CPU reference only on shapes up to this many GFLOP")
       ->capture_default_str();
   app.add_flag("--quick", quick, "Only the small shapes");
+  std::string only;
+  app.add_option("--only", only, "Only the rows whose name contains this text");
   bool released_levels = false;
   app.add_flag("--released-levels", released_levels,
                "Also conv3d at the released model's level shapes (64^3 x 192, 32^3 x 384, 16^3 x 768: "
@@ -176,6 +178,7 @@ int main(int argc, char** argv) {
               "GFLOP/s", "cpu ref ms", "max rel", "torch min", "torch med", "GFLOP/s", "vs torch");
   kernels::nn::Conv3d conv(ctx);
   for (const Case& c : cases) {
+    if (!only.empty() && std::string(c.what).find(only) == std::string::npos) continue;
     const auto& s = c.s;
     std::mt19937 rng(7);
     std::uniform_real_distribution<float> u(-1.f, 1.f);
@@ -247,6 +250,7 @@ int main(int argc, char** argv) {
   if (!quick) gcases.push_back({"released L0 C192, 64^3 / 2", {1, 96, 32, 64 * 64 * 64, 1e-5f, true, true}});
   kernels::nn::GroupNorm gn(ctx);
   for (const GnCase& c : gcases) {
+    if (!only.empty() && std::string(c.what).find(only) == std::string::npos) continue;
     const auto& s = c.s;
     std::mt19937 rng(3);
     std::uniform_real_distribution<float> u(-1.f, 1.f);
@@ -303,6 +307,7 @@ int main(int argc, char** argv) {
   }
   kernels::nn::Attention attn(ctx);
   for (const AttnCase& c : acases) {
+    if (!only.empty() && std::string(c.what).find(only) == std::string::npos) continue;
     const auto& s = c.s;
     std::mt19937 rng(11);
     std::normal_distribution<float> nd(0.0f, 1.0f);
