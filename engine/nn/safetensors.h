@@ -23,6 +23,8 @@
 // tools. Tests: tests/nn/test_safetensors.cpp; fuzz: tests/fuzz/fuzz_safetensors.cpp.
 #pragma once
 
+#include "nn/float16.h"
+
 #include <cstddef>
 #include <cstdint>
 #include <map>
@@ -39,12 +41,7 @@ enum class DType { F32, F16, BF16 };
 size_t dtype_size(DType t);
 const char* dtype_name(DType t);  // "F32", "F16", "BF16"
 
-// Exact conversions; float_to_half and float_to_bf16 round to nearest even
-// (overflow to inf, NaN stays NaN).
-float half_to_float(uint16_t h);
-float bf16_to_float(uint16_t b);
-uint16_t float_to_half(float f);
-uint16_t float_to_bf16(float f);
+// half_to_float, float_to_half, bf16_to_float, float_to_bf16: nn/float16.h.
 
 struct TensorInfo {
   std::string name;

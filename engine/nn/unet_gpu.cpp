@@ -43,6 +43,7 @@ struct UNetGpu::Impl {
   kernels::nn::Attention attn;
   std::map<std::string, std::unique_ptr<gpu::Buffer>> params;  // packed conv / linear weights, raw vectors
   std::map<std::string, std::vector<int64_t>> param_shapes;
+  bool f16_weights = false;  // conv / linear weights packed as fp16
   // Activation memory plan: buffers are pooled; a tensor's buffer returns to the
   // free list when its last handle dies during recording and is reused by a
   // later tensor that fits (best fit, at most twice the size). Recording order
@@ -103,6 +104,7 @@ struct UNetGpu::Impl {
     s.out_channels = static_cast<uint32_t>(ws[0]);
     dims(x, s.x, s.y, s.z);
     s.kernel = k;
+    s.f16_weights = f16_weights;
     conv.record(*cmd, s, *x.buf, P(prefix + ".weight"), has_bias ? &P(prefix + ".bias") : nullptr, *y.buf);
     barrier();
     return y;
@@ -243,19 +245,26 @@ struct UNetGpu::Impl {
   }
 };
 
-UNetGpu::UNetGpu(gpu::Context& ctx, const UNetConfig& config, const std::map<std::string, CpuTensor>& weights)
+UNetGpu::UNetGpu(gpu::Context& ctx, const UNetConfig& config, const std::map<std::string, CpuTensor>& weights,
+                 Precision precision)
     : impl_(std::make_unique<Impl>(ctx, config)) {
+  impl_->f16_weights = precision == Precision::F16Weights;
   if (!config.use_scale_shift_norm)
     throw std::invalid_argument("UNetGpu: use_scale_shift_norm = false is implemented on the CPU reference only");
   for (const ParamSpec& p : impl_->tree.parameters()) {
     const auto it = weights.find(p.name);
     if (it == weights.end() || it->second.shape != p.shape) throw std::invalid_argument("UNetGpu: missing or misshapen " + p.name);
-    std::vector<float> data = it->second.data;
+    const std::vector<float>& data = it->second.data;
     if (p.shape.size() >= 2) {  // a convolution or linear weight [Co, Ci, (k, k, k | 1)]
       const uint32_t k = p.shape.size() == 5 && p.shape[2] == 3 ? 3u : 1u;
-      data = kernels::nn::pack_conv3d_weights(data, static_cast<uint32_t>(p.shape[0]), static_cast<uint32_t>(p.shape[1]), k);
+      const auto co = static_cast<uint32_t>(p.shape[0]), ci = static_cast<uint32_t>(p.shape[1]);
+      impl_->params[p.name] = std::make_unique<gpu::Buffer>(
+          impl_->f16_weights ? gpu::upload_vector(ctx, kernels::nn::pack_conv3d_weights_f16(data, co, ci, k), p.name)
+                             : gpu::upload_vector(ctx, kernels::nn::pack_conv3d_weights(data, co, ci, k), p.name));
+    } else {
+      impl_->params[p.name] = std::make_unique<gpu::Buffer>(gpu::upload_vector(ctx, data, p.name));
     }
-    impl_->params[p.name] = std::make_unique<gpu::Buffer>(gpu::upload_vector(ctx, data, p.name));
+    weight_bytes_ += impl_->params[p.name]->size();
     impl_->param_shapes[p.name] = p.shape;
   }
 }

@@ -3,7 +3,10 @@
 // (conv3d, group_norm with fused scale-shift/SiLU, layer_norm_channels,
 // attention, elementwise, resample; linears as 1x1 convolutions on
 // channels-first tensors, the time-embedding sinusoid on the host), with a
-// barrier after every dispatch. fp32 storage. Weights are packed and uploaded
+// barrier after every dispatch. Activations in fp32; weights in fp32 or, with
+// Precision::F16Weights, the convolution and linear weights stored as fp16
+// (half the weight memory; accumulation, norms and softmax stay fp32; biases
+// and norm parameters fp32). Weights are packed and uploaded
 // once. Activations live in a pool: a buffer is reused as soon as the tensor
 // in it is dead (liveness from the handles the recording holds), so the peak
 // is near the largest live set (the skip connections and the current block),
@@ -27,8 +30,10 @@ namespace icube::nn {
 
 class UNetGpu {
  public:
+  enum class Precision { F32, F16Weights };
   // `weights` by official name, as UNetReference::set_weights takes them.
-  UNetGpu(gpu::Context& ctx, const UNetConfig& config, const std::map<std::string, CpuTensor>& weights);
+  UNetGpu(gpu::Context& ctx, const UNetConfig& config, const std::map<std::string, CpuTensor>& weights,
+          Precision precision = Precision::F32);
   ~UNetGpu();
   UNetGpu(const UNetGpu&) = delete;
   UNetGpu& operator=(const UNetGpu&) = delete;
@@ -37,11 +42,14 @@ class UNetGpu {
   CpuTensor forward(const CpuTensor& x, const std::vector<int64_t>& t, const UNetReference::Capture& capture = {});
   // Peak device bytes of the activation pool in the last forward (inputs and weights not counted).
   uint64_t last_activation_bytes() const { return activation_bytes_; }
+  // Device bytes of the uploaded parameters.
+  uint64_t weight_bytes() const { return weight_bytes_; }
 
  private:
   struct Impl;
   std::unique_ptr<Impl> impl_;
   uint64_t activation_bytes_ = 0;
+  uint64_t weight_bytes_ = 0;
 };
 
 }  // namespace icube::nn

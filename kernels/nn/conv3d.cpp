@@ -3,6 +3,7 @@
 
 #include "gpu/context.h"
 #include "nn/buffer_checks.h"
+#include "nn/float16.h"
 #include "shared/nn_params.h"
 
 #include <algorithm>
@@ -27,7 +28,15 @@ std::vector<float> pack_conv3d_weights(const std::vector<float>& w, uint32_t co,
   return out;
 }
 
-Conv3d::Conv3d(gpu::Context& ctx) : ctx_(ctx), program_(ctx.program("nn/conv3d")) {}
+std::vector<uint16_t> pack_conv3d_weights_f16(const std::vector<float>& w, uint32_t co, uint32_t ci, uint32_t k) {
+  const std::vector<float> packed = pack_conv3d_weights(w, co, ci, k);
+  std::vector<uint16_t> out(packed.size());
+  for (size_t i = 0; i < packed.size(); ++i) out[i] = icube::nn::float_to_half(packed[i]);
+  return out;
+}
+
+Conv3d::Conv3d(gpu::Context& ctx)
+    : ctx_(ctx), program_(ctx.program("nn/conv3d")), program_f16_(ctx.program("nn/conv3d_f16w")) {}
 
 void Conv3d::record(gpu::CommandList& cmd, const Conv3dShape& s, const gpu::Buffer& x, const gpu::Buffer& w,
                     const gpu::Buffer* bias, const gpu::Buffer& y) {
@@ -38,7 +47,7 @@ void Conv3d::record(gpu::CommandList& cmd, const Conv3dShape& s, const gpu::Buff
   const uint64_t align = std::max<uint64_t>(4, ctx_.info().min_storage_buffer_offset_alignment);
   const uint64_t x_bytes = uint64_t{s.batch} * s.in_channels * S * 4, y_bytes = uint64_t{s.batch} * s.out_channels * S * 4;
   const uint64_t co_vec4s = gpu::div_up(s.out_channels, NN_CONV_CO_TILE) * (NN_CONV_CO_TILE / 4);
-  const uint64_t w_bytes = uint64_t{s.in_channels} * s.kernel * s.kernel * s.kernel * co_vec4s * 16;
+  const uint64_t w_bytes = uint64_t{s.in_channels} * s.kernel * s.kernel * s.kernel * co_vec4s * (s.f16_weights ? 8 : 16);
   require_buffer("conv3d", "input", x_bytes, x);
   require_buffer("conv3d", "output", y_bytes, y);
   require_buffer("conv3d", "packed weights", w_bytes, w);
@@ -63,7 +72,7 @@ void Conv3d::record(gpu::CommandList& cmd, const Conv3dShape& s, const gpu::Buff
     pc.batch = batch;
     pc.co_blocks = static_cast<uint32_t>(gpu::div_up(pc.co_count, NN_CONV_CO_TILE));
     const uint64_t groups = uint64_t{pc.voxel_tiles} * pc.co_blocks * batch;
-    cmd.dispatch(program_, gpu::Threads{groups * NN_CONV_GROUP}, pc, {xb, wb, bb, yb});
+    cmd.dispatch(s.f16_weights ? program_f16_ : program_, gpu::Threads{groups * NN_CONV_GROUP}, pc, {xb, wb, bb, yb});
   };
   // An invocation makes about ci_count * (1 + k + k^2) loop iterations (the z-taps unroll); lavapipe
   // stops one after 65,535, so input channels go in windows of at most kMaxChannelsPerDispatch.

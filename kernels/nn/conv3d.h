@@ -28,6 +28,7 @@ struct Conv3dShape {
   uint32_t batch = 1, in_channels = 1, out_channels = 1;
   uint32_t x = 1, y = 1, z = 1;
   uint32_t kernel = 3;  // 1 or 3
+  bool f16_weights = false;  // packed weights as fp16 (pack_conv3d_weights_f16; nn/conv3d_f16w.comp)
   uint64_t voxels() const { return uint64_t{x} * y * z; }
   uint64_t flops() const;  // 2 * B * Co * Ci * k^3 * voxels (padding taps counted)
 };
@@ -35,6 +36,10 @@ struct Conv3dShape {
 // [Co, Ci, k, k, k] row-major -> [Ci * k^3][ceil(Co / 8) * 8] (zeros in the padding).
 std::vector<float> pack_conv3d_weights(const std::vector<float>& w, uint32_t out_channels, uint32_t in_channels,
                                        uint32_t kernel);
+
+// The same layout in fp16 (round to nearest even): half the weight memory and bandwidth.
+std::vector<uint16_t> pack_conv3d_weights_f16(const std::vector<float>& w, uint32_t out_channels,
+                                              uint32_t in_channels, uint32_t kernel);
 
 class Conv3d {
  public:
@@ -51,6 +56,7 @@ class Conv3d {
  private:
   gpu::Context& ctx_;
   gpu::Program& program_;
+  gpu::Program& program_f16_;
   uint64_t max_binding_bytes_ = 0;
 };
 

@@ -9,6 +9,7 @@
 #include "gpu_test_context.h"
 #include "nn/conv3d.h"
 #include "nn/layers_cpu.h"
+#include "nn/float16.h"
 
 #include <algorithm>
 #include <cmath>
@@ -38,17 +39,24 @@ void check_conv(const kernels::nn::Conv3dShape& s, bool with_bias, float x_scale
   CAPTURE(s.in_channels);
   CAPTURE(s.out_channels);
   CAPTURE(s.kernel);
+  CAPTURE(s.f16_weights);
   gpu::Context& ctx = test::gpu_context();
   const nn::CpuTensor x = random_tensor({s.batch, s.in_channels, s.x, s.y, s.z}, seed, x_scale);
   const int64_t k = s.kernel;
-  const nn::CpuTensor w = random_tensor({s.out_channels, s.in_channels, k, k, k}, seed + 1, 0.5f);
+  nn::CpuTensor w = random_tensor({s.out_channels, s.in_channels, k, k, k}, seed + 1, 0.5f);
+  if (s.f16_weights)  // the reference convolves the weights the kernel reads: rounded to fp16
+    for (float& v : w.data) v = nn::half_to_float(nn::float_to_half(v));
   const nn::CpuTensor b = random_tensor({s.out_channels}, seed + 2, 1.0f);
   const nn::CpuTensor want = nn::cpu::conv3d(x, w, with_bias ? &b : nullptr, 1, static_cast<int>(k / 2));
   const nn::CpuTensor bound = nn::cpu::conv3d(abs_of(x), abs_of(w), nullptr, 1, static_cast<int>(k / 2));
 
   gpu::Buffer xb = gpu::upload_vector(ctx, x.data, "conv-x");
-  gpu::Buffer wb = gpu::upload_vector(
-      ctx, kernels::nn::pack_conv3d_weights(w.data, s.out_channels, s.in_channels, s.kernel), "conv-w");
+  gpu::Buffer wb =
+      s.f16_weights
+          ? gpu::upload_vector(ctx, kernels::nn::pack_conv3d_weights_f16(w.data, s.out_channels, s.in_channels, s.kernel),
+                               "conv-w16")
+          : gpu::upload_vector(ctx, kernels::nn::pack_conv3d_weights(w.data, s.out_channels, s.in_channels, s.kernel),
+                               "conv-w");
   gpu::Buffer bb = gpu::upload_vector(ctx, b.data, "conv-b");
   gpu::Buffer yb(ctx, want.data.size() * 4, gpu::MemoryUsage::DeviceLocal, "conv-y");
   kernels::nn::Conv3d conv(ctx);
@@ -79,6 +87,15 @@ TEST_CASE("conv3d gpu: 3x3x3 and 1x1 against the CPU reference at odd sizes and 
   check_conv({1, 1536, 8, 3, 2, 9, 3}, true, 1.0f, 51);
   check_conv({1, 4100, 9, 2, 1, 3, 3}, true, 1.0f, 61);
   check_conv({1, 8, 16, 9, 3, 33, 3}, true, 3e4f, 51);    // large activations, more than one voxel tile
+}
+
+TEST_CASE("conv3d gpu: fp16 weight storage equals the fp32 kernel on fp16-rounded weights") {
+  check_conv({2, 3, 5, 5, 4, 7, 3, true}, true, 1.0f, 12);
+  check_conv({1, 16, 32, 8, 16, 24, 3, true}, true, 1.0f, 22);
+  check_conv({1, 7, 9, 3, 5, 2, 1, true}, true, 1.0f, 32);
+  check_conv({1, 20, 24, 6, 5, 7, 3, true}, true, 1.0f, 42, 16384);  // channel windows
+  CHECK(kernels::nn::pack_conv3d_weights_f16({1.0f, 65504.0f, 1e-8f, -2.5f}, 4, 1, 1) ==
+        std::vector<uint16_t>{0x3C00, 0x7BFF, 0x0000, 0xC100, 0, 0, 0, 0});
 }
 
 TEST_CASE("conv3d gpu: tensors larger than one binding run as channel windows and accumulate") {
