@@ -10,6 +10,8 @@
 #include "nn/unet_config.h"
 #include "nn/unet_gpu.h"
 #include "nn/unet_reference.h"
+#include "nn/safetensors.h"
+#include "nn/weights.h"
 #include "nn/layers_cpu.h"
 #include "nn/attention.h"
 #include "world/npy.h"
@@ -136,6 +138,11 @@ int main(int argc, char** argv) {
                "torch threads = LP_NUM_THREADS");
   app.add_option("--unet", unet_config, "Also time one whole UNet forward of this config JSON (random weights)")
       ->type_name("CONFIG");
+  std::string unet_case;
+  app.add_option("--unet-case", unet_case,
+                 "Time the official reference case in this folder (models/unet_small) with fp32 and fp16 weights: "
+                 "error against its output vs run time")
+      ->type_name("DIR");
   app.add_option("--unet-grid", unet_grid, "Grid of the UNet forward")->expected(3)->capture_default_str();
   CLI11_PARSE(app, argc, argv);
 
@@ -368,6 +375,33 @@ int main(int argc, char** argv) {
     }
     std::printf("%-30s %9.2f %10.2f %10.2f %9.2f %12s %10s%s\n", c.what, gflop, st.min, st.median,
                 gflop / (st.min * 1e-3), cpu_ms.c_str(), rel.c_str(), torch_cols.c_str());
+  }
+
+  if (!unet_case.empty()) {
+    const std::string d = unet_case + "/";
+    const nn::UNetConfig cfg = nn::load_unet_config(d + "config.json");
+    const nn::UNetReference spec(cfg);
+    const nn::SafetensorsFile file(d + "weights.safetensors");
+    const auto w = nn::load_weights_cpu(file, spec.parameters(), {});
+    const world::NpyArray xa = world::read_npy(d + "case_1.x.npy"), ta = world::read_npy(d + "case_1.t.npy"),
+                          ya = world::read_npy(d + "case_1.out.npy");
+    const nn::CpuTensor x(std::vector<int64_t>(xa.shape.begin(), xa.shape.end()), xa.values<float>());
+    std::printf("\n%-28s %10s %10s %12s %16s\n", "unet_small case (official)", "gpu min", "gpu med", "weights MiB",
+                "max|y-ref|/std");
+    for (const auto& [name, prec] : {std::pair{"fp32", nn::UNetGpu::Precision::F32},
+                                     std::pair{"fp16 weights", nn::UNetGpu::Precision::F16Weights}}) {
+      nn::UNetGpu net(ctx, cfg, w, prec);
+      std::vector<double> samples;
+      nn::CpuTensor y;
+      for (int r = 0; r < warmup + runs; ++r) {
+        const auto t0 = Clock::now();
+        y = net.forward(x, ta.values<int64_t>());
+        if (r >= warmup) samples.push_back(ms_since(t0));
+      }
+      const Stats st = stats(samples);
+      std::printf("%-28s %10.1f %10.1f %12.2f %16.2e\n", name, st.min, st.median,
+                  static_cast<double>(net.weight_bytes()) / 1048576.0, nn::cpu::max_abs_over_std(y.data, ya.values<float>()));
+    }
   }
 
   if (!unet_config.empty()) {
