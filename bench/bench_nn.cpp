@@ -143,6 +143,12 @@ int main(int argc, char** argv) {
                  "Time the official reference case in this folder (models/unet_small) with fp32 and fp16 weights: "
                  "error against its output vs run time")
       ->type_name("DIR");
+  bool unet_no_cpu = false;
+  app.add_flag("--unet-no-cpu", unet_no_cpu, "Skip the CPU reference of the --unet forward (hours at the released size)");
+  std::string unet_precision = "fp32";
+  app.add_option("--unet-precision", unet_precision, "fp32 or fp16 (weights) for the --unet forward")
+      ->check(CLI::IsMember({"fp32", "fp16"}))
+      ->capture_default_str();
   app.add_option("--unet-grid", unet_grid, "Grid of the UNet forward")->expected(3)->capture_default_str();
   CLI11_PARSE(app, argc, argv);
 
@@ -407,6 +413,8 @@ int main(int argc, char** argv) {
   if (!unet_config.empty()) {
     const nn::UNetConfig cfg = nn::load_unet_config(unet_config);
     nn::UNetReference ref(cfg);
+    std::fprintf(stderr, "icube-bench-nn: random weights for %s (%llu parameters)\n", unet_config.c_str(),
+                 static_cast<unsigned long long>(ref.parameter_count()));
     std::mt19937 rng(5);
     std::normal_distribution<float> nd(0.0f, 0.05f);
     std::map<std::string, nn::CpuTensor> w;
@@ -415,7 +423,7 @@ int main(int argc, char** argv) {
       for (float& f : t.data) f = nd(rng);
       w.emplace(p.name, std::move(t));
     }
-    nn::UNetGpu net(ctx, cfg, w);
+    nn::UNetGpu net(ctx, cfg, w, unet_precision == "fp16" ? nn::UNetGpu::Precision::F16Weights : nn::UNetGpu::Precision::F32);
     nn::CpuTensor x({1, cfg.in_channels, unet_grid[0], unet_grid[1], unet_grid[2]});
     for (float& f : x.data) f = nd(rng) * 20.0f;
     std::vector<double> samples;
@@ -426,18 +434,24 @@ int main(int argc, char** argv) {
       if (r >= warmup) samples.push_back(ms_since(t0));
     }
     const Stats st = stats(samples);
-    ref.set_weights(std::move(w));
-    const auto t0 = Clock::now();
-    const nn::CpuTensor want = ref.forward(x, {500});
-    const double cpu = ms_since(t0);
-    const double agreement = nn::cpu::max_abs_over_std(y.data, want.data);
-    std::printf("\nUNet forward (%s, %llu parameters, grid %lldx%lldx%lld): gpu min %.1f ms, median %.1f ms "
-                "(activation pool peak %.1f MiB); CPU reference %.0f ms; max |gpu - cpu| / std %.1e\n",
-                unet_config.c_str(), static_cast<unsigned long long>(ref.parameter_count()),
+    double cpu = -1, agreement = -1;
+    if (!unet_no_cpu) {
+      ref.set_weights(std::move(w));
+      const auto t0 = Clock::now();
+      const nn::CpuTensor want = ref.forward(x, {500});
+      cpu = ms_since(t0);
+      agreement = nn::cpu::max_abs_over_std(y.data, want.data);
+    }
+    bool finite = true;
+    for (const float f : y.data) finite = finite && std::isfinite(f);
+    std::printf("\nUNet forward (%s, %llu parameters, %s, grid %lldx%lldx%lld): gpu min %.1f ms, median %.1f ms "
+                "(activation pool peak %.1f MiB, weights %.1f MiB, output %s); CPU reference %.0f ms; "
+                "max |gpu - cpu| / std %.1e\n",
+                unet_config.c_str(), static_cast<unsigned long long>(ref.parameter_count()), unet_precision.c_str(),
                 static_cast<long long>(unet_grid[0]), static_cast<long long>(unet_grid[1]),
                 static_cast<long long>(unet_grid[2]), st.min, st.median,
-                static_cast<double>(net.last_activation_bytes()) / 1048576.0, cpu,
-                agreement);
+                static_cast<double>(net.last_activation_bytes()) / 1048576.0,
+                static_cast<double>(net.weight_bytes()) / 1048576.0, finite ? "finite" : "NOT FINITE", cpu, agreement);
   }
   return 0;
 }

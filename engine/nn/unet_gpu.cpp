@@ -271,6 +271,12 @@ UNetGpu::UNetGpu(gpu::Context& ctx, const UNetConfig& config, const std::map<std
 
 UNetGpu::~UNetGpu() = default;
 
+void UNetGpu::set_max_binding_bytes(uint64_t bytes) {
+  impl_->conv.set_max_binding_bytes(bytes);
+  impl_->gn.set_max_binding_bytes(bytes);
+  impl_->ew.set_max_binding_bytes(bytes);
+}
+
 CpuTensor UNetGpu::forward(const CpuTensor& x, const std::vector<int64_t>& t, const UNetReference::Capture& capture) {
   Impl& m = *impl_;
   const UNetConfig& c = m.tree.config();

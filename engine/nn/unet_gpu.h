@@ -11,8 +11,10 @@
 // in it is dead (liveness from the handles the recording holds), so the peak
 // is near the largest live set (the skip connections and the current block),
 // not the sum of all layers. Block outputs can be captured under the names of
-// unet_small/*.intermediates.safetensors. Every tensor must fit one storage
-// binding except conv3d's (which windows).
+// unet_small/*.intermediates.safetensors. Tensors beyond one storage binding
+// (the released model's 64^3 levels) run in windows in conv3d, GroupNorm, the
+// element-wise add / SiLU and the resampling; attention, LayerNorm and GEGLU
+// (16^3 and 8^3 levels) need one binding.
 // Tests: tests/nn/test_unet_gpu.cpp (against the official reference case and
 // the CPU reference).
 #pragma once
@@ -42,6 +44,9 @@ class UNetGpu {
   CpuTensor forward(const CpuTensor& x, const std::vector<int64_t>& t, const UNetReference::Capture& capture = {});
   // Peak device bytes of the activation pool in the last forward (inputs and weights not counted).
   uint64_t last_activation_bytes() const { return activation_bytes_; }
+  // Tests: conv3d, GroupNorm, the element-wise and resampling kernels window as if one
+  // binding held at most `bytes` (0 = the device's limit).
+  void set_max_binding_bytes(uint64_t bytes);
   // Device bytes of the uploaded parameters.
   uint64_t weight_bytes() const { return weight_bytes_; }
 

@@ -5,6 +5,7 @@
 #include "gpu/buffer.h"
 #include "gpu/context.h"
 
+#include <algorithm>
 #include <cstdint>
 #include <stdexcept>
 #include <string>
@@ -23,6 +24,29 @@ inline void require_one_binding(const gpu::Context& ctx, const char* kernel, con
   if (elements * 4 > ctx.info().max_storage_buffer_range || elements > UINT32_MAX)
     throw std::invalid_argument(std::string(kernel) + ": " + what + " of " + std::to_string(elements * 4) +
                                 " bytes exceeds one storage binding");
+}
+
+// Tensors larger than one storage binding are processed in windows: a float32
+// range [first, first + count) of a buffer bound from the binding-offset
+// alignment at or below `first`; `offset` is `first`'s element index inside
+// the binding (the kernels add it to their indices).
+struct ElementWindow {
+  gpu::BufferBinding binding;
+  uint32_t offset = 0;
+};
+
+inline ElementWindow element_window(const gpu::Context& ctx, const gpu::Buffer& buf, uint64_t first, uint64_t count) {
+  const uint64_t align = std::max<uint64_t>(4, ctx.info().min_storage_buffer_offset_alignment);
+  const uint64_t byte = first * 4, base = byte / align * align;
+  return {buf.binding(base, byte - base + count * 4), static_cast<uint32_t>((byte - base) / 4)};
+}
+
+// Float32 elements one window may hold: the binding limit (`override_bytes`
+// when non-zero, for tests) less one alignment, within 32-bit indices.
+inline uint64_t window_elements(const gpu::Context& ctx, uint64_t override_bytes = 0) {
+  const uint64_t limit = override_bytes ? override_bytes : ctx.info().max_storage_buffer_range;
+  const uint64_t align = std::max<uint64_t>(4, ctx.info().min_storage_buffer_offset_alignment);
+  return std::min<uint64_t>(limit > align ? (limit - align) / 4 : 0, UINT32_MAX / 2);
 }
 
 }  // namespace icube::kernels::nn

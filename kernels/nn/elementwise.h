@@ -1,7 +1,8 @@
 // The network's small element-wise kernels: SiLU, add, GEGLU's gating
 // (shaders/nn/elementwise.comp) and the UNet's resampling, 2x2x2 average
-// pooling and nearest x2 upsampling (shaders/nn/resample.comp). One dispatch
-// each, no barrier inside; every tensor must fit one storage binding.
+// pooling and nearest x2 upsampling (shaders/nn/resample.comp). No barrier
+// inside. SiLU, add and the resampling run in windows (flat ranges; whole
+// planes) when a tensor exceeds one storage binding; GEGLU's input must fit one.
 // CPU references: nn::cpu::silu / add / gelu / avg_pool2 / upsample2.
 // Tests: tests/nn/test_elementwise_gpu.cpp.
 #pragma once
@@ -27,12 +28,16 @@ class Elementwise {
   void upsample2(gpu::CommandList& cmd, const gpu::Buffer& x, uint32_t planes, uint32_t sx, uint32_t sy, uint32_t sz,
                  const gpu::Buffer& y);
 
+  // Tests: pretend one binding holds at most `bytes` (0 = the device's limit).
+  void set_max_binding_bytes(uint64_t bytes) { max_binding_bytes_ = bytes; }
+
  private:
   void run(gpu::CommandList& cmd, uint32_t op, const gpu::Buffer& a, uint64_t a_count, const gpu::Buffer* b,
            uint64_t count, uint32_t channels, uint64_t tokens, const gpu::Buffer& y);
   void resample(gpu::CommandList& cmd, uint32_t op, const gpu::Buffer& x, uint32_t planes, uint32_t sx, uint32_t sy,
                 uint32_t sz, const gpu::Buffer& y);
   gpu::Context& ctx_;
+  uint64_t max_binding_bytes_ = 0;
   gpu::Program& elementwise_;
   gpu::Program& resample_;
 };

@@ -42,7 +42,6 @@ void GroupNorm::record(gpu::CommandList& cmd, const GroupNormShape& s, const gpu
   if (s.modulate && !modulation) throw std::invalid_argument("group_norm: modulate without a modulation buffer");
   if (s.batch == 0 || s.spatial == 0) return;
   const uint64_t elements = uint64_t{s.batch} * s.channels * s.spatial, bytes = elements * 4;
-  require_one_binding(ctx_, "group_norm", "tensor", elements);
   require_buffer("group_norm", "input", bytes, x);
   require_buffer("group_norm", "output", bytes, y);
   require_buffer("group_norm", "weight", uint64_t{s.channels} * 4, weight);
@@ -51,26 +50,57 @@ void GroupNorm::record(gpu::CommandList& cmd, const GroupNormShape& s, const gpu
   if (s.modulate) require_buffer("group_norm", "modulation", uint64_t{s.batch} * 2 * s.channels * 4, *modulation);
 
   shader::GroupNormParams pc{};
-  pc.batch = s.batch;
-  pc.channels = s.channels;
-  pc.groups = s.groups;
   pc.spatial = static_cast<uint32_t>(s.spatial);
-  pc.chunks = chunks_for(s);
   pc.eps = s.eps;
   pc.flags = (s.silu ? NN_GN_FLAG_SILU : 0u) | (s.modulate ? NN_GN_FLAG_MODULATE : 0u);
-  const uint64_t bg = uint64_t{s.batch} * s.groups;
-  const uint64_t partial_bytes = bg * pc.chunks * 16, stats_offset = gpu::align_up(partial_bytes, 256);
-  const gpu::BufferBinding partials = scratch.binding(0, partial_bytes);
-  const gpu::BufferBinding stats = scratch.binding(stats_offset, bg * 16);
-  cmd.dispatch(partials_, gpu::Threads{bg * pc.chunks}, pc, {x.binding(0, bytes), partials});
-  cmd.barrier(gpu::deps::kComputeToCompute);  // stats read the partials
-  cmd.dispatch(stats_, gpu::Threads{bg}, pc, {partials, x.binding(0, bytes), stats});
-  cmd.barrier(gpu::deps::kComputeToCompute);  // apply reads the statistics
-  cmd.dispatch(apply_, gpu::Threads{elements}, pc,
-               {x.binding(0, bytes), stats, weight.binding(0, uint64_t{s.channels} * 4),
-                bias.binding(0, uint64_t{s.channels} * 4),
-                s.modulate ? modulation->binding(0, uint64_t{s.batch} * 2 * s.channels * 4) : gpu::null_binding(),
-                y.binding(0, bytes)});
+  pc.channels_total = s.channels;
+  const gpu::BufferBinding wb = weight.binding(0, uint64_t{s.channels} * 4), bb = bias.binding(0, uint64_t{s.channels} * 4);
+  const gpu::BufferBinding mb =
+      s.modulate ? modulation->binding(0, uint64_t{s.batch} * 2 * s.channels * 4) : gpu::null_binding();
+  // One window = `batch` batch elements x `groups` whole groups from group g0, all in one binding each.
+  auto run = [&](uint32_t batch, uint32_t b0, uint32_t groups, uint32_t g0) {
+    const uint32_t cpg = s.channels / s.groups;
+    const GroupNormShape ws{batch, groups * cpg, groups, s.spatial, s.eps, s.silu, s.modulate};
+    pc.batch = batch;
+    pc.channels = groups * cpg;
+    pc.groups = groups;
+    pc.chunks = chunks_for(ws);
+    pc.channel_offset = g0 * cpg;
+    pc.batch_offset = b0;
+    const uint64_t first = (uint64_t{b0} * s.channels + uint64_t{g0} * cpg) * s.spatial;
+    const uint64_t count = uint64_t{batch} * pc.channels * s.spatial;
+    const ElementWindow xw = element_window(ctx_, x, first, count), yw = element_window(ctx_, y, first, count);
+    pc.x_offset = xw.offset;
+    pc.y_offset = yw.offset;
+    const uint64_t bg = uint64_t{batch} * groups;
+    const uint64_t partial_bytes = bg * pc.chunks * 16, stats_offset = gpu::align_up(partial_bytes, 256);
+    const gpu::BufferBinding partials = scratch.binding(0, partial_bytes);
+    const gpu::BufferBinding stats = scratch.binding(stats_offset, bg * 16);
+    cmd.dispatch(partials_, gpu::Threads{bg * pc.chunks}, pc, {xw.binding, partials});
+    cmd.barrier(gpu::deps::kComputeToCompute);  // stats read the partials
+    cmd.dispatch(stats_, gpu::Threads{bg}, pc, {partials, xw.binding, stats});
+    cmd.barrier(gpu::deps::kComputeToCompute);  // apply reads the statistics
+    cmd.dispatch(apply_, gpu::Threads{count}, pc, {xw.binding, stats, wb, bb, mb, yw.binding});
+  };
+  const uint64_t fit = window_elements(ctx_, max_binding_bytes_);
+  if (elements <= fit) {
+    run(s.batch, 0, s.groups, 0);
+    return;
+  }
+  // Windows: one batch element and as many whole groups as fit; the scratch is reused, so
+  // each window's partials wait for the previous window's apply to have read its statistics.
+  const uint64_t group_elements = uint64_t{s.channels / s.groups} * s.spatial;
+  const uint64_t groups_per_window = std::min<uint64_t>(fit / group_elements, s.groups);
+  if (groups_per_window == 0)
+    throw std::invalid_argument("group_norm: one group of " + std::to_string(group_elements * 4) +
+                                " bytes exceeds one storage binding");
+  bool first_window = true;
+  for (uint32_t b = 0; b < s.batch; ++b)
+    for (uint64_t g0 = 0; g0 < s.groups; g0 += groups_per_window) {
+      if (!first_window) cmd.barrier(gpu::deps::kComputeToCompute);  // scratch reuse
+      first_window = false;
+      run(1, b, static_cast<uint32_t>(std::min<uint64_t>(groups_per_window, s.groups - g0)), static_cast<uint32_t>(g0));
+    }
 }
 
 }  // namespace icube::kernels::nn

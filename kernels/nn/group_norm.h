@@ -8,8 +8,10 @@
 // constant group normalises to exactly its bias and a large common offset
 // costs no precision beyond x's own.
 //
-// x and y must each fit one storage binding (windows as in conv3d are still to
-// do); record() throws std::invalid_argument otherwise.
+// x and y may exceed one storage binding: record() then runs windows of one
+// batch element and as many whole groups as fit (each bound at its aligned
+// offset, channel and batch offsets in the push constants), with a barrier
+// between windows as they reuse the scratch.
 // CPU reference: nn::cpu::group_norm / scale_shift / silu (layers_cpu.h).
 // Tests: tests/nn/test_group_norm_gpu.cpp.
 #pragma once
@@ -37,11 +39,15 @@ class GroupNorm {
   void record(gpu::CommandList& cmd, const GroupNormShape& s, const gpu::Buffer& x, const gpu::Buffer& weight,
               const gpu::Buffer& bias, const gpu::Buffer* modulation, const gpu::Buffer& scratch, const gpu::Buffer& y);
 
+  // Tests: pretend one binding holds at most `bytes` (0 = the device's limit).
+  void set_max_binding_bytes(uint64_t bytes) { max_binding_bytes_ = bytes; }
+
  private:
   gpu::Context& ctx_;
   gpu::Program& partials_;
   gpu::Program& stats_;
   gpu::Program& apply_;
+  uint64_t max_binding_bytes_ = 0;
 };
 
 }  // namespace icube::kernels::nn

@@ -55,15 +55,15 @@ void main() {
   const uint i = ICUBE_THREAD_LINEAR();
   if (i >= p.count) return;
   if (p.op == NN_EW_SILU) {
-    const float v = a_in[i];
-    y_out[i] = v / (1.0 + exp(-v));
+    const float v = a_in[p.a_offset + i];
+    y_out[p.y_offset + i] = v / (1.0 + exp(-v));
   } else if (p.op == NN_EW_ADD) {
-    y_out[i] = a_in[i] + b_in[i];
+    y_out[p.y_offset + i] = a_in[p.a_offset + i] + b_in[p.b_offset + i];
   } else {
     const uint per_batch = p.channels * p.tokens;
     const uint b = i / per_batch, r = i % per_batch;
-    const float value = a_in[b * 2u * per_batch + r];
-    const float gate = a_in[b * 2u * per_batch + per_batch + r];
-    y_out[i] = value * gelu_f(gate);
+    const float value = a_in[p.a_offset + b * 2u * per_batch + r];
+    const float gate = a_in[p.a_offset + b * 2u * per_batch + per_batch + r];
+    y_out[p.y_offset + i] = value * gelu_f(gate);
   }
 }

@@ -22,11 +22,12 @@ void main() {
   const uint total = p.batch * p.channels * p.spatial;
   if (i >= total) return;
   const uint bc = i / p.spatial;
-  const uint c = bc % p.channels, b = bc / p.channels;
-  const vec4 st = stats[b * p.groups + c / (p.channels / p.groups)];  // (shift, mean - shift, rstd)
-  float y = ((x_in[i] - st.x) - st.y) * st.z * gn_weight[c] + gn_bias[c];
+  const uint cl = bc % p.channels, bl = bc / p.channels;  // in the window
+  const uint c = p.channel_offset + cl, b = p.batch_offset + bl;  // in the whole tensor
+  const vec4 st = stats[bl * p.groups + cl / (p.channels / p.groups)];  // (shift, mean - shift, rstd)
+  float y = ((x_in[p.x_offset + i] - st.x) - st.y) * st.z * gn_weight[c] + gn_bias[c];
   if ((p.flags & NN_GN_FLAG_MODULATE) != 0u)
-    y = y * (1.0 + modulation[b * 2u * p.channels + c]) + modulation[b * 2u * p.channels + p.channels + c];
+    y = y * (1.0 + modulation[b * 2u * p.channels_total + c]) + modulation[b * 2u * p.channels_total + p.channels_total + c];
   if ((p.flags & NN_GN_FLAG_SILU) != 0u) y = y / (1.0 + exp(-y));
-  y_out[i] = y;
+  y_out[p.y_offset + i] = y;
 }

@@ -20,7 +20,7 @@ void main() {
   const uint bg = t / p.chunks, c = t % p.chunks;
   if (bg >= p.batch * p.groups) return;
   const uint n = p.channels / p.groups * p.spatial;
-  const uint base = bg * n;  // (b * C + g * C/G) * S
+  const uint base = p.x_offset + bg * n;  // (b * C + g * C/G) * S in the window
   const float shift = x_in[base];
   float mean = 0.0, m2 = 0.0, count = 0.0;
   for (uint i = c; i < n; i += p.chunks) {

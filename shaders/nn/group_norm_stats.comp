@@ -27,6 +27,6 @@ void main() {
     m2 += q.y + d * d * (count * q.z / total);
     count = total;
   }
-  const float shift = x_in[bg * (p.channels / p.groups * p.spatial)];
+  const float shift = x_in[p.x_offset + bg * (p.channels / p.groups * p.spatial)];
   stats[bg] = vec4(shift, mean, inversesqrt(max(m2, 0.0) / count + p.eps), 0.0);
 }

@@ -22,12 +22,12 @@ void main() {
     const uint oz = i % OZ, oy = (i / OZ) % OY, ox = (i / (OZ * OY)) % OX, pl = i / (OZ * OY * OX);
     float s = 0.0;
     for (uint d = 0u; d < 8u; ++d)
-      s += x_in[((pl * X + 2u * ox + (d & 1u)) * Y + 2u * oy + ((d >> 1) & 1u)) * Z + 2u * oz + (d >> 2)];
-    y_out[i] = s * 0.125;
+      s += x_in[p.x_offset + ((pl * X + 2u * ox + (d & 1u)) * Y + 2u * oy + ((d >> 1) & 1u)) * Z + 2u * oz + (d >> 2)];
+    y_out[p.y_offset + i] = s * 0.125;
   } else {
     const uint OX = 2u * X, OY = 2u * Y, OZ = 2u * Z;
     if (i >= p.planes * OX * OY * OZ) return;
     const uint oz = i % OZ, oy = (i / OZ) % OY, ox = (i / (OZ * OY)) % OX, pl = i / (OZ * OY * OX);
-    y_out[i] = x_in[((pl * X + ox / 2u) * Y + oy / 2u) * Z + oz / 2u];
+    y_out[p.y_offset + i] = x_in[p.x_offset + ((pl * X + ox / 2u) * Y + oy / 2u) * Z + oz / 2u];
   }
 }

@@ -56,14 +56,18 @@ struct Conv3dParams {
 #define NN_GN_FLAG_MODULATE 2u  // y * (1 + scale[b, c]) + shift[b, c], modulation [B, 2C] = (scale, shift)
 
 struct GroupNormParams {
-  uint batch;
-  uint channels;
-  uint groups;
+  uint batch;           // in this dispatch (one window: 1)
+  uint channels;        // in this dispatch
+  uint groups;          // in this dispatch
   uint spatial;
-  uint chunks;  // partials per (batch, group)
+  uint chunks;          // partials per (batch, group)
   float eps;
   uint flags;
-  uint pad0;
+  uint x_offset;        // elements: the window's first element inside the x binding
+  uint y_offset;        // elements: the same inside the y binding
+  uint channel_offset;  // the window's first channel in the whole tensor (weight, bias, modulation)
+  uint channels_total;  // the whole tensor's channels (modulation rows)
+  uint batch_offset;    // the window's batch element (modulation rows)
 };
 
 // elementwise: one thread per output element. OP_SILU y = a / (1 + e^-a);
@@ -83,6 +87,10 @@ struct ElementwiseParams {
   uint op;
   uint channels;  // GEGLU: output channels F
   uint tokens;    // GEGLU: elements per channel
+  uint a_offset;  // elements: each operand's first element inside its binding (windows)
+  uint b_offset;
+  uint y_offset;
+  uint pad0;
 };
 
 struct ResampleParams {
@@ -91,9 +99,9 @@ struct ResampleParams {
   uint size_y;
   uint size_z;
   uint op;
+  uint x_offset;  // elements: the first plane's first element inside each binding (windows)
+  uint y_offset;
   uint pad0;
-  uint pad1;
-  uint pad2;
 };
 
 // attention: softmax(q k^T * scale) v per (batch, head) on channels-first
@@ -142,12 +150,15 @@ ICUBE_CHECK_LAYOUT(Conv3dParams, kernel, 44);
 ICUBE_CHECK_LAYOUT(Conv3dParams, x_offset, 60);
 ICUBE_CHECK_LAYOUT(Conv3dParams, y_batch_stride, 72);
 
-ICUBE_CHECK_SIZE(GroupNormParams, 32);
+ICUBE_CHECK_SIZE(GroupNormParams, 48);
+ICUBE_CHECK_LAYOUT(GroupNormParams, batch_offset, 44);
 ICUBE_CHECK_SIZE(LayerNormParams, 16);
 ICUBE_CHECK_SIZE(AttentionParams, 48);
 ICUBE_CHECK_LAYOUT(AttentionParams, scale, 36);
-ICUBE_CHECK_SIZE(ElementwiseParams, 16);
+ICUBE_CHECK_SIZE(ElementwiseParams, 32);
+ICUBE_CHECK_LAYOUT(ElementwiseParams, y_offset, 24);
 ICUBE_CHECK_SIZE(ResampleParams, 32);
+ICUBE_CHECK_LAYOUT(ResampleParams, x_offset, 20);
 ICUBE_CHECK_LAYOUT(GroupNormParams, eps, 20);
 
 #endif

@@ -16,7 +16,8 @@ using namespace icube;
 
 namespace {
 
-void check_gn(const kernels::nn::GroupNormShape& s, float offset, float scale, uint32_t seed, double tol) {
+void check_gn(const kernels::nn::GroupNormShape& s, float offset, float scale, uint32_t seed, double tol,
+              uint64_t max_binding_bytes = 0) {
   CAPTURE(s.channels);
   CAPTURE(s.groups);
   CAPTURE(s.spatial);
@@ -41,6 +42,7 @@ void check_gn(const kernels::nn::GroupNormShape& s, float offset, float scale, u
   gpu::Buffer scratch(ctx, kernels::nn::GroupNorm::scratch_bytes(s), gpu::MemoryUsage::DeviceLocal, "gn-scratch");
   gpu::Buffer yb(ctx, x.data.size() * 4, gpu::MemoryUsage::DeviceLocal, "gn-y");
   kernels::nn::GroupNorm gn(ctx);
+  gn.set_max_binding_bytes(max_binding_bytes);
   ctx.submit_and_wait([&](gpu::CommandList& cmd) { gn.record(cmd, s, xb, wb, bb, s.modulate ? &mb : nullptr, scratch, yb); });
   const std::vector<float> got = gpu::download_vector<float>(ctx, yb, x.data.size());
   CHECK(test::allclose(got, want.data, tol, tol, "group_norm"));
@@ -58,4 +60,21 @@ TEST_CASE("group_norm gpu: against the CPU reference, plain, modulated, with SiL
   // Constant input: every deviation is exactly 0, so y is exactly the bias.
   check_gn({1, 32, 32, 9 * 9 * 9, 1e-5f, false, false}, 7.25f, 0.0f, 5, 0.0);
   check_gn({1, 32, 32, 9 * 9 * 9, 1e-5f, true, true}, 7.25f, 0.0f, 6, 1e-6);  // then modulated (fma rounding)
+}
+
+TEST_CASE("group_norm gpu: tensors beyond one binding run in windows of whole groups (batch 2, modulated)") {
+  // As if one binding held 4 KiB: groups of 3 channels x 105 voxels (1,260 B), 3 groups a window,
+  // windows starting off the binding alignment, the modulation rows of both batch elements.
+  check_gn({2, 96, 32, 5 * 7 * 3, 1e-5f, true, true}, 0.0f, 2.0f, 7, 2e-5, 4096);
+  check_gn({1, 64, 32, 9 * 9 * 9, 1e-5f, false, false}, 3.0f, 1.0f, 8, 2e-5, 16384);
+  // One group larger than the binding: a clear error.
+  gpu::Context& ctx = test::gpu_context();
+  kernels::nn::GroupNorm gn(ctx);
+  gn.set_max_binding_bytes(256);
+  const kernels::nn::GroupNormShape s{1, 64, 32, 9 * 9 * 9, 1e-5f, false, false};
+  gpu::Buffer big(ctx, 64 * 729 * 4), small(ctx, 64 * 4), scratch(ctx, kernels::nn::GroupNorm::scratch_bytes(s));
+  ctx.submit_and_wait([&](gpu::CommandList& cmd) {
+    CHECK_THROWS_WITH_AS(gn.record(cmd, s, big, small, small, nullptr, scratch, big),
+                         doctest::Contains("one group of 5832 bytes exceeds one storage binding"), std::invalid_argument);
+  });
 }

@@ -67,6 +67,13 @@ TEST_CASE("unet gpu: a second configuration agrees with the CPU reference (batch
   const double e = nn::cpu::max_abs_over_std(got.data, want.data);
   MESSAGE("unet gpu vs CPU reference, second configuration: max |y - y_ref| / std = " << e);
   CHECK(e <= 1e-4);
+  // Every windowed kernel in windows: as if one binding held 2 KiB (a level's tensor is 6-12 KiB).
+  nn::UNetGpu windowed(test::gpu_context(), cfg, w);
+  windowed.set_max_binding_bytes(2048);
+  const nn::CpuTensor got_w = windowed.forward(x, {3, 977});
+  const double ew = nn::cpu::max_abs_over_std(got_w.data, want.data);
+  MESSAGE("  the same in 2 KiB windows: " << ew);
+  CHECK(ew <= 1e-4);
 }
 
 TEST_CASE("unet gpu: fp16 weight storage on unet_small (exact on fp16-rounded weights; its error against fp32)") {
