@@ -56,6 +56,15 @@ void save(const std::string& path, const nn::CpuTensor& t) {
   world::write_npy(path, world::NpyArray::make<float>(shape, t.data));
 }
 
+// Runs a command; its exit status and stdout + stderr.
+std::pair<int, std::string> capture(const std::string& cmd) {
+  FILE* p = popen((cmd + " 2>&1").c_str(), "r");
+  std::string out;
+  char buf[512];
+  while (p && std::fgets(buf, sizeof buf, p)) out += buf;
+  return {p ? pclose(p) : -1, out};
+}
+
 // The PyTorch side (bench/torch_nn.py) run on the same tensors: its times and its output.
 struct TorchSide {
   std::string python;  // empty: not run
@@ -77,12 +86,8 @@ struct TorchSide {
     for (const auto& [name, t] : inputs) save((dir / (name + ".npy")).string(), *t);
     const std::string cmd = python + " " + ICUBE_SOURCE_DIR + "/bench/torch_nn.py --threads " + std::to_string(threads) +
                             " --runs " + std::to_string(runs) + " --warmup " + std::to_string(warmup) + " " +
-                            dir.string() + " 2>&1";
-    FILE* p = popen(cmd.c_str(), "r");
-    std::string out;
-    char buf[512];
-    while (p && std::fgets(buf, sizeof buf, p)) out += buf;
-    const int status = p ? pclose(p) : -1;
+                            dir.string();
+    const auto [status, out] = capture(cmd);
     if (status != 0) {
       r.error = out;
       return r;
@@ -95,6 +100,28 @@ struct TorchSide {
     return r;
   }
 };
+
+// bench/torch_unet.py on files: its times and output, or an error.
+TorchSide::Result run_torch_unet(const TorchSide& side, const std::string& config, const std::string& weights,
+                                 const std::string& x, const std::string& t) {
+  TorchSide::Result r;
+  const std::string y = (side.dir / "unet_y.npy").string();
+  const std::string cmd = side.python + " " + ICUBE_SOURCE_DIR + "/bench/torch_unet.py --config '" + config +
+                          "' --weights '" + weights + "' --input '" + x + "' --timestep '" + t + "' --threads " +
+                          std::to_string(side.threads) + " --runs " + std::to_string(side.runs) + " --warmup " +
+                          std::to_string(side.warmup) + " -o '" + y + "'";
+  const auto [status, out] = capture(cmd);
+  if (status != 0 || out.find('{') == std::string::npos) {
+    r.error = out;
+    return r;
+  }
+  const nlohmann::json j = nlohmann::json::parse(out.substr(out.rfind('{')));
+  r.min_ms = j.at("min_ms").get<double>();
+  r.median_ms = j.at("median_ms").get<double>();
+  r.y = world::read_npy(y).values<float>();
+  r.ok = true;
+  return r;
+}
 
 // Debian's python3 first (a pyenv shim on PATH may lack torch).
 std::string python_with_torch() {
@@ -408,6 +435,17 @@ int main(int argc, char** argv) {
       std::printf("%-28s %10.1f %10.1f %12.2f %16.2e\n", name, st.min, st.median,
                   static_cast<double>(net.weight_bytes()) / 1048576.0, nn::cpu::max_abs_over_std(y.data, ya.values<float>()));
     }
+    if (!torch_side.python.empty()) {
+      std::filesystem::create_directories(torch_side.dir);
+      const TorchSide::Result tr = run_torch_unet(torch_side, d + "config.json", d + "weights.safetensors",
+                                                  d + "case_1.x.npy", d + "case_1.t.npy");
+      if (!tr.ok) {
+        std::fprintf(stderr, "icube-bench-nn: torch side failed: %s\n", tr.error.c_str());
+        return 1;
+      }
+      std::printf("%-28s %10.1f %10.1f %12.2f %16.2e\n", "PyTorch (torch_unet.py)", tr.min_ms, tr.median_ms,
+                  static_cast<double>(file.data_bytes()) / 1048576.0, nn::cpu::max_abs_over_std(tr.y, ya.values<float>()));
+    }
   }
 
   if (!unet_config.empty()) {
@@ -436,11 +474,33 @@ int main(int argc, char** argv) {
     const Stats st = stats(samples);
     double cpu = -1, agreement = -1;
     if (!unet_no_cpu) {
-      ref.set_weights(std::move(w));
+      ref.set_weights(w);
       const auto t0 = Clock::now();
       const nn::CpuTensor want = ref.forward(x, {500});
       cpu = ms_since(t0);
       agreement = nn::cpu::max_abs_over_std(y.data, want.data);
+    }
+    std::string torch_text;
+    if (!torch_side.python.empty()) {
+      std::filesystem::create_directories(torch_side.dir);
+      std::vector<nn::TensorToWrite> tw;
+      for (const nn::ParamSpec& p : ref.parameters()) tw.push_back(nn::f32_tensor(p.name, p.shape, w.at(p.name).data));
+      const std::string wpath = (torch_side.dir / "unet_w.safetensors").string(), xpath = (torch_side.dir / "unet_x.npy").string(),
+                        tpath = (torch_side.dir / "unet_t.npy").string();
+      nn::write_safetensors(wpath, tw);
+      tw.clear();
+      save(xpath, x);
+      world::write_npy(tpath, world::NpyArray::make<int64_t>({1}, std::vector<int64_t>{500}));
+      const TorchSide::Result tr = run_torch_unet(torch_side, unet_config, wpath, xpath, tpath);
+      std::filesystem::remove(wpath);
+      if (!tr.ok) {
+        std::fprintf(stderr, "icube-bench-nn: torch side failed: %s\n", tr.error.c_str());
+        return 1;
+      }
+      char buf[160];
+      std::snprintf(buf, sizeof buf, "; PyTorch min %.1f ms, median %.1f ms, max |gpu - torch| / std %.1e", tr.min_ms,
+                    tr.median_ms, nn::cpu::max_abs_over_std(y.data, tr.y));
+      torch_text = buf;
     }
     bool finite = true;
     for (const float f : y.data) finite = finite && std::isfinite(f);
@@ -452,6 +512,7 @@ int main(int argc, char** argv) {
                 static_cast<long long>(unet_grid[2]), st.min, st.median,
                 static_cast<double>(net.last_activation_bytes()) / 1048576.0,
                 static_cast<double>(net.weight_bytes()) / 1048576.0, finite ? "finite" : "NOT FINITE", cpu, agreement);
+    if (!torch_text.empty()) std::printf("  %s\n", torch_text.c_str() + 2);
   }
   return 0;
 }

@@ -7,10 +7,12 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <string>
 #include <system_error>
+#include <utility>
 
 namespace icube::test {
 
@@ -34,6 +36,25 @@ inline CliRun run_icube(const std::string& args, const std::filesystem::path& di
   r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
   r.output = std::filesystem::exists(log) ? scene::read_file(log.string()) : std::string();
   return r;
+}
+
+// Runs a shell command; its exit status and stdout + stderr.
+inline std::pair<int, std::string> run_shell(const std::string& cmd) {
+  std::string out;
+  FILE* p = popen((cmd + " 2>&1").c_str(), "r");
+  if (!p) return {-1, out};
+  char buf[512];
+  while (std::fgets(buf, sizeof buf, p)) out += buf;
+  const int status = pclose(p);
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
+}
+
+// A python3 that imports `modules` ("numpy", "torch, numpy"): Debian's first (a pyenv or
+// venv shim on PATH may lack them), then PATH's; empty when none does.
+inline std::string python_with(const std::string& modules) {
+  for (const char* py : {"/usr/bin/python3", "python3"})
+    if (run_shell(std::string(py) + " -c 'import " + modules + "'").first == 0) return py;
+  return {};
 }
 
 // An empty folder TMP/icube-<tag>-<pid>, removed with everything in it.

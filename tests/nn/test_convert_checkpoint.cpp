@@ -16,7 +16,6 @@
 #include "scene/atomic_file.h"
 
 #include <algorithm>
-#include <cstdio>
 #include <cstring>
 #include <random>
 #include <string>
@@ -25,22 +24,7 @@ using namespace icube;
 
 namespace {
 
-std::pair<int, std::string> shell(const std::string& cmd) {
-  std::string out;
-  FILE* p = popen((cmd + " 2>&1").c_str(), "r");
-  if (!p) return {-1, out};
-  char buf[512];
-  while (std::fgets(buf, sizeof buf, p)) out += buf;
-  const int status = pclose(p);
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
-}
-
-// Debian's python3 first (a pyenv shim on PATH may lack torch).
-std::string python_with_torch() {
-  for (const char* py : {"/usr/bin/python3", "python3"})
-    if (shell(std::string(py) + " -c 'import torch, numpy'").first == 0) return py;
-  return {};
-}
+using test::run_shell;
 
 const char* kTinyKwargs = R"({"unet_kwargs": {"image_size": 8, "num_input_channels": 5, "out_channels": 3,
   "model_channels": 32, "num_res_blocks": 1, "attention_resolutions": [2], "channel_mult": [1, 2], "num_heads": 4,
@@ -58,7 +42,7 @@ float bf16_round(float f) {  // round to nearest even, as torch's .to(bfloat16)
 }  // namespace
 
 TEST_CASE("convert_checkpoint: Lightning diffusion checkpoints to safetensors + config the engine loads") {
-  const std::string py = python_with_torch();
+  const std::string py = test::python_with("torch, numpy");
   if (py.empty()) {
     const char* req = std::getenv("ICUBE_REQUIRE_DATA");
     if (req && std::string(req) == "1") FAIL("python3 with torch is missing (tools/install-deps.sh --test installs python3-torch)");
@@ -87,10 +71,10 @@ TEST_CASE("convert_checkpoint: Lightning diffusion checkpoints to safetensors + 
   const std::string first = net.parameters().front().name;
 
   SUBCASE("EMA copy by default, hyper_parameters as the config, scale_factor and the VAE") {
-    auto [rc, out] = shell(make + dir + "/bare.safetensors " + dir + "/a.ckpt --kwargs " + dir + "/kwargs.json");
+    auto [rc, out] = run_shell(make + dir + "/bare.safetensors " + dir + "/a.ckpt --kwargs " + dir + "/kwargs.json");
     INFO(out);
     REQUIRE(rc == 0);
-    std::tie(rc, out) = shell(convert + dir + "/a.ckpt -o " + dir + "/a");
+    std::tie(rc, out) = run_shell(convert + dir + "/a.ckpt -o " + dir + "/a");
     INFO(out);
     REQUIRE(rc == 0);
     CHECK(out.find("(ema weights)") != std::string::npos);
@@ -120,11 +104,11 @@ TEST_CASE("convert_checkpoint: Lightning diffusion checkpoints to safetensors + 
   }
 
   SUBCASE("--weights live keeps bfloat16 as stored; hparams as a Namespace; foreign classes stay inert") {
-    auto [rc, out] = shell(make + dir + "/bare.safetensors " + dir + "/b.ckpt --bf16 --namespace-hparams --kwargs " +
+    auto [rc, out] = run_shell(make + dir + "/bare.safetensors " + dir + "/b.ckpt --bf16 --namespace-hparams --kwargs " +
                            dir + "/kwargs.json --foreign-object");
     INFO(out);
     REQUIRE(rc == 0);
-    std::tie(rc, out) = shell(convert + dir + "/b.ckpt -o " + dir + "/b --weights live");
+    std::tie(rc, out) = run_shell(convert + dir + "/b.ckpt -o " + dir + "/b --weights live");
     INFO(out);
     REQUIRE(rc == 0);
     CHECK(out.find("pickled objects not built (inert placeholders): __main__.ForeignObject") != std::string::npos);
@@ -138,10 +122,10 @@ TEST_CASE("convert_checkpoint: Lightning diffusion checkpoints to safetensors + 
   }
 
   SUBCASE("no hyper_parameters and no EMA: the config is read off the weights, the rest named as assumed") {
-    auto [rc, out] = shell(make + dir + "/bare.safetensors " + dir + "/c.ckpt --no-ema");
+    auto [rc, out] = run_shell(make + dir + "/bare.safetensors " + dir + "/c.ckpt --no-ema");
     INFO(out);
     REQUIRE(rc == 0);
-    std::tie(rc, out) = shell(convert + dir + "/c.ckpt -o " + dir + "/c");
+    std::tie(rc, out) = run_shell(convert + dir + "/c.ckpt -o " + dir + "/c");
     INFO(out);
     REQUIRE(rc == 0);
     CHECK(out.find("(live weights)") != std::string::npos);
@@ -180,12 +164,12 @@ TEST_CASE("convert_checkpoint: Lightning diffusion checkpoints to safetensors + 
       std::string ckpt = dir + "/junk.ckpt";
       if (!b.message.starts_with("not a PyTorch checkpoint")) {
         ckpt = dir + "/bad" + std::to_string(i) + ".ckpt";
-        const auto [mrc, mout] = shell(make + dir + "/bare.safetensors " + ckpt + " " + b.make_args);
+        const auto [mrc, mout] = run_shell(make + dir + "/bare.safetensors " + ckpt + " " + b.make_args);
         INFO(mout);
         REQUIRE(mrc == 0);
       }
       const std::string outdir = dir + "/bad" + std::to_string(i);
-      const auto [rc, out] = shell(convert + ckpt + " -o " + outdir + " " + b.convert_args);
+      const auto [rc, out] = run_shell(convert + ckpt + " -o " + outdir + " " + b.convert_args);
       INFO(i, ": ", out);
       CHECK(rc == 1);
       CHECK(out.find(ckpt + ": ") != std::string::npos);

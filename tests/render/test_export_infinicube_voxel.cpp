@@ -31,24 +31,6 @@ using namespace icube;
 
 namespace {
 
-// Runs a shell command; returns its exit status and stdout+stderr.
-std::pair<int, std::string> run(const std::string& cmd) {
-  std::string out;
-  FILE* p = popen((cmd + " 2>&1").c_str(), "r");
-  if (!p) return {-1, out};
-  char buf[512];
-  while (std::fgets(buf, sizeof buf, p)) out += buf;
-  const int status = pclose(p);
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
-}
-
-// A python3 that has numpy: Debian's first (pyenv or venv shims may lack it), then PATH's.
-std::string python_with_numpy() {
-  for (const char* py : {"/usr/bin/python3", "python3"})
-    if (run(std::string(py) + " -c 'import numpy'").first == 0) return py;
-  return {};
-}
-
 void write_matrix(const std::string& path, const glm::dmat4& m) {
   std::vector<double> v;
   for (int r = 0; r < 4; ++r)
@@ -110,7 +92,7 @@ std::map<Ijk, int64_t> exported(const std::string& dir) {
 }  // namespace
 
 TEST_CASE("export_infinicube_voxel: .icw to the voxel-world arrays InfiniCube hands to fVDB") {
-  const std::string py = python_with_numpy();
+  const std::string py = test::python_with("numpy");
   if (py.empty()) {
     const char* req = std::getenv("ICUBE_REQUIRE_DATA");
     if (req && std::string(req) == "1") FAIL("python3 with numpy is missing (tools/install-deps.sh installs python3-numpy)");
@@ -132,7 +114,7 @@ TEST_CASE("export_infinicube_voxel: .icw to the voxel-world arrays InfiniCube ha
   SUBCASE("a pure translation onto the lattice keeps every voxel and class") {
     const glm::dmat4 m = glm::translate(glm::dmat4(1.0), -g.origin());
     write_matrix(dir + "/m.npy", m);
-    const auto [rc, out] = run(py + " " + tool + " " + dir + "/w.icw --world-to-voxel " + dir + "/m.npy --arrays " + dir + "/out");
+    const auto [rc, out] = test::run_shell(py + " " + tool + " " + dir + "/w.icw --world-to-voxel " + dir + "/m.npy --arrays " + dir + "/out");
     INFO(out);
     REQUIRE(rc == 0);
     const auto got = exported(dir + "/out");
@@ -145,7 +127,7 @@ TEST_CASE("export_infinicube_voxel: .icw to the voxel-world arrays InfiniCube ha
     const glm::dmat4 m = glm::rotate(glm::translate(glm::dmat4(1.0), {-40.2, 7.9, -1.6}), 0.5236, glm::dvec3(0, 0, 1)) *
                          glm::rotate(glm::dmat4(1.0), 0.031, glm::dvec3(0, 1, 0));
     write_matrix(dir + "/m.npy", m);
-    const auto [rc, out] = run(py + " " + tool + " " + dir + "/w.icw --world-to-voxel " + dir + "/m.npy --arrays " + dir + "/out");
+    const auto [rc, out] = test::run_shell(py + " " + tool + " " + dir + "/w.icw --world-to-voxel " + dir + "/m.npy --arrays " + dir + "/out");
     INFO(out);
     REQUIRE(rc == 0);
     const auto got = exported(dir + "/out");
@@ -169,24 +151,24 @@ TEST_CASE("export_infinicube_voxel: .icw to the voxel-world arrays InfiniCube ha
     std::string bytes = scene::read_file(dir + "/w.icw");
     bytes[60] = static_cast<char>(bytes[60] ^ 0x40);
     scene::write_file_atomic(dir + "/bad.icw", bytes);
-    auto [rc, out] = run(py + " " + tool + " " + dir + "/bad.icw --world-to-voxel " + dir + "/m.npy --arrays " + dir + "/o1");
+    auto [rc, out] = test::run_shell(py + " " + tool + " " + dir + "/bad.icw --world-to-voxel " + dir + "/m.npy --arrays " + dir + "/o1");
     CHECK(rc == 1);
     CHECK(out.find("bad.icw: byte") != std::string::npos);
     CHECK(out.find("CRC32") != std::string::npos);
     CHECK(!std::filesystem::exists(dir + "/o1"));
     write_matrix(dir + "/scale.npy", glm::scale(glm::dmat4(1.0), glm::dvec3(2.0)));
-    std::tie(rc, out) = run(py + " " + tool + " " + dir + "/w.icw --world-to-voxel " + dir + "/scale.npy --arrays " + dir + "/o2");
+    std::tie(rc, out) = test::run_shell(py + " " + tool + " " + dir + "/w.icw --world-to-voxel " + dir + "/scale.npy --arrays " + dir + "/o2");
     CHECK(rc == 1);
     CHECK(out.find("scale.npy: not a rigid transform") != std::string::npos);
     CHECK(!std::filesystem::exists(dir + "/o2"));
-    std::tie(rc, out) = run(py + " " + tool + " " + dir + "/w.icw --clip " + dir + "/no-clip --arrays " + dir + "/o3");
+    std::tie(rc, out) = test::run_shell(py + " " + tool + " " + dir + "/w.icw --clip " + dir + "/no-clip --arrays " + dir + "/o3");
     CHECK(rc == 1);
     CHECK(out.find("world_to_voxel_world.npy") != std::string::npos);
     scene::write_file_atomic(dir + "/pts.npy", "nope");
-    std::tie(rc, out) = run(py + " " + tool + " " + dir + "/pts.npy --world-to-voxel " + dir + "/m.npy --arrays " + dir + "/o4");
+    std::tie(rc, out) = test::run_shell(py + " " + tool + " " + dir + "/pts.npy --world-to-voxel " + dir + "/m.npy --arrays " + dir + "/o4");
     CHECK(rc == 1);
     CHECK(out.find("pts.npy: not a readable .npy") != std::string::npos);
-    std::tie(rc, out) = run(py + " " + tool + " --help");
+    std::tie(rc, out) = test::run_shell(py + " " + tool + " --help");
     CHECK(rc == 0);
     CHECK(out.find("voxel.pt") != std::string::npos);
   }
