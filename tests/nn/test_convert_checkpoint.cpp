@@ -149,7 +149,7 @@ TEST_CASE("convert_checkpoint: Lightning diffusion checkpoints to safetensors + 
     struct Bad {
       std::string make_args, convert_args, message;
     };
-    scene::write_file_atomic(dir + "/junk.ckpt", std::string("PK\x03\x04 this is no checkpoint", 28));
+    scene::write_file_atomic(dir + "/junk.ckpt", std::string("PK\x03\x04") + " this is no checkpoint");
     const std::string wrong_kwargs = std::string(kTinyKwargs).replace(std::string(kTinyKwargs).find("\"model_channels\": 32"),
                                                                        20, "\"model_channels\": 64");
     scene::write_file_atomic(dir + "/wrong.json", wrong_kwargs);
