@@ -1,4 +1,5 @@
-// GroupNorm on the GPU (kernels/nn/group_norm.h) against the CPU reference
+// GroupNorm on the GPU (kernels/nn/group_norm.h: shaders/nn/group_norm_partials.comp,
+// group_norm_stats.comp and group_norm_apply.comp, all three in every case) against the CPU reference
 // (nn::cpu::group_norm, then scale_shift and SiLU): odd spatial sizes, batch 2,
 // 32 groups of 2 channels and 8 groups of 3, fused modulation + SiLU, a
 // constant input (normalises to exactly the bias), a large common offset
