@@ -1,9 +1,12 @@
-// icube-bench-nn: the network layer's kernels against their CPU references,
-// side by side in one run: conv3d (dense NCDHW, 3x3x3 and 1x1) and GroupNorm
-// (+ scale-shift + SiLU) at the diffusion UNet's level shapes. GPU time per
-// record (submit + wait, after a warm-up), GFLOP/s or GB/s, the plain CPU
-// reference (double accumulation, one thread) where it finishes in seconds,
-// and the max relative difference between them in the same run. See bench/README.md.
+// icube-bench-nn: the network layer's kernels against their CPU references and,
+// with --torch, PyTorch's CPU ops on the same tensors, side by side in one run:
+// conv3d (dense NCDHW, 3x3x3 and 1x1; --released-levels adds the released
+// model's 64^3 and 32^3 levels), GroupNorm (+ scale-shift + SiLU) and
+// attention at the diffusion UNet's shapes; GPU time per record (submit + wait,
+// after a warm-up), GFLOP/s or GB/s, and the max difference to each competitor
+// in the same run. --unet-case: the official unet_small case in fp32 and fp16
+// weights (and bench/torch_unet.py); --unet CONFIG: one whole forward. See
+// bench/README.md.
 #include "gpu/context.h"
 #include "nn/conv3d.h"
 #include "nn/group_norm.h"
@@ -142,7 +145,7 @@ double max_rel(const std::vector<float>& got, const std::vector<float>& want) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app("icube-bench-nn: network kernels (conv3d) on the GPU against their CPU references");
+  CLI::App app("icube-bench-nn: network kernels and the UNet on the GPU against their CPU references and PyTorch");
   int runs = 5, warmup = 1;
   double cpu_limit_gflop = 3.0;
   bool quick = false;

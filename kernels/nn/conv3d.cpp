@@ -44,7 +44,6 @@ void Conv3d::record(gpu::CommandList& cmd, const Conv3dShape& s, const gpu::Buff
   if (s.batch == 0 || s.in_channels == 0 || s.out_channels == 0 || s.voxels() == 0) return;
   const uint64_t S = s.voxels();
   const uint64_t limit = max_binding_bytes_ ? max_binding_bytes_ : ctx_.info().max_storage_buffer_range;
-  const uint64_t align = std::max<uint64_t>(4, ctx_.info().min_storage_buffer_offset_alignment);
   const uint64_t x_bytes = uint64_t{s.batch} * s.in_channels * S * 4, y_bytes = uint64_t{s.batch} * s.out_channels * S * 4;
   const uint64_t co_vec4s = gpu::div_up(s.out_channels, NN_CONV_CO_TILE) * (NN_CONV_CO_TILE / 4);
   const uint64_t w_bytes = uint64_t{s.in_channels} * s.kernel * s.kernel * s.kernel * co_vec4s * (s.f16_weights ? 8 : 16);
@@ -91,17 +90,18 @@ void Conv3d::record(gpu::CommandList& cmd, const Conv3dShape& s, const gpu::Buff
   }
   // Windows: one batch element at a time, output channels in whole 8-channel
   // blocks, input channels as many as fit; each window bound at its offset
-  // aligned down (the rest goes to *_offset), so a window needs `align` spare bytes.
-  const uint64_t usable = limit > align ? limit - align : 0;
-  const uint64_t ci_window = std::min(usable / (S * 4), kMaxChannelsPerDispatch);
-  const uint64_t co_window = usable / (S * 4) / NN_CONV_CO_TILE * NN_CONV_CO_TILE;
+  // aligned down (element_window; the rest goes to *_offset), so a window holds
+  // one alignment less than a binding (window_elements).
+  const uint64_t usable = window_elements(ctx_, max_binding_bytes_);
+  const uint64_t ci_window = std::min(usable / S, kMaxChannelsPerDispatch);
+  const uint64_t co_window = usable / S / NN_CONV_CO_TILE * NN_CONV_CO_TILE;
   if (ci_window == 0 || co_window == 0)
     throw std::invalid_argument("conv3d: " + std::to_string(NN_CONV_CO_TILE) + " channels of " + std::to_string(S) +
                                 " voxels exceed one storage binding (" + std::to_string(limit) + " bytes)");
   auto window = [&](const gpu::Buffer& buf, uint64_t first_element, uint64_t elements, uint32_t& offset) {
-    const uint64_t byte = first_element * 4, base = byte / align * align;
-    offset = static_cast<uint32_t>((byte - base) / 4);
-    return buf.binding(base, byte - base + elements * 4);
+    const ElementWindow ew = element_window(ctx_, buf, first_element, elements);
+    offset = ew.offset;
+    return ew.binding;
   };
   pc.x_batch_stride = pc.y_batch_stride = 0;  // one batch element per dispatch
   for (uint32_t b = 0; b < s.batch; ++b)

@@ -1,4 +1,5 @@
-// conv3d on the GPU (kernels/nn/conv3d.h, shaders/nn/conv3d.comp) against the
+// conv3d on the GPU (kernels/nn/conv3d.h, shaders/nn/conv3d.comp; with fp16
+// weights shaders/nn/conv3d_f16w.comp, against the reference on fp16-rounded weights) against the
 // CPU reference (nn::cpu::conv3d) on odd sizes, batch 2, channel counts that
 // are not multiples of the 8-channel tile, 1x1 and 3x3x3 kernels, without bias
 // and with large activations. The bound per element is float32 accumulation's:

@@ -69,14 +69,19 @@ TEST_CASE("convert_checkpoint: Lightning diffusion checkpoints to safetensors + 
   }
   nn::write_safetensors(dir + "/bare.safetensors", bare);
   const std::string first = net.parameters().front().name;
+  // Makes DIR/NAME.ckpt from the bare weights, converts it into DIR/NAME; both must succeed.
+  // Returns the converter's output.
+  auto make_and_convert = [&](const std::string& name, const std::string& make_args, const std::string& convert_args) {
+    const auto [mrc, mout] = run_shell(make + dir + "/bare.safetensors " + dir + "/" + name + ".ckpt " + make_args);
+    REQUIRE_MESSAGE(mrc == 0, mout);
+    const auto [rc, out] = run_shell(convert + dir + "/" + name + ".ckpt -o " + dir + "/" + name + " " + convert_args);
+    REQUIRE_MESSAGE(rc == 0, out);
+    return out;
+  };
 
   SUBCASE("EMA copy by default, hyper_parameters as the config, scale_factor and the VAE") {
-    auto [rc, out] = run_shell(make + dir + "/bare.safetensors " + dir + "/a.ckpt --kwargs " + dir + "/kwargs.json");
+    const std::string out = make_and_convert("a", "--kwargs " + dir + "/kwargs.json", "");
     INFO(out);
-    REQUIRE(rc == 0);
-    std::tie(rc, out) = run_shell(convert + dir + "/a.ckpt -o " + dir + "/a");
-    INFO(out);
-    REQUIRE(rc == 0);
     CHECK(out.find("(ema weights)") != std::string::npos);
     CHECK(out.find("left out: 3 entries (cond_stage_model, unet_ema)") != std::string::npos);
     const nn::UNetConfig c = nn::load_unet_config(dir + "/a/unet_config.json");
@@ -104,13 +109,9 @@ TEST_CASE("convert_checkpoint: Lightning diffusion checkpoints to safetensors + 
   }
 
   SUBCASE("--weights live keeps bfloat16 as stored; hparams as a Namespace; foreign classes stay inert") {
-    auto [rc, out] = run_shell(make + dir + "/bare.safetensors " + dir + "/b.ckpt --bf16 --namespace-hparams --kwargs " +
-                           dir + "/kwargs.json --foreign-object");
+    const std::string out = make_and_convert("b", "--bf16 --namespace-hparams --kwargs " + dir + "/kwargs.json --foreign-object",
+                                             "--weights live");
     INFO(out);
-    REQUIRE(rc == 0);
-    std::tie(rc, out) = run_shell(convert + dir + "/b.ckpt -o " + dir + "/b --weights live");
-    INFO(out);
-    REQUIRE(rc == 0);
     CHECK(out.find("pickled objects not built (inert placeholders): __main__.ForeignObject") != std::string::npos);
     CHECK(nn::load_unet_config(dir + "/b/unet_config.json").num_heads == 4);  // from the Namespace
     const nn::SafetensorsFile f(dir + "/b/unet.safetensors");
@@ -122,12 +123,8 @@ TEST_CASE("convert_checkpoint: Lightning diffusion checkpoints to safetensors + 
   }
 
   SUBCASE("no hyper_parameters and no EMA: the config is read off the weights, the rest named as assumed") {
-    auto [rc, out] = run_shell(make + dir + "/bare.safetensors " + dir + "/c.ckpt --no-ema");
+    const std::string out = make_and_convert("c", "--no-ema", "");
     INFO(out);
-    REQUIRE(rc == 0);
-    std::tie(rc, out) = run_shell(convert + dir + "/c.ckpt -o " + dir + "/c");
-    INFO(out);
-    REQUIRE(rc == 0);
     CHECK(out.find("(live weights)") != std::string::npos);
     CHECK(out.find("from the released model (not in the checkpoint): num_heads") != std::string::npos);
     const nn::UNetConfig c = nn::load_unet_config(dir + "/c/unet_config.json");
