@@ -35,8 +35,12 @@ std::vector<uint16_t> pack_conv3d_weights_f16(const std::vector<float>& w, uint3
   return out;
 }
 
-Conv3d::Conv3d(gpu::Context& ctx)
-    : ctx_(ctx), program_(ctx.program("nn/conv3d")), program_f16_(ctx.program("nn/conv3d_f16w")) {}
+Conv3d::Conv3d(gpu::Context& ctx) : ctx_(ctx) {
+  for (int k = 0; k < 2; ++k)
+    for (int f16 = 0; f16 < 2; ++f16)
+      programs_[k][f16] = &ctx.program(f16 ? "nn/conv3d_f16w" : "nn/conv3d",
+                                       gpu::SpecConstants{}.set(0, k == 0 ? 3u : 1u /* NN_K */));
+}
 
 void Conv3d::record(gpu::CommandList& cmd, const Conv3dShape& s, const gpu::Buffer& x, const gpu::Buffer& w,
                     const gpu::Buffer* bias, const gpu::Buffer& y) {
@@ -71,7 +75,8 @@ void Conv3d::record(gpu::CommandList& cmd, const Conv3dShape& s, const gpu::Buff
     pc.batch = batch;
     pc.co_blocks = static_cast<uint32_t>(gpu::div_up(pc.co_count, NN_CONV_CO_TILE));
     const uint64_t groups = uint64_t{pc.voxel_tiles} * pc.co_blocks * batch;
-    cmd.dispatch(s.f16_weights ? program_f16_ : program_, gpu::Threads{groups * NN_CONV_GROUP}, pc, {xb, wb, bb, yb});
+    cmd.dispatch(*programs_[s.kernel == 3 ? 0 : 1][s.f16_weights ? 1 : 0], gpu::Threads{groups * NN_CONV_GROUP}, pc,
+                 {xb, wb, bb, yb});
   };
   // An invocation makes about ci_count * (1 + k + k^2) loop iterations (the z-taps unroll); lavapipe
   // stops one after 65,535, so input channels go in windows of at most kMaxChannelsPerDispatch.

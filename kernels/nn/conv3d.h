@@ -55,8 +55,8 @@ class Conv3d {
 
  private:
   gpu::Context& ctx_;
-  gpu::Program& program_;
-  gpu::Program& program_f16_;
+  // [kernel 3, kernel 1][fp32, fp16 weights]: the kernel size is a specialization constant.
+  gpu::Program* programs_[2][2];
   uint64_t max_binding_bytes_ = 0;
 };
 

@@ -4,6 +4,10 @@
 #include "common/dispatch.glsl"
 
 layout(local_size_x = NN_CONV_GROUP) in;
+// The kernel size as a specialization constant (1 or 3; the host makes one
+// pipeline each): with it known, the dx/dy loops unroll and lavapipe runs the
+// accumulation without loop masks (17 against 12-13 GFLOP/s with p.kernel).
+layout(constant_id = 0) const int NN_K = 3;
 layout(push_constant) uniform Push { Conv3dParams p; };
 layout(std430, binding = 0) readonly buffer In { float x_in[]; };
 #ifdef NN_CONV_F16_WEIGHTS
@@ -59,8 +63,8 @@ void main() {
   const int z0 = int(t % runs) * NN_CONV_ZRUN;
   const int yy = int((t / runs) % p.size_y);
   const int xx = int(t / (runs * p.size_y));
-  const int K = int(p.kernel), H = K / 2;
-  const uint taps = p.kernel * p.kernel * p.kernel;
+  const int K = NN_K, H = K / 2;
+  const uint taps = uint(K * K * K);
 
   for (int v = 0; v < NN_CONV_ZRUN; ++v) {
     acc_lo[v] = vec4(0.0);
@@ -83,8 +87,7 @@ void main() {
         const bool row_valid = qx >= 0 && qx < X && qy >= 0 && qy < Y;
         const uint x_row = x_base + uint(clamp(qx, 0, X - 1) * Y + clamp(qy, 0, Y - 1)) * uint(Z);
         const uint w_row = (ci * taps + uint((dx * K + dy) * K)) * row_len + co_vec;
-        if (K == 3) row_taps(3, x_row, row_valid, z0, Z, w_row);
-        else row_taps(1, x_row, row_valid, z0, Z, w_row);
+        row_taps(NN_K, x_row, row_valid, z0, Z, w_row);
       }
     }
   }

@@ -34,7 +34,7 @@ struct Conv3dParams {
   uint size_x;
   uint size_y;
   uint size_z;
-  uint kernel;        // 1 or 3
+  uint kernel;        // 1 or 3 (the pipeline is specialised on it: NN_K)
   uint voxel_tiles;   // ceil(X * Y * ceil(Z / NN_CONV_ZRUN) / NN_CONV_GROUP)
   uint has_bias;
   uint accumulate;
