@@ -61,7 +61,11 @@ std::map<std::string, std::string> resolve_weights(const SafetensorsFile& file, 
                                                          t.name.find('.') != std::string::npos
                               : mode == Mode::Live ? t.name.rfind(live, 0) == 0
                                                    : t.name.rfind(ema, 0) == 0;
-    if (in_namespace && !wanted.count(t.name) && t.name.rfind("vae.", 0) != 0)
+    const std::string inner = mode == Mode::Bare ? t.name : t.name.substr(mode == Mode::Live ? live.size() : ema.size());
+    bool ignored = false;
+    for (const std::string& p : o.ignore_prefixes) ignored = ignored || inner.rfind(mode == Mode::Ema ? without_dots(p) : p, 0) == 0;
+    const bool other_model = o.model_prefix != "vae" && t.name.rfind("vae.", 0) == 0;  // the VAE beside the UNet
+    if (in_namespace && !ignored && !other_model && !wanted.count(t.name))
       throw scene::InputError(file.path(), "tensor '" + scene::printable(t.name) + "'",
                               "unexpected: the model has no such parameter");
   }

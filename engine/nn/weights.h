@@ -24,6 +24,9 @@ struct WeightOptions {
   bool ema = false;
   bool check_finite = false;
   std::string model_prefix = "unet";  // checkpoint prefix of this model's tensors
+  // Tensors whose name (inside the chosen namespace) starts with one of these belong to a part of the
+  // model not being loaded (the VAE's encoder when decoding): neither required nor unexpected.
+  std::vector<std::string> ignore_prefixes;
 };
 
 // Which file name holds each parameter (parameter name -> file tensor name);
