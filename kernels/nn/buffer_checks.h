@@ -41,11 +41,24 @@ inline ElementWindow element_window(const gpu::Context& ctx, const gpu::Buffer& 
   return {buf.binding(base, byte - base + count * 4), static_cast<uint32_t>((byte - base) / 4)};
 }
 
+// The same window as an R32_SFLOAT texel buffer (for kernels that fetch per-lane addresses as texels:
+// a hardware gather on lavapipe instead of a per-lane load loop), from the texel-offset alignment at or
+// below `first`.
+inline ElementWindow texel_window(const gpu::Context& ctx, const gpu::Buffer& buf, uint64_t first, uint64_t count) {
+  const uint64_t align = std::max<uint64_t>(4, ctx.info().min_texel_buffer_offset_alignment);
+  const uint64_t byte = first * 4, base = byte / align * align;
+  return {buf.texel_binding(VK_FORMAT_R32_SFLOAT, base, byte - base + count * 4), static_cast<uint32_t>((byte - base) / 4)};
+}
+
 // Float32 elements one window may hold: the binding limit (`override_bytes`
-// when non-zero, for tests) less one alignment, within 32-bit indices.
+// when non-zero, for tests; and maxTexelBufferElements) less one alignment,
+// within 32-bit indices.
 inline uint64_t window_elements(const gpu::Context& ctx, uint64_t override_bytes = 0) {
-  const uint64_t limit = override_bytes ? override_bytes : ctx.info().max_storage_buffer_range;
-  const uint64_t align = std::max<uint64_t>(4, ctx.info().min_storage_buffer_offset_alignment);
+  uint64_t limit = override_bytes ? override_bytes : ctx.info().max_storage_buffer_range;
+  // Windows may be bound as texel buffers too (texel_window): within maxTexelBufferElements as well.
+  if (ctx.info().max_texel_buffer_elements > 0) limit = std::min(limit, ctx.info().max_texel_buffer_elements * 4);
+  const uint64_t align = std::max<uint64_t>({4, ctx.info().min_storage_buffer_offset_alignment,
+                                             ctx.info().min_texel_buffer_offset_alignment});
   return std::min<uint64_t>(limit > align ? (limit - align) / 4 : 0, UINT32_MAX / 2);
 }
 

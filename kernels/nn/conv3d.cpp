@@ -81,7 +81,9 @@ void Conv3d::record(gpu::CommandList& cmd, const Conv3dShape& s, const gpu::Buff
   // An invocation makes about ci_count * (1 + k + k^2) loop iterations (the z-taps unroll); lavapipe
   // stops one after 65,535, so input channels go in windows of at most kMaxChannelsPerDispatch.
   constexpr uint64_t kMaxChannelsPerDispatch = 4096;
-  if (x_bytes <= limit && y_bytes <= limit && s.in_channels <= kMaxChannelsPerDispatch) {  // one dispatch for everything
+  const uint64_t texel_limit = ctx_.info().max_texel_buffer_elements * 4;
+  if (x_bytes <= std::min(limit, texel_limit) && y_bytes <= limit && s.in_channels <= kMaxChannelsPerDispatch) {
+    // One dispatch for everything.
     pc.co_begin = 0;
     pc.co_count = s.out_channels;
     pc.ci_begin = 0;
@@ -90,7 +92,7 @@ void Conv3d::record(gpu::CommandList& cmd, const Conv3dShape& s, const gpu::Buff
     pc.x_offset = pc.y_offset = 0;
     pc.x_batch_stride = static_cast<uint32_t>(s.in_channels * S);
     pc.y_batch_stride = static_cast<uint32_t>(s.out_channels * S);
-    dispatch(s.batch, x.binding(0, x_bytes), y.binding(0, y_bytes));
+    dispatch(s.batch, x.texel_binding(VK_FORMAT_R32_SFLOAT, 0, x_bytes), y.binding(0, y_bytes));
     return;
   }
   // Windows: one batch element at a time, output channels in whole 8-channel
@@ -103,8 +105,9 @@ void Conv3d::record(gpu::CommandList& cmd, const Conv3dShape& s, const gpu::Buff
   if (ci_window == 0 || co_window == 0)
     throw std::invalid_argument("conv3d: " + std::to_string(NN_CONV_CO_TILE) + " channels of " + std::to_string(S) +
                                 " voxels exceed one storage binding (" + std::to_string(limit) + " bytes)");
-  auto window = [&](const gpu::Buffer& buf, uint64_t first_element, uint64_t elements, uint32_t& offset) {
-    const ElementWindow ew = element_window(ctx_, buf, first_element, elements);
+  auto window = [&](const gpu::Buffer& buf, uint64_t first_element, uint64_t elements, uint32_t& offset, bool texel) {
+    const ElementWindow ew = texel ? texel_window(ctx_, buf, first_element, elements)
+                                   : element_window(ctx_, buf, first_element, elements);
     offset = ew.offset;
     return ew.binding;
   };
@@ -113,14 +116,14 @@ void Conv3d::record(gpu::CommandList& cmd, const Conv3dShape& s, const gpu::Buff
     for (uint64_t co0 = 0; co0 < s.out_channels; co0 += co_window) {
       pc.co_begin = static_cast<uint32_t>(co0);
       pc.co_count = static_cast<uint32_t>(std::min<uint64_t>(co_window, s.out_channels - co0));
-      const gpu::BufferBinding yb = window(y, (uint64_t{b} * s.out_channels + co0) * S, uint64_t{pc.co_count} * S, pc.y_offset);
+      const gpu::BufferBinding yb = window(y, (uint64_t{b} * s.out_channels + co0) * S, uint64_t{pc.co_count} * S, pc.y_offset, false);
       for (uint64_t ci0 = 0; ci0 < s.in_channels; ci0 += ci_window) {
         pc.ci_begin = static_cast<uint32_t>(ci0);
         pc.ci_count = static_cast<uint32_t>(std::min<uint64_t>(ci_window, s.in_channels - ci0));
         pc.accumulate = ci0 > 0 ? 1u : 0u;
         // Later input windows read-modify-write the same y window.
         if (ci0 > 0) cmd.barrier(gpu::deps::kComputeToCompute);
-        const gpu::BufferBinding xb = window(x, (uint64_t{b} * s.in_channels + ci0) * S, uint64_t{pc.ci_count} * S, pc.x_offset);
+        const gpu::BufferBinding xb = window(x, (uint64_t{b} * s.in_channels + ci0) * S, uint64_t{pc.ci_count} * S, pc.x_offset, true);
         dispatch(1, xb, yb);
       }
     }

@@ -3,7 +3,8 @@
 // the convolutions of the diffusion UNet's ResBlocks, input and output heads
 // and 1x1 skips. Weights are packed once on the host (pack_conv3d_weights) into
 // [in_channels * k^3][out_channels padded to 8] so a workgroup reads its 8 output
-// channels of one tap as two vec4s.
+// channels of one tap as two vec4s. The input is bound as an R32_SFLOAT texel
+// buffer (texel_window in buffer_checks.h), the rest as storage buffers.
 //
 // x and y may exceed one storage-buffer binding (lavapipe: 128 MiB; the
 // released model's 64^3 x 192 activations are 192 MiB): record() then splits

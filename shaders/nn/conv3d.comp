@@ -10,7 +10,10 @@
 // so each loaded value feeds up to k x 8 x ZRUN / (ZRUN + k - 1) FMAs; the
 // weights (packed [ci * k^3 + tap][co padded to 8], two vec4 loads per tap) are
 // uniform across the workgroup. Neighbouring invocations hold neighbouring
-// runs, so a SIMD row's / warp's loads cover contiguous memory.
+// runs, so a SIMD row's / warp's loads cover contiguous memory. The input is
+// read as an R32_SFLOAT texel buffer: on lavapipe a texel fetch is one
+// hardware gather, a storage-buffer load at a per-lane address a loop over the
+// lanes (18.4 against 17.3 GFLOP/s at C192 16^3, 13.3 against 10.6 at C384 32^3).
 // Tensors beyond one storage binding run as windows of batch elements, output
 // and input channels (Conv3dParams); later input windows accumulate into y.
 // Host module: kernels/nn/conv3d.{h,cpp}; CPU reference: kernels/nn/layers_cpu.h.

@@ -9,7 +9,7 @@ layout(local_size_x = NN_CONV_GROUP) in;
 // accumulation without loop masks (17 against 12-13 GFLOP/s with p.kernel).
 layout(constant_id = 0) const int NN_K = 3;
 layout(push_constant) uniform Push { Conv3dParams p; };
-layout(std430, binding = 0) readonly buffer In { float x_in[]; };
+layout(binding = 0) uniform samplerBuffer x_tex;  // R32_SFLOAT
 #ifdef NN_CONV_F16_WEIGHTS
 // 8 output channels of one tap as 8 halves (unpackHalf2x16: no 16-bit storage feature needed).
 layout(std430, binding = 1) readonly buffer Weights { uvec4 w_packed[]; };
@@ -28,7 +28,7 @@ void row_taps(const int K, uint x_row, bool row_valid, int z0, int Z, uint w_row
   float row[NN_CONV_ZRUN + 2];
   for (int j = 0; j < NN_CONV_ZRUN + K - 1; ++j) {
     const int z = z0 + j - H;
-    row[j] = row_valid && z >= 0 && z < Z ? x_in[x_row + uint(z)] : 0.0;
+    row[j] = row_valid && z >= 0 && z < Z ? texelFetch(x_tex, int(x_row + uint(z))).x : 0.0;
   }
   for (int kz = 0; kz < K; ++kz) {
 #ifdef NN_CONV_F16_WEIGHTS
