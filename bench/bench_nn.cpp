@@ -18,6 +18,7 @@
 #include "nn/layers_cpu.h"
 #include "nn/attention.h"
 #include "world/npy.h"
+#include "torch_side.h"
 
 #include <nlohmann/json.hpp>
 #include <sys/wait.h>
@@ -40,6 +41,9 @@
 #include <vector>
 
 using namespace icube;
+using bench::TorchSide;
+using bench::python_with_torch;
+using bench::run_torch_unet;
 using Clock = std::chrono::steady_clock;
 
 namespace {
@@ -54,84 +58,6 @@ Stats stats(std::vector<double> v) {
   return {v.front(), v[v.size() / 2]};
 }
 
-void save(const std::string& path, const nn::CpuTensor& t) {
-  std::vector<uint64_t> shape(t.shape.begin(), t.shape.end());
-  world::write_npy(path, world::NpyArray::make<float>(shape, t.data));
-}
-
-// Runs a command; its exit status and stdout + stderr.
-std::pair<int, std::string> capture(const std::string& cmd) {
-  FILE* p = popen((cmd + " 2>&1").c_str(), "r");
-  std::string out;
-  char buf[512];
-  while (p && std::fgets(buf, sizeof buf, p)) out += buf;
-  return {p ? pclose(p) : -1, out};
-}
-
-// The PyTorch side (bench/torch_nn.py) run on the same tensors: its times and its output.
-struct TorchSide {
-  std::string python;  // empty: not run
-  int threads = 1, runs = 5, warmup = 1;
-  std::filesystem::path dir;
-
-  struct Result {
-    bool ok = false;
-    double min_ms = 0, median_ms = 0;
-    std::vector<float> y;
-    std::string error;
-  };
-
-  Result run(const nlohmann::json& c, const std::map<std::string, const nn::CpuTensor*>& inputs) const {
-    Result r;
-    std::filesystem::remove_all(dir);
-    std::filesystem::create_directories(dir);
-    std::ofstream(dir / "case.json") << c.dump();
-    for (const auto& [name, t] : inputs) save((dir / (name + ".npy")).string(), *t);
-    const std::string cmd = python + " " + ICUBE_SOURCE_DIR + "/bench/torch_nn.py --threads " + std::to_string(threads) +
-                            " --runs " + std::to_string(runs) + " --warmup " + std::to_string(warmup) + " " +
-                            dir.string();
-    const auto [status, out] = capture(cmd);
-    if (status != 0) {
-      r.error = out;
-      return r;
-    }
-    const nlohmann::json j = nlohmann::json::parse(out.substr(out.rfind('{')));
-    r.min_ms = j.at("min_ms").get<double>();
-    r.median_ms = j.at("median_ms").get<double>();
-    r.y = world::read_npy((dir / "y.npy").string()).values<float>();
-    r.ok = true;
-    return r;
-  }
-};
-
-// bench/torch_unet.py on files: its times and output, or an error.
-TorchSide::Result run_torch_unet(const TorchSide& side, const std::string& config, const std::string& weights,
-                                 const std::string& x, const std::string& t) {
-  TorchSide::Result r;
-  const std::string y = (side.dir / "unet_y.npy").string();
-  const std::string cmd = side.python + " " + ICUBE_SOURCE_DIR + "/bench/torch_unet.py --config '" + config +
-                          "' --weights '" + weights + "' --input '" + x + "' --timestep '" + t + "' --threads " +
-                          std::to_string(side.threads) + " --runs " + std::to_string(side.runs) + " --warmup " +
-                          std::to_string(side.warmup) + " -o '" + y + "'";
-  const auto [status, out] = capture(cmd);
-  if (status != 0 || out.find('{') == std::string::npos) {
-    r.error = out;
-    return r;
-  }
-  const nlohmann::json j = nlohmann::json::parse(out.substr(out.rfind('{')));
-  r.min_ms = j.at("min_ms").get<double>();
-  r.median_ms = j.at("median_ms").get<double>();
-  r.y = world::read_npy(y).values<float>();
-  r.ok = true;
-  return r;
-}
-
-// Debian's python3 first (a pyenv shim on PATH may lack torch).
-std::string python_with_torch() {
-  for (const char* py : {"/usr/bin/python3", "python3"})
-    if (std::system((std::string(py) + " -c 'import torch, numpy' >/dev/null 2>&1").c_str()) == 0) return py;
-  return {};
-}
 
 double max_rel(const std::vector<float>& got, const std::vector<float>& want) {
   double mx = 0, ref = 0;
@@ -492,7 +418,7 @@ int main(int argc, char** argv) {
                         tpath = (torch_side.dir / "unet_t.npy").string();
       nn::write_safetensors(wpath, tw);
       tw.clear();
-      save(xpath, x);
+      bench::save_npy(xpath, x);
       world::write_npy(tpath, world::NpyArray::make<int64_t>({1}, std::vector<int64_t>{500}));
       const TorchSide::Result tr = run_torch_unet(torch_side, unet_config, wpath, xpath, tpath);
       std::filesystem::remove(wpath);

@@ -142,8 +142,54 @@ struct LayerNormParams {
   float eps;
 };
 
+// Sparse voxel tensors on the GPU: coordinates int32 [N][3], features
+// channel-major [C][N] (so a sparse tensor is a dense [1, C, N, 1, 1] one for
+// GroupNorm, SiLU, add and 1x1 convolutions, and its channel windows are
+// contiguous). sparse_hash_insert: open-addressing table of `table_size`
+// (a power of two) uint slots, slot = row + 1 (0 empty), linear probing from
+// icube_ijk_hash(ijk) & (table_size - 1); keys are compared on the full ijk.
+// sparse_kernel_map: one thread per (row, tap): kmap[row * 27 + tap] = the
+// row at ijk + (a, b, c) - 1, tap = (a * 3 + b) * 3 + c, or -1.
+#define NN_SPARSE_GROUP 64
+#define NN_SPARSE_TAPS 27
+
+struct SparseHashParams {
+  uint rows;
+  uint table_size;
+  uint pad0;
+  uint pad1;
+};
+
+// sparse_conv: submanifold 3^3 convolution as an output-stationary gather
+// over the kernel map. Each invocation holds NN_SPARSE_ROWS consecutive rows x
+// NN_CONV_CO_TILE output channels; weights packed as conv3d's
+// ([ci * 27 + tap][co padded to 8], grid-order taps). Windows as conv3d:
+// output channels [co_begin, co_begin + co_count), input channels
+// [ci_begin, ci_begin + ci_count) bound at x_offset / y_offset; accumulate = 1
+// adds to y. Workgroup g: row tile g % row_tiles, channel block g / row_tiles.
+#define NN_SPARSE_ROWS 16
+
+struct SparseConvParams {
+  uint rows;
+  uint co_begin;
+  uint co_count;
+  uint ci_begin;
+  uint ci_count;
+  uint co_blocks;
+  uint co_vec4s;   // packed weight row length in vec4s
+  uint row_tiles;  // ceil(rows / (NN_SPARSE_ROWS * NN_SPARSE_GROUP))
+  uint has_bias;
+  uint accumulate;
+  uint x_offset;
+  uint y_offset;
+};
+
 ICUBE_SHADER_NAMESPACE_END
 
+ICUBE_CHECK_SIZE(SparseHashParams, 16);
+ICUBE_CHECK_SIZE(SparseConvParams, 48);
+ICUBE_CHECK_LAYOUT(SparseConvParams, row_tiles, 28);
+ICUBE_CHECK_LAYOUT(SparseConvParams, y_offset, 44);
 ICUBE_CHECK_SIZE(Conv3dParams, 80);
 ICUBE_CHECK_LAYOUT(Conv3dParams, co_vec4s, 28);
 ICUBE_CHECK_LAYOUT(Conv3dParams, kernel, 44);

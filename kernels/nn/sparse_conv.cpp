@@ -1,0 +1,107 @@
+// Sparse kernel maps and submanifold convolution; see sparse_conv.h.
+#include "nn/sparse_conv.h"
+
+#include "gpu/context.h"
+#include "nn/buffer_checks.h"
+#include "shared/nn_params.h"
+
+#include <algorithm>
+#include <stdexcept>
+#include <string>
+
+namespace icube::kernels::nn {
+
+SparseKernelMap::SparseKernelMap(gpu::Context& ctx)
+    : ctx_(ctx), insert_(ctx.program("nn/sparse_hash_insert")), map_(ctx.program("nn/sparse_kernel_map")) {}
+
+uint32_t SparseKernelMap::table_size(uint64_t rows) {
+  uint64_t n = 64;
+  while (n < 2 * rows) n *= 2;
+  if (n > (uint64_t{1} << 31)) throw std::invalid_argument("sparse kernel map: " + std::to_string(rows) + " rows are too many");
+  return static_cast<uint32_t>(n);
+}
+
+void SparseKernelMap::record_clear(gpu::CommandList& cmd, const gpu::Buffer& table, uint32_t table_size) {
+  require_buffer("sparse kernel map", "hash table", uint64_t{table_size} * 4, table);
+  cmd.fill_buffer(table.binding(0, uint64_t{table_size} * 4), 0u);
+}
+
+void SparseKernelMap::record_insert(gpu::CommandList& cmd, uint32_t rows, const gpu::Buffer& ijk, const gpu::Buffer& table,
+                                    uint32_t table_size) {
+  if (rows == 0) return;
+  if (table_size < 2 * uint64_t{rows} || (table_size & (table_size - 1)) != 0)
+    throw std::invalid_argument("sparse kernel map: table of " + std::to_string(table_size) + " slots for " +
+                                std::to_string(rows) + " rows (needs a power of two >= 2 x rows)");
+  require_buffer("sparse kernel map", "coordinates", uint64_t{rows} * 12, ijk);
+  require_buffer("sparse kernel map", "hash table", uint64_t{table_size} * 4, table);
+  require_one_binding(ctx_, "sparse kernel map", "coordinates", uint64_t{rows} * 3);
+  require_one_binding(ctx_, "sparse kernel map", "hash table", table_size);
+  const shader::SparseHashParams pc{rows, table_size, 0, 0};
+  cmd.dispatch(insert_, gpu::Threads{rows}, pc, {ijk.binding(0, uint64_t{rows} * 12), table.binding(0, uint64_t{table_size} * 4)});
+}
+
+void SparseKernelMap::record_map(gpu::CommandList& cmd, uint32_t rows, const gpu::Buffer& ijk, const gpu::Buffer& table,
+                                 uint32_t table_size, const gpu::Buffer& kmap) {
+  if (rows == 0) return;
+  const uint64_t entries = uint64_t{rows} * NN_SPARSE_TAPS;
+  require_buffer("sparse kernel map", "kernel map", entries * 4, kmap);
+  require_one_binding(ctx_, "sparse kernel map", "kernel map", entries);
+  const shader::SparseHashParams pc{rows, table_size, 0, 0};
+  cmd.dispatch(map_, gpu::Threads{entries}, pc,
+               {ijk.binding(0, uint64_t{rows} * 12), table.binding(0, uint64_t{table_size} * 4), kmap.binding(0, entries * 4)});
+}
+
+SparseConv3d::SparseConv3d(gpu::Context& ctx) : ctx_(ctx), program_(ctx.program("nn/sparse_conv")) {}
+
+void SparseConv3d::record(gpu::CommandList& cmd, const SparseConvShape& s, const gpu::Buffer& x, const gpu::Buffer& kmap,
+                          const gpu::Buffer& w, const gpu::Buffer* bias, const gpu::Buffer& y) {
+  if (s.rows == 0 || s.in_channels == 0 || s.out_channels == 0) return;
+  const uint64_t N = s.rows;
+  const uint64_t co_vec4s = gpu::div_up(s.out_channels, NN_CONV_CO_TILE) * (NN_CONV_CO_TILE / 4);
+  const uint64_t w_bytes = uint64_t{s.in_channels} * NN_SPARSE_TAPS * co_vec4s * 16;
+  require_buffer("sparse conv", "input", uint64_t{s.in_channels} * N * 4, x);
+  require_buffer("sparse conv", "output", uint64_t{s.out_channels} * N * 4, y);
+  require_buffer("sparse conv", "kernel map", N * NN_SPARSE_TAPS * 4, kmap);
+  require_buffer("sparse conv", "packed weights", w_bytes, w);
+  if (bias) require_buffer("sparse conv", "bias", uint64_t{s.out_channels} * 4, *bias);
+  require_one_binding(ctx_, "sparse conv", "kernel map", N * NN_SPARSE_TAPS);
+  if (w_bytes > ctx_.info().max_storage_buffer_range)
+    throw std::invalid_argument("sparse conv: packed weights of " + std::to_string(w_bytes) + " bytes exceed one storage binding");
+
+  shader::SparseConvParams pc{};
+  pc.rows = s.rows;
+  pc.co_vec4s = static_cast<uint32_t>(co_vec4s);
+  pc.row_tiles = static_cast<uint32_t>(gpu::div_up(N, uint64_t{NN_SPARSE_ROWS} * NN_SPARSE_GROUP));
+  pc.has_bias = bias ? 1u : 0u;
+  const gpu::BufferBinding kb = kmap.binding(0, N * NN_SPARSE_TAPS * 4);
+  const gpu::BufferBinding wb = w.binding(0, w_bytes);
+  const gpu::BufferBinding bb = bias ? bias->binding(0, uint64_t{s.out_channels} * 4) : gpu::null_binding();
+  // Input channels per dispatch: lavapipe stops an invocation after 65,535 loop iterations; this kernel
+  // makes about 27 * (ci_count + 1).
+  constexpr uint64_t kMaxChannelsPerDispatch = 2048;
+  const uint64_t usable = window_elements(ctx_, max_binding_bytes_);
+  const uint64_t ci_window = std::min(usable / N, kMaxChannelsPerDispatch);
+  const uint64_t co_window = usable / N / NN_CONV_CO_TILE * NN_CONV_CO_TILE;
+  if (ci_window == 0 || co_window == 0)
+    throw std::invalid_argument("sparse conv: " + std::to_string(NN_CONV_CO_TILE) + " channels of " + std::to_string(N) +
+                                " rows exceed one storage binding");
+  for (uint64_t co0 = 0; co0 < s.out_channels; co0 += co_window) {
+    pc.co_begin = static_cast<uint32_t>(co0);
+    pc.co_count = static_cast<uint32_t>(std::min<uint64_t>(co_window, s.out_channels - co0));
+    pc.co_blocks = static_cast<uint32_t>(gpu::div_up(pc.co_count, NN_CONV_CO_TILE));
+    const ElementWindow yw = element_window(ctx_, y, co0 * N, uint64_t{pc.co_count} * N);
+    pc.y_offset = yw.offset;
+    for (uint64_t ci0 = 0; ci0 < s.in_channels; ci0 += ci_window) {
+      pc.ci_begin = static_cast<uint32_t>(ci0);
+      pc.ci_count = static_cast<uint32_t>(std::min<uint64_t>(ci_window, s.in_channels - ci0));
+      pc.accumulate = ci0 > 0 ? 1u : 0u;
+      if (ci0 > 0) cmd.barrier(gpu::deps::kComputeToCompute);  // later input windows read-modify-write y
+      const ElementWindow xw = texel_window(ctx_, x, ci0 * N, uint64_t{pc.ci_count} * N);
+      pc.x_offset = xw.offset;
+      const uint64_t groups = uint64_t{pc.row_tiles} * pc.co_blocks;
+      cmd.dispatch(program_, gpu::Threads{groups * NN_SPARSE_GROUP}, pc, {xw.binding, kb, wb, bb, yw.binding});
+    }
+  }
+}
+
+}  // namespace icube::kernels::nn

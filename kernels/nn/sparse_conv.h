@@ -1,0 +1,65 @@
+// Sparse voxel convolution on the GPU: the neighbour ("kernel") map of a
+// submanifold 3^3 convolution, built from a hash of the grid's coordinates
+// (shaders/nn/sparse_hash_insert.comp, nn/sparse_kernel_map.comp), and the
+// convolution itself as an output-stationary gather over it
+// (nn/sparse_conv.comp). GPU sparse tensors: coordinates int32 [N][3] in brick
+// order, features channel-major [C][N] (see shaders/shared/nn_params.h), so
+// GroupNorm, SiLU, add and 1x1 convolutions are the dense kernels on a
+// [1, C, N, 1, 1] view (a 1x1 sparse convolution is Conv3d with kernel 1 over
+// 1 x 1 x N voxels).
+//
+// A kernel map depends only on the grid: build it once per grid and reuse it
+// for every 3^3 convolution there (the VAE builds one per level). It must fit
+// one storage binding (N * 27 * 4 bytes: 1.24 M rows on lavapipe's 128 MiB);
+// features may exceed one binding (channel windows, as Conv3d).
+// CPU references: nn::cpu::kernel_map / nn::cpu::conv3d (kernels/nn/sparse_cpu.h).
+// Tests: tests/nn/test_sparse_conv_gpu.cpp.
+#pragma once
+
+#include "gpu/buffer.h"
+#include "gpu/commands.h"
+
+#include <cstdint>
+
+namespace icube::kernels::nn {
+
+class SparseKernelMap {
+ public:
+  explicit SparseKernelMap(gpu::Context& ctx);
+  // Hash table slots for `rows` coordinates: a power of two >= 2 * rows (>= 64).
+  static uint32_t table_size(uint64_t rows);
+  // The three steps, in order, each to be separated by a compute-to-compute barrier by the caller:
+  // clear the table (zeros), insert every row, then write kmap [rows][27] (int32, -1 = missing).
+  void record_clear(gpu::CommandList& cmd, const gpu::Buffer& table, uint32_t table_size);
+  void record_insert(gpu::CommandList& cmd, uint32_t rows, const gpu::Buffer& ijk, const gpu::Buffer& table,
+                     uint32_t table_size);
+  void record_map(gpu::CommandList& cmd, uint32_t rows, const gpu::Buffer& ijk, const gpu::Buffer& table,
+                  uint32_t table_size, const gpu::Buffer& kmap);
+
+ private:
+  gpu::Context& ctx_;
+  gpu::Program& insert_;
+  gpu::Program& map_;
+};
+
+struct SparseConvShape {
+  uint32_t rows = 0, in_channels = 1, out_channels = 1;
+  uint64_t flops(uint64_t pairs) const { return 2ull * in_channels * out_channels * pairs; }  // pairs: kmap entries >= 0
+};
+
+class SparseConv3d {
+ public:
+  explicit SparseConv3d(gpu::Context& ctx);
+  // y [Co][N] = conv(x [Ci][N]) + bias over kmap [N][27]; packed_weights from pack_conv3d_weights (kernel 3) of
+  // the grid-order weight; `bias` may be nullptr. The only barriers inside are between input-channel windows.
+  void record(gpu::CommandList& cmd, const SparseConvShape& s, const gpu::Buffer& x, const gpu::Buffer& kmap,
+              const gpu::Buffer& packed_weights, const gpu::Buffer* bias, const gpu::Buffer& y);
+  void set_max_binding_bytes(uint64_t bytes) { max_binding_bytes_ = bytes; }
+
+ private:
+  gpu::Context& ctx_;
+  gpu::Program& program_;
+  uint64_t max_binding_bytes_ = 0;
+};
+
+}  // namespace icube::kernels::nn

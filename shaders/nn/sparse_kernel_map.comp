@@ -1,0 +1,39 @@
+#version 460
+#extension GL_GOOGLE_include_directive : require
+// sparse_kernel_map: the neighbour map of a submanifold 3^3 convolution, one
+// thread per (row, tap): kmap[row * 27 + tap] = the row at ijk[row] + (a, b,
+// c) - 1 with tap = (a * 3 + b) * 3 + c (grid order: a along i), or -1; by
+// probing the table of nn/sparse_hash_insert.comp and comparing full ijk.
+// Host module: kernels/nn/sparse_conv.{h,cpp} (SparseKernelMap). CPU reference:
+// nn::cpu::kernel_map. Tests: tests/nn/test_sparse_conv_gpu.cpp.
+#include "shared/nn_params.h"
+#include "common/dispatch.glsl"
+#include "sparse_hash.glsl"
+
+layout(local_size_x = NN_SPARSE_GROUP) in;
+layout(push_constant) uniform Push { SparseHashParams p; };
+layout(std430, binding = 0) readonly buffer Coords { int ijk[]; };
+layout(std430, binding = 1) readonly buffer Table { uint table[]; };
+layout(std430, binding = 2) writeonly buffer Map { int kmap[]; };
+
+void main() {
+  const uint id = ICUBE_THREAD_LINEAR();
+  if (id >= p.rows * NN_SPARSE_TAPS) return;
+  const uint r = id / NN_SPARSE_TAPS, tap = id % NN_SPARSE_TAPS;
+  const ivec3 q = ivec3(ijk[3u * r], ijk[3u * r + 1u], ijk[3u * r + 2u]) +
+                  ivec3(int(tap / 9u), int((tap / 3u) % 3u), int(tap % 3u)) - ivec3(1);
+  const uint mask = p.table_size - 1u;
+  uint h = icube_ijk_hash(q) & mask;
+  int found = -1;
+  for (uint probe = 0u; probe < p.table_size; ++probe) {
+    const uint s = table[h];
+    if (s == 0u) break;
+    const uint row = s - 1u;
+    if (ijk[3u * row] == q.x && ijk[3u * row + 1u] == q.y && ijk[3u * row + 2u] == q.z) {
+      found = int(row);
+      break;
+    }
+    h = (h + 1u) & mask;
+  }
+  kmap[id] = found;
+}

@@ -1,0 +1,160 @@
+// Sparse kernel maps and submanifold convolution on the GPU
+// (kernels/nn/sparse_conv.h; shaders nn/sparse_hash_insert, nn/sparse_kernel_map,
+// nn/sparse_conv) against the CPU references (nn::cpu::kernel_map exactly,
+// nn::cpu::conv3d within float32 accumulation's bound) on random grids: fully
+// dense boxes, a single voxel, voxels across brick boundaries, negative and
+// far-from-origin (100 km at 0.2 m) coordinates, channel counts that are not
+// multiples of the 8-channel tile, windows of channels, extreme values.
+// Runs under the validation layer.
+#include <doctest/doctest.h>
+
+#include "gpu_test_context.h"
+#include "nn/conv3d.h"
+#include "nn/sparse_conv.h"
+#include "nn/sparse_cpu.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <random>
+#include <set>
+
+using namespace icube;
+using nn::Ijk;
+
+namespace {
+
+nn::SparseGrid random_grid(uint32_t seed, const Ijk& lo, const Ijk& dims, size_t count) {
+  std::mt19937 rng(seed);
+  std::set<Ijk> s;
+  std::uniform_int_distribution<int32_t> di(0, dims[0] - 1), dj(0, dims[1] - 1), dk(0, dims[2] - 1);
+  const size_t cap = static_cast<size_t>(int64_t{dims[0]} * dims[1] * dims[2]);
+  while (s.size() < std::min(count, cap)) s.insert({lo[0] + di(rng), lo[1] + dj(rng), lo[2] + dk(rng)});
+  nn::SparseGrid g;
+  g.ijk.assign(s.begin(), s.end());
+  nn::sort_brick_order(g);
+  return g;
+}
+
+std::vector<int32_t> flat_ijk(const nn::SparseGrid& g) {
+  std::vector<int32_t> v;
+  for (const Ijk& c : g.ijk) v.insert(v.end(), c.begin(), c.end());
+  return v;
+}
+
+// The GPU kernel map of `g`.
+std::vector<int32_t> gpu_kernel_map(const nn::SparseGrid& g) {
+  gpu::Context& ctx = test::gpu_context();
+  const uint32_t rows = static_cast<uint32_t>(g.size());
+  const uint32_t ts = kernels::nn::SparseKernelMap::table_size(rows);
+  gpu::Buffer ijk = gpu::upload_vector(ctx, flat_ijk(g).empty() ? std::vector<int32_t>{0, 0, 0} : flat_ijk(g), "sparse-ijk");
+  gpu::Buffer table(ctx, uint64_t{ts} * 4, gpu::MemoryUsage::DeviceLocal, "sparse-table");
+  gpu::Buffer kmap(ctx, std::max<uint64_t>(4, uint64_t{rows} * 27 * 4), gpu::MemoryUsage::DeviceLocal, "sparse-kmap");
+  kernels::nn::SparseKernelMap km(ctx);
+  ctx.submit_and_wait([&](gpu::CommandList& cmd) {
+    km.record_clear(cmd, table, ts);
+    cmd.barrier(gpu::deps::kTransferToCompute);
+    km.record_insert(cmd, rows, ijk, table, ts);
+    cmd.barrier(gpu::deps::kComputeToCompute);
+    km.record_map(cmd, rows, ijk, table, ts, kmap);
+  });
+  return rows ? gpu::download_vector<int32_t>(ctx, kmap, uint64_t{rows} * 27) : std::vector<int32_t>{};
+}
+
+// GPU conv of x (CPU layout [N, C]) vs the CPU reference; bound 1e-6 + n * 2^-23 * sum |w x|.
+void check_conv(const nn::SparseGrid& g, int64_t ci, int64_t co, bool with_bias, float scale, uint32_t seed,
+                uint64_t max_binding_bytes = 0) {
+  CAPTURE(g.size());
+  CAPTURE(ci);
+  CAPTURE(co);
+  gpu::Context& ctx = test::gpu_context();
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+  nn::SparseTensor x{g, ci, std::vector<float>(static_cast<size_t>(g.size() * ci))};
+  for (float& v : x.data) v = scale * u(rng);
+  nn::CpuTensor w({co, ci, 3, 3, 3}), b({co});
+  for (float& v : w.data) v = 0.5f * u(rng);
+  for (float& v : b.data) v = u(rng);
+  const nn::SparseTensor want = nn::cpu::conv3d(x, w, with_bias ? &b : nullptr);
+  nn::SparseTensor ax = x;
+  for (float& v : ax.data) v = std::abs(v);
+  nn::CpuTensor aw = w;
+  for (float& v : aw.data) v = std::abs(v);
+  const nn::SparseTensor bound = nn::cpu::conv3d(ax, aw, nullptr);
+
+  const uint32_t rows = static_cast<uint32_t>(g.size());
+  std::vector<float> x_cm(x.data.size());  // channel-major [C][N]
+  for (int64_t r = 0; r < x.rows(); ++r)
+    for (int64_t c = 0; c < ci; ++c) x_cm[static_cast<size_t>(c * rows + r)] = x.row(r)[c];
+  const std::vector<int32_t> kmap_host = nn::cpu::kernel_map(g, 3);
+  gpu::Buffer xb = gpu::upload_vector(ctx, x_cm, "sparse-x");
+  gpu::Buffer kb = gpu::upload_vector(ctx, kmap_host, "sparse-kmap");
+  gpu::Buffer wb = gpu::upload_vector(ctx, kernels::nn::pack_conv3d_weights(w.data, static_cast<uint32_t>(co), static_cast<uint32_t>(ci), 3),
+                                      "sparse-w");
+  gpu::Buffer bb = gpu::upload_vector(ctx, b.data, "sparse-b");
+  gpu::Buffer yb(ctx, uint64_t{rows} * static_cast<uint64_t>(co) * 4, gpu::MemoryUsage::DeviceLocal, "sparse-y");
+  kernels::nn::SparseConv3d conv(ctx);
+  conv.set_max_binding_bytes(max_binding_bytes);
+  const kernels::nn::SparseConvShape s{rows, static_cast<uint32_t>(ci), static_cast<uint32_t>(co)};
+  ctx.submit_and_wait([&](gpu::CommandList& cmd) { conv.record(cmd, s, xb, kb, wb, with_bias ? &bb : nullptr, yb); });
+  const std::vector<float> got = gpu::download_vector<float>(ctx, yb, uint64_t{rows} * static_cast<uint64_t>(co));
+  const double n = static_cast<double>(ci) * 27.0;
+  size_t bad = 0;
+  for (int64_t r = 0; r < want.rows(); ++r)
+    for (int64_t c = 0; c < co; ++c) {
+      const double ref = want.row(r)[c], gv = got[static_cast<size_t>(c * rows + r)];
+      const double tol = 1e-6 + n * std::ldexp(1.0, -23) * static_cast<double>(bound.row(r)[c]);
+      if (!(std::abs(gv - ref) <= tol) && ++bad <= 5)
+        std::printf("  sparse conv mismatch row %lld channel %lld: got %.9g want %.9g (tol %.3g)\n", static_cast<long long>(r),
+                    static_cast<long long>(c), gv, ref, tol);
+    }
+  CHECK(bad == 0);
+}
+
+}  // namespace
+
+TEST_CASE("sparse conv gpu: the hashed kernel map equals the CPU reference exactly") {
+  const std::vector<nn::SparseGrid> grids = {
+      random_grid(1, {-20, -9, -13}, {41, 23, 29}, 5000),                   // random occupancy, negative coordinates
+      nn::dense_box_grid({-3, 5, -2}, {9, 7, 5}, {1, 1, 1}, {0, 0, 0}),      // fully dense: 27 neighbours inside
+      random_grid(2, {7, 7, 7}, {1, 1, 1}, 1),                               // one voxel: only its centre
+      random_grid(3, {6, 14, -10}, {4, 4, 4}, 40),                           // across brick boundaries
+      random_grid(4, {500'000, -500'003, 499'990}, {16, 9, 7}, 600),         // 100 km from the origin at 0.2 m
+      random_grid(5, {-2'000'000'000, 2'000'000'000, -5}, {5, 5, 5}, 60),    // int32 extremes (no wrap needed)
+  };
+  for (const nn::SparseGrid& g : grids) {
+    CAPTURE(g.size());
+    const std::vector<int32_t> got = gpu_kernel_map(g), want = nn::cpu::kernel_map(g, 3);
+    REQUIRE(got.size() == want.size());
+    size_t bad = 0;
+    for (size_t i = 0; i < got.size(); ++i)
+      if (got[i] != want[i] && ++bad <= 5)
+        std::printf("  kernel map mismatch at row %zu tap %zu: got %d want %d\n", i / 27, i % 27, got[i], want[i]);
+    CHECK(bad == 0);
+  }
+  CHECK(gpu_kernel_map(nn::SparseGrid{}).empty());
+  CHECK(kernels::nn::SparseKernelMap::table_size(0) == 64);
+  CHECK(kernels::nn::SparseKernelMap::table_size(33) == 128);
+  CHECK(kernels::nn::SparseKernelMap::table_size(1'000'000) == (1u << 21));
+}
+
+TEST_CASE("sparse conv gpu: submanifold 3x3x3 against the CPU reference") {
+  check_conv(random_grid(11, {-9, -5, -7}, {19, 13, 11}, 900), 13, 19, true, 1.0f, 21);   // odd channel counts
+  check_conv(nn::dense_box_grid({0, 0, 0}, {6, 5, 7}, {1, 1, 1}, {0, 0, 0}), 8, 16, false, 1.0f, 22);
+  check_conv(random_grid(12, {3, 3, 3}, {1, 1, 1}, 1), 4, 3, true, 1.0f, 23);                // a single voxel
+  check_conv(random_grid(13, {500'000, -500'003, 499'990}, {9, 8, 7}, 200), 6, 5, true, 1.0f, 24);
+  check_conv(random_grid(14, {-4, -4, -4}, {8, 8, 8}, 300), 5, 9, true, 1e4f, 25);          // large activations
+  check_conv(random_grid(15, {-30, -30, -10}, {60, 60, 20}, 2000), 32, 64, true, 1.0f, 26); // the VAE's widths
+}
+
+TEST_CASE("sparse conv gpu: channel windows when the features exceed one binding") {
+  // 2 KiB bindings: 40 rows x 12 channels run as windows of 8 output and 12 input channels.
+  check_conv(random_grid(31, {-5, -5, -5}, {10, 10, 10}, 40), 30, 20, true, 1.0f, 32, 2048);
+  const nn::SparseGrid g = random_grid(33, {0, 0, 0}, {4, 4, 4}, 10);
+  gpu::Context& ctx = test::gpu_context();
+  kernels::nn::SparseConv3d conv(ctx);
+  gpu::Buffer small(ctx, 64, gpu::MemoryUsage::DeviceLocal, "small");
+  const kernels::nn::SparseConvShape s{10, 4, 4};
+  CHECK_THROWS_WITH_AS(ctx.submit_and_wait([&](gpu::CommandList& cmd) { conv.record(cmd, s, small, small, small, nullptr, small); }),
+                       doctest::Contains("sparse conv: input buffer holds 64 bytes"), std::invalid_argument);
+}
