@@ -184,8 +184,34 @@ struct SparseConvParams {
   uint y_offset;
 };
 
+// Sparse grid construction (kernels/nn/sparse_grid.h):
+// sparse_keep      keep[r] = logits[r] > logits[rows + r] (structure logits
+//                  channel-major [2][rows]: 0 = exists), as uint 0/1
+// sparse_children  one thread per (parent, child o): a kept parent r (incl =
+//                  inclusive scan of keep) writes child (incl[r] - 1) * F + o,
+//                  F = fx * fy * fz, o = (a * fy + b) * fz + c: its ijk
+//                  ijk[r] * f + (a, b, c), its parent r and its brick-order key
+// sparse_permute   out[i] = in[perm[i]] for the children's ijk and parents
+// sparse_gather_rows  y[c][i] = rows[i] >= 0 ? x[c][rows[i]] : 0
+// The brick-order key of a coordinate (|c| < 2^20 on every axis): u = c + 2^20,
+// key = (u.i >> 3) << 45 | (u.j >> 3) << 27 | (u.k >> 3) << 9 | (u.i & 7) << 6
+// | (u.j & 7) << 3 | (u.k & 7): ascending keys = brick order (sparse_cpu.h).
+#define NN_SPARSE_COORD_LIMIT (1 << 20)
+
+struct SparseGridParams {
+  uint rows;      // parents (keep, children); outputs (permute, gather)
+  uint in_rows;   // gather: rows of x
+  uint channels;  // gather
+  uint factor_x;
+  uint factor_y;
+  uint factor_z;
+  uint x_offset;  // gather: elements, windows
+  uint y_offset;
+};
+
 ICUBE_SHADER_NAMESPACE_END
 
+ICUBE_CHECK_SIZE(SparseGridParams, 32);
 ICUBE_CHECK_SIZE(SparseHashParams, 16);
 ICUBE_CHECK_SIZE(SparseConvParams, 48);
 ICUBE_CHECK_LAYOUT(SparseConvParams, row_tiles, 28);

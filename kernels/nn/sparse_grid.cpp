@@ -1,0 +1,133 @@
+// GPU sparse grid construction; see sparse_grid.h.
+#include "nn/sparse_grid.h"
+
+#include "gpu/context.h"
+#include "nn/buffer_checks.h"
+#include "shared/nn_params.h"
+
+#include <algorithm>
+#include <stdexcept>
+#include <string>
+
+namespace icube::kernels::nn {
+
+namespace {
+
+uint64_t at_least_4(uint64_t bytes) { return std::max<uint64_t>(bytes, 4); }
+
+}  // namespace
+
+SparseGridOps::SparseGridOps(gpu::Context& ctx)
+    : ctx_(ctx),
+      keep_(ctx.program("nn/sparse_keep")),
+      children_(ctx.program("nn/sparse_children")),
+      permute_(ctx.program("nn/sparse_permute")),
+      gather_(ctx.program("nn/sparse_gather_rows")),
+      scan_(ctx),
+      sort_(ctx, KeyWidth::Bits64),
+      iota_(ctx) {}
+
+void SparseGridOps::record_keep(gpu::CommandList& cmd, uint32_t rows, const gpu::Buffer& logits, const gpu::Buffer& keep) {
+  if (rows == 0) return;
+  require_buffer("sparse keep", "logits", uint64_t{rows} * 8, logits);
+  require_buffer("sparse keep", "keep", uint64_t{rows} * 4, keep);
+  require_one_binding(ctx_, "sparse keep", "logits", uint64_t{rows} * 2);
+  shader::SparseGridParams pc{};
+  pc.rows = rows;
+  cmd.dispatch(keep_, gpu::Threads{rows}, pc, {logits.binding(0, uint64_t{rows} * 8), keep.binding(0, uint64_t{rows} * 4)});
+}
+
+void SparseGridOps::record_children(gpu::CommandList& cmd, uint32_t rows, const gpu::Buffer& ijk, const gpu::Buffer& keep,
+                                    const gpu::Buffer& incl, const std::array<int32_t, 3>& f, const gpu::Buffer& child_ijk,
+                                    const gpu::Buffer& parent, const gpu::Buffer& keys) {
+  if (rows == 0) return;
+  for (const int32_t v : f)
+    if (v < 1 || v > 8) throw std::invalid_argument("sparse subdivide: factor " + std::to_string(v) + " (1 to 8)");
+  const uint64_t F = uint64_t(f[0]) * f[1] * f[2];
+  require_one_binding(ctx_, "sparse subdivide", "children coordinates", uint64_t{rows} * F * 3);
+  shader::SparseGridParams pc{};
+  pc.rows = rows;
+  pc.factor_x = static_cast<uint32_t>(f[0]);
+  pc.factor_y = static_cast<uint32_t>(f[1]);
+  pc.factor_z = static_cast<uint32_t>(f[2]);
+  cmd.dispatch(children_, gpu::Threads{uint64_t{rows} * F}, pc,
+               {ijk.binding(0, uint64_t{rows} * 12), keep.binding(0, uint64_t{rows} * 4), incl.binding(0, uint64_t{rows} * 4),
+                child_ijk.binding(0, child_ijk.size()), parent.binding(0, parent.size()), keys.binding(0, keys.size())});
+}
+
+void SparseGridOps::record_permute(gpu::CommandList& cmd, uint32_t rows, const gpu::Buffer& perm, const gpu::Buffer& in_ijk,
+                                   const gpu::Buffer& in_parent, const gpu::Buffer& out_ijk, const gpu::Buffer& out_parent) {
+  if (rows == 0) return;
+  shader::SparseGridParams pc{};
+  pc.rows = rows;
+  cmd.dispatch(permute_, gpu::Threads{rows}, pc,
+               {perm.binding(0, uint64_t{rows} * 4), in_ijk.binding(0, uint64_t{rows} * 12), in_parent.binding(0, uint64_t{rows} * 4),
+                out_ijk.binding(0, uint64_t{rows} * 12), out_parent.binding(0, uint64_t{rows} * 4)});
+}
+
+void SparseGridOps::record_gather_rows(gpu::CommandList& cmd, const gpu::Buffer& x, uint32_t in_rows, uint32_t channels,
+                                       const gpu::Buffer& rows, uint32_t out_rows, const gpu::Buffer& y) {
+  if (out_rows == 0 || channels == 0) return;
+  if (in_rows == 0) throw std::invalid_argument("sparse gather: no input rows");
+  require_buffer("sparse gather", "input", uint64_t{in_rows} * channels * 4, x);
+  require_buffer("sparse gather", "output", uint64_t{out_rows} * channels * 4, y);
+  require_buffer("sparse gather", "rows", uint64_t{out_rows} * 4, rows);
+  const uint64_t usable = window_elements(ctx_);
+  const uint64_t per_window = std::min(usable / std::max(in_rows, out_rows), uint64_t{UINT32_MAX} / std::max(in_rows, out_rows));
+  if (per_window == 0) throw std::invalid_argument("sparse gather: one channel exceeds one storage binding");
+  for (uint64_t c0 = 0; c0 < channels; c0 += per_window) {
+    const uint64_t cw = std::min<uint64_t>(per_window, channels - c0);
+    const ElementWindow xw = texel_window(ctx_, x, c0 * in_rows, cw * in_rows);
+    const ElementWindow yw = element_window(ctx_, y, c0 * out_rows, cw * out_rows);
+    shader::SparseGridParams pc{};
+    pc.rows = out_rows;
+    pc.in_rows = in_rows;
+    pc.channels = static_cast<uint32_t>(cw);
+    pc.x_offset = xw.offset;
+    pc.y_offset = yw.offset;
+    cmd.dispatch(gather_, gpu::Threads{cw * out_rows}, pc, {xw.binding, rows.binding(0, uint64_t{out_rows} * 4), yw.binding});
+  }
+}
+
+SparseGridOps::Children SparseGridOps::subdivide(const gpu::Buffer& ijk, uint32_t rows, const gpu::Buffer& logits,
+                                                 const std::array<int32_t, 3>& f) {
+  Children out;
+  if (rows == 0) {
+    out.ijk = gpu::Buffer(ctx_, 12, gpu::MemoryUsage::DeviceLocal, "sparse-children-ijk");
+    out.parent = gpu::Buffer(ctx_, 4, gpu::MemoryUsage::DeviceLocal, "sparse-children-parent");
+    return out;
+  }
+  gpu::Buffer keep(ctx_, uint64_t{rows} * 4, gpu::MemoryUsage::DeviceLocal, "sparse-keep");
+  gpu::Buffer incl(ctx_, uint64_t{rows} * 4, gpu::MemoryUsage::DeviceLocal, "sparse-keep-scan");
+  const uint64_t scratch_n = PrefixScan::scratch_elements(rows);
+  gpu::Buffer scratch(ctx_, at_least_4(scratch_n * 4), gpu::MemoryUsage::DeviceLocal, "sparse-scan-scratch");
+  ctx_.submit_and_wait([&](gpu::CommandList& cmd) {
+    record_keep(cmd, rows, logits, keep);
+    cmd.barrier(gpu::deps::kComputeToCompute);
+    scan_.record(cmd, keep, incl, rows, ScanKind::Inclusive, scratch_n ? &scratch : nullptr);
+  });
+  const uint32_t kept = gpu::download_vector<uint32_t>(ctx_, incl, 1, uint64_t{rows - 1} * 4)[0];
+  const uint64_t F = uint64_t(f[0]) * f[1] * f[2], n = kept * F;
+  if (n > UINT32_MAX / 3) throw std::invalid_argument("sparse subdivide: " + std::to_string(n) + " children are too many");
+  out.rows = static_cast<uint32_t>(n);
+  out.ijk = gpu::Buffer(ctx_, at_least_4(n * 12), gpu::MemoryUsage::DeviceLocal, "sparse-children-ijk");
+  out.parent = gpu::Buffer(ctx_, at_least_4(n * 4), gpu::MemoryUsage::DeviceLocal, "sparse-children-parent");
+  if (n == 0) return out;
+  gpu::Buffer child_ijk(ctx_, n * 12, gpu::MemoryUsage::DeviceLocal, "sparse-children-unsorted");
+  gpu::Buffer parent(ctx_, n * 4, gpu::MemoryUsage::DeviceLocal, "sparse-parents-unsorted");
+  gpu::Buffer keys(ctx_, n * 8, gpu::MemoryUsage::DeviceLocal, "sparse-children-keys");
+  gpu::Buffer perm(ctx_, n * 4, gpu::MemoryUsage::DeviceLocal, "sparse-children-order");
+  RadixSortScratch sort_scratch(ctx_, n, KeyWidth::Bits64);
+  ctx_.submit_and_wait([&](gpu::CommandList& cmd) {
+    record_children(cmd, rows, ijk, keep, incl, f, child_ijk, parent, keys);
+    iota_.record(cmd, perm, n);
+    cmd.barrier(gpu::deps::kComputeToCompute);
+    sort_.record(cmd, keys, perm, n, sort_scratch);
+    cmd.barrier(gpu::deps::kComputeToCompute);
+    cmd.barrier(gpu::deps::kTransferToCompute);  // an odd pass count ends the sort with a copy
+    record_permute(cmd, static_cast<uint32_t>(n), perm, child_ijk, parent, out.ijk, out.parent);
+  });
+  return out;
+}
+
+}  // namespace icube::kernels::nn

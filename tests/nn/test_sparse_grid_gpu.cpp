@@ -1,0 +1,101 @@
+// GPU sparse grid construction (kernels/nn/sparse_grid.h; shaders nn/sparse_keep,
+// nn/sparse_children, nn/sparse_permute, nn/sparse_gather_rows) against the CPU
+// reference (nn::cpu::subdivide): the same children in the same brick order,
+// each with its parent's features, for factors [2,2,2], [2,2,1] and 1 (pruning),
+// negative coordinates, nothing kept, and row gathers with missing rows.
+// Runs under the validation layer.
+#include <doctest/doctest.h>
+
+#include "gpu_test_context.h"
+#include "nn/sparse_cpu.h"
+#include "nn/sparse_grid.h"
+
+#include <random>
+#include <set>
+
+using namespace icube;
+using nn::Ijk;
+
+namespace {
+
+nn::SparseGrid random_grid(uint32_t seed, const Ijk& lo, const Ijk& dims, size_t count) {
+  std::mt19937 rng(seed);
+  std::set<Ijk> s;
+  std::uniform_int_distribution<int32_t> di(0, dims[0] - 1), dj(0, dims[1] - 1), dk(0, dims[2] - 1);
+  while (s.size() < count) s.insert({lo[0] + di(rng), lo[1] + dj(rng), lo[2] + dk(rng)});
+  nn::SparseGrid g;
+  g.ijk.assign(s.begin(), s.end());
+  nn::sort_brick_order(g);
+  return g;
+}
+
+void check_subdivide(const nn::SparseGrid& g, const Ijk& f, float keep_fraction, uint32_t seed) {
+  CAPTURE(f[0]);
+  CAPTURE(f[1]);
+  CAPTURE(f[2]);
+  CAPTURE(keep_fraction);
+  gpu::Context& ctx = test::gpu_context();
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  const uint32_t n = static_cast<uint32_t>(g.size());
+  std::vector<float> logits(2 * size_t{n});  // channel-major [2][n]
+  std::vector<uint8_t> keep(n);
+  for (uint32_t r = 0; r < n; ++r) {
+    const bool k = u(rng) < keep_fraction;
+    logits[r] = k ? 0.5f + u(rng) : -u(rng);
+    logits[n + r] = 0.0f;
+    keep[r] = k;
+  }
+  // Features: 3 channels identifying the row.
+  nn::SparseTensor x{g, 3, {}};
+  for (uint32_t r = 0; r < n; ++r) x.data.insert(x.data.end(), {float(r), float(r) * 0.5f, -float(r)});
+  const nn::SparseTensor want = nn::cpu::subdivide(x, keep, f);
+
+  std::vector<int32_t> flat;
+  for (const Ijk& c : g.ijk) flat.insert(flat.end(), c.begin(), c.end());
+  gpu::Buffer ijk = gpu::upload_vector(ctx, flat, "grid-ijk"), lb = gpu::upload_vector(ctx, logits, "grid-logits");
+  kernels::nn::SparseGridOps ops(ctx);
+  const kernels::nn::SparseGridOps::Children ch = ops.subdivide(ijk, n, lb, f);
+  REQUIRE(ch.rows == want.rows());
+  if (ch.rows == 0) return;
+  const std::vector<int32_t> got_ijk = gpu::download_vector<int32_t>(ctx, ch.ijk, size_t{ch.rows} * 3);
+  size_t bad = 0;
+  for (uint32_t r = 0; r < ch.rows; ++r)
+    for (int d = 0; d < 3; ++d) bad += got_ijk[3 * r + d] != want.grid.ijk[r][d];
+  CHECK(bad == 0);
+  // Features through the parent rows.
+  std::vector<float> x_cm(3 * size_t{n});
+  for (uint32_t r = 0; r < n; ++r)
+    for (int c = 0; c < 3; ++c) x_cm[c * n + r] = x.row(r)[c];
+  gpu::Buffer xb = gpu::upload_vector(ctx, x_cm, "grid-x");
+  gpu::Buffer yb(ctx, uint64_t{ch.rows} * 3 * 4, gpu::MemoryUsage::DeviceLocal, "grid-y");
+  ctx.submit_and_wait([&](gpu::CommandList& cmd) { ops.record_gather_rows(cmd, xb, n, 3, ch.parent, ch.rows, yb); });
+  const std::vector<float> y = gpu::download_vector<float>(ctx, yb, size_t{ch.rows} * 3);
+  for (uint32_t r = 0; r < ch.rows; ++r)
+    for (int c = 0; c < 3; ++c) bad += y[c * ch.rows + r] != want.row(r)[c];
+  CHECK(bad == 0);
+}
+
+}  // namespace
+
+TEST_CASE("sparse grid gpu: subdivision and pruning by structure logits equal the CPU reference") {
+  const nn::SparseGrid g = random_grid(3, {-20, -17, -9}, {40, 33, 18}, 3000);
+  check_subdivide(g, {2, 2, 2}, 0.4f, 1);
+  check_subdivide(g, {2, 2, 1}, 0.7f, 2);
+  check_subdivide(g, {1, 1, 1}, 0.5f, 3);  // pruning only
+  check_subdivide(g, {2, 2, 2}, 0.0f, 4);  // nothing kept
+  check_subdivide(g, {2, 2, 2}, 1.0f, 5);
+  check_subdivide(random_grid(6, {100'000, -200'000, 50'000}, {9, 9, 9}, 200), {2, 2, 2}, 0.5f, 7);  // far, still < 2^20 after x2
+  check_subdivide(random_grid(8, {0, 0, 0}, {1, 1, 1}, 1), {2, 2, 1}, 1.0f, 9);
+}
+
+TEST_CASE("sparse grid gpu: row gathers with missing rows read zero") {
+  gpu::Context& ctx = test::gpu_context();
+  const std::vector<float> x{1, 2, 3, 10, 20, 30};  // [2][3]
+  const std::vector<int32_t> rows{2, -1, 0, 0};
+  gpu::Buffer xb = gpu::upload_vector(ctx, x, "gx"), rb = gpu::upload_vector(ctx, rows, "gr");
+  gpu::Buffer yb(ctx, 8 * 4, gpu::MemoryUsage::DeviceLocal, "gy");
+  kernels::nn::SparseGridOps ops(ctx);
+  ctx.submit_and_wait([&](gpu::CommandList& cmd) { ops.record_gather_rows(cmd, xb, 3, 2, rb, 4, yb); });
+  CHECK(gpu::download_vector<float>(ctx, yb, 8) == std::vector<float>{3, 0, 1, 1, 30, 0, 10, 10});
+}
