@@ -1,0 +1,289 @@
+// The structure VAE decoder on the GPU; see vae_gpu.h.
+#include "nn/vae_gpu.h"
+
+#include "nn/conv3d.h"
+#include "nn/elementwise.h"
+#include "nn/group_norm.h"
+#include "nn/sparse_conv.h"
+#include "nn/sparse_grid.h"
+
+#include <stdexcept>
+
+namespace icube::nn {
+
+namespace {
+
+// A GPU sparse tensor's features: channel-major [channels][rows] in a pooled buffer.
+struct GT {
+  uint32_t channels = 0, rows = 0;
+  std::shared_ptr<gpu::Buffer> buf;
+  uint64_t numel() const { return uint64_t{channels} * rows; }
+};
+
+// A level's grid on the device: coordinates and the 3^3 kernel map (built once, used by every conv there).
+struct Level {
+  SparseGrid host;  // coordinates on the host too (results), voxel size and origin
+  uint32_t rows = 0;
+  std::unique_ptr<gpu::Buffer> ijk, kmap;
+};
+
+}  // namespace
+
+struct VaeGpu::Impl {
+  gpu::Context& ctx;
+  VaeConfig config;
+  kernels::nn::Conv3d conv1x1;
+  kernels::nn::SparseConv3d sconv;
+  kernels::nn::SparseKernelMap kmap;
+  kernels::nn::SparseGridOps grid_ops;
+  kernels::nn::GroupNorm gn;
+  kernels::nn::Elementwise ew;
+  std::map<std::string, std::unique_ptr<gpu::Buffer>> params;
+  std::map<std::string, std::vector<int64_t>> shapes;
+  uint64_t weight_bytes = 0;
+  // Activation pool (as UNetGpu): buffers return to the free list when their last handle dies during
+  // recording; every op ends with a barrier, so reuse within a command list is safe.
+  std::vector<std::unique_ptr<gpu::Buffer>> pool;
+  std::multimap<uint64_t, gpu::Buffer*> free_list;
+  uint64_t bytes = 0;
+  gpu::CommandList* cmd = nullptr;
+  const Level* level = nullptr;
+
+  Impl(gpu::Context& c, const VaeConfig& cfg)
+      : ctx(c), config(cfg), conv1x1(c), sconv(c), kmap(c), grid_ops(c), gn(c), ew(c) {}
+
+  const gpu::Buffer& P(const std::string& name) const {
+    const auto it = params.find(name);
+    if (it == params.end()) throw std::logic_error("VaeGpu: no parameter " + name);
+    return *it->second;
+  }
+  bool has(const std::string& name) const { return params.count(name) != 0; }
+
+  GT alloc(uint32_t channels, uint32_t rows) {
+    GT t;
+    t.channels = channels;
+    t.rows = rows;
+    const uint64_t n = std::max<uint64_t>(t.numel(), 1) * 4;
+    gpu::Buffer* b = nullptr;
+    const auto it = free_list.lower_bound(n);
+    if (it != free_list.end() && it->first <= 2 * n) {
+      b = it->second;
+      free_list.erase(it);
+    } else {
+      pool.push_back(std::make_unique<gpu::Buffer>(ctx, n, gpu::MemoryUsage::DeviceLocal, "vae-activation"));
+      b = pool.back().get();
+      bytes += n;
+    }
+    t.buf = std::shared_ptr<gpu::Buffer>(b, [this](gpu::Buffer* r) { free_list.emplace(r->size(), r); });
+    return t;
+  }
+  void barrier() { cmd->barrier(gpu::deps::kComputeToCompute); }
+
+  GT conv3(const GT& x, const std::string& name) {
+    const std::vector<int64_t>& ws = shapes.at(name + ".weight");
+    GT y = alloc(static_cast<uint32_t>(ws[0]), x.rows);
+    const kernels::nn::SparseConvShape s{x.rows, x.channels, y.channels};
+    sconv.record(*cmd, s, *x.buf, *level->kmap, P(name + ".weight"), has(name + ".bias") ? &P(name + ".bias") : nullptr, *y.buf);
+    barrier();
+    return y;
+  }
+  GT conv1(const GT& x, const std::string& name) {  // 1x1x1: Conv3d kernel 1 over 1 x 1 x rows
+    const std::vector<int64_t>& ws = shapes.at(name + ".weight");
+    GT y = alloc(static_cast<uint32_t>(ws[0]), x.rows);
+    kernels::nn::Conv3dShape s;
+    s.in_channels = x.channels;
+    s.out_channels = y.channels;
+    s.x = s.y = 1;
+    s.z = x.rows;
+    s.kernel = 1;
+    conv1x1.record(*cmd, s, *x.buf, P(name + ".weight"), &P(name + ".bias"), *y.buf);
+    barrier();
+    return y;
+  }
+  GT group_norm(const GT& x, const std::string& name) {
+    GT y = alloc(x.channels, x.rows);
+    kernels::nn::GroupNormShape s;
+    s.channels = x.channels;
+    s.groups = x.channels < static_cast<uint32_t>(config.num_groups) ? 1u : static_cast<uint32_t>(config.num_groups);
+    s.spatial = x.rows;
+    s.eps = 1e-5f;
+    GT scratch = alloc(static_cast<uint32_t>(kernels::nn::GroupNorm::scratch_bytes(s) / 4 + 1), 1);
+    gn.record(*cmd, s, *x.buf, P(name + ".weight"), P(name + ".bias"), nullptr, *scratch.buf, *y.buf);
+    barrier();
+    return y;
+  }
+  GT silu(const GT& x) {
+    GT y = alloc(x.channels, x.rows);
+    ew.silu(*cmd, *x.buf, x.numel(), *y.buf);
+    barrier();
+    return y;
+  }
+  GT add(const GT& a, const GT& b) {
+    GT y = alloc(a.channels, a.rows);
+    ew.add(*cmd, *a.buf, *b.buf, a.numel(), *y.buf);
+    barrier();
+    return y;
+  }
+  GT conv_block(const std::string& name, GT x) {
+    for (const char op : config.order) {
+      if (op == 'g') x = group_norm(x, name + ".GroupNorm");
+      else if (op == 'c') x = conv3(x, name + ".Conv");
+      else if (op == 's') x = silu(x);
+      else if (op == 'r') throw std::invalid_argument("VaeGpu: ConvBlock order 'r' (ReLU) is not implemented on the GPU");
+    }
+    return x;
+  }
+  GT res_block(const std::string& name, const GT& x) {
+    GT h = conv_block(name + ".conv2", conv_block(name + ".conv1", x));
+    const GT skip = has(name + ".skip_connection.weight") ? conv1(x, name + ".skip_connection") : x;
+    return add(h, skip);
+  }
+  GT head(const std::string& name, const GT& x) { return conv1(conv_block(name + ".SingleConv", x), name + ".OutConv"); }
+
+  // Uploads `g`'s coordinates and records its kernel map (with the barriers it needs) into `cmd`.
+  std::unique_ptr<gpu::Buffer> table;
+  void build_level(Level& l, std::unique_ptr<gpu::Buffer> ijk) {
+    l.rows = static_cast<uint32_t>(l.host.size());
+    l.ijk = std::move(ijk);
+    if (l.rows == 0) return;
+    const uint32_t ts = kernels::nn::SparseKernelMap::table_size(l.rows);
+    table = std::make_unique<gpu::Buffer>(ctx, uint64_t{ts} * 4, gpu::MemoryUsage::DeviceLocal, "vae-hash");
+    l.kmap = std::make_unique<gpu::Buffer>(ctx, uint64_t{l.rows} * 27 * 4, gpu::MemoryUsage::DeviceLocal, "vae-kmap");
+    kmap.record_clear(*cmd, *table, ts);
+    cmd->barrier(gpu::deps::kTransferToCompute);
+    kmap.record_insert(*cmd, l.rows, *l.ijk, *table, ts);
+    barrier();
+    kmap.record_map(*cmd, l.rows, *l.ijk, *table, ts, *l.kmap);
+    barrier();
+  }
+};
+
+VaeGpu::VaeGpu(gpu::Context& ctx, const VaeConfig& config, const std::map<std::string, CpuTensor>& weights)
+    : impl_(std::make_unique<Impl>(ctx, config)) {
+  for (const ParamSpec& p : vae_param_specs(config, VaePart::Decoder)) {
+    const auto it = weights.find(p.name);
+    if (it == weights.end()) throw std::invalid_argument("VaeGpu: weight '" + p.name + "' is missing");
+    const CpuTensor& t = it->second;
+    std::vector<float> data = t.data;
+    if (t.rank() == 5 && t.dim(2) == 3)
+      data = kernels::nn::pack_conv3d_weights(t.data, static_cast<uint32_t>(t.dim(0)), static_cast<uint32_t>(t.dim(1)), 3);
+    else if (t.rank() == 2)  // 1x1x1 conv (out, in)
+      data = kernels::nn::pack_conv3d_weights(t.data, static_cast<uint32_t>(t.dim(0)), static_cast<uint32_t>(t.dim(1)), 1);
+    impl_->params[p.name] = std::make_unique<gpu::Buffer>(gpu::upload_vector(ctx, data, p.name));
+    impl_->shapes[p.name] = t.shape;
+    impl_->weight_bytes += data.size() * 4;
+  }
+}
+
+VaeGpu::~VaeGpu() = default;
+
+uint64_t VaeGpu::last_activation_bytes() const { return impl_->bytes; }
+uint64_t VaeGpu::weight_bytes() const { return impl_->weight_bytes; }
+
+VaeDecoded VaeGpu::decode(const SparseTensor& latent_in) {
+  Impl& m = *impl_;
+  const VaeConfig& cfg = m.config;
+  const int nb = cfg.num_blocks;
+  if (latent_in.channels != cfg.latent_channels())
+    throw std::invalid_argument("VAE decode: latent has " + std::to_string(latent_in.channels) + " channels, the model " +
+                                std::to_string(cfg.latent_channels()));
+  m.pool.clear();
+  m.free_list.clear();
+  m.bytes = 0;
+  // The latent in brick order, channel-major.
+  Level level;
+  level.host = latent_in.grid;
+  const std::vector<int64_t> perm = sort_brick_order(level.host);
+  const uint32_t n0 = static_cast<uint32_t>(level.host.size());
+  std::vector<float> x_cm(static_cast<size_t>(latent_in.channels) * n0);
+  for (uint32_t r = 0; r < n0; ++r)
+    for (int64_t c = 0; c < latent_in.channels; ++c) x_cm[static_cast<size_t>(c) * n0 + r] = latent_in.row(perm[r])[c];
+  std::vector<int32_t> flat;
+  for (const Ijk& c : level.host.ijk) flat.insert(flat.end(), c.begin(), c.end());
+
+  VaeDecoded out;
+  out.levels.resize(static_cast<size_t>(nb));
+  GT x;
+  std::unique_ptr<gpu::Buffer> logits_buf;  // the last structure logits [2][rows]
+  auto download_level = [&](int depth, const GT& logits) {
+    VaeLevel& l = out.levels[static_cast<size_t>(depth)];
+    l.grid = level.host;
+    l.logits.assign(2 * size_t{logits.rows}, 0.0f);
+    if (logits.rows == 0) return;
+    const std::vector<float> cm = gpu::download_vector<float>(m.ctx, *logits.buf, 2 * size_t{logits.rows});
+    for (uint32_t r = 0; r < logits.rows; ++r) {
+      l.logits[2 * r] = cm[r];
+      l.logits[2 * r + 1] = cm[logits.rows + r];
+    }
+  };
+  auto kept = [&](const VaeLevel& l) {
+    int64_t k = 0;
+    for (size_t r = 0; r < l.logits.size() / 2; ++r) k += l.logits[2 * r] > l.logits[2 * r + 1];
+    return k;
+  };
+  // Subdivides the current level by its structure logits into the next one (factor 1: pruning).
+  auto next_level = [&](const GT& logits, const Ijk& f) {
+    kernels::nn::SparseGridOps::Children ch = m.grid_ops.subdivide(*level.ijk, level.rows, *logits.buf, f);
+    Level next;
+    for (int d = 0; d < 3; ++d) {
+      next.host.voxel_size[d] = level.host.voxel_size[d] / f[d];
+      next.host.origin[d] = level.host.origin[d] - (f[d] - 1) * next.host.voxel_size[d] / 2.0;
+    }
+    const std::vector<int32_t> c = ch.rows ? gpu::download_vector<int32_t>(m.ctx, ch.ijk, size_t{ch.rows} * 3) : std::vector<int32_t>{};
+    next.host.ijk.resize(ch.rows);
+    for (uint32_t r = 0; r < ch.rows; ++r) next.host.ijk[r] = {c[3 * r], c[3 * r + 1], c[3 * r + 2]};
+    GT y = m.alloc(x.channels, ch.rows);
+    m.ctx.submit_and_wait([&](gpu::CommandList& cmd) {
+      m.cmd = &cmd;
+      m.grid_ops.record_gather_rows(cmd, *x.buf, x.rows, x.channels, ch.parent, ch.rows, *y.buf);
+      m.barrier();
+      m.build_level(next, std::make_unique<gpu::Buffer>(std::move(ch.ijk)));
+    });
+    x = y;
+    level = std::move(next);
+    m.level = &level;
+  };
+
+  GT logits;
+  GT in;
+  in.channels = static_cast<uint32_t>(latent_in.channels);
+  in.rows = n0;
+  in.buf = std::make_shared<gpu::Buffer>(gpu::upload_vector(m.ctx, x_cm, "vae-latent"));
+  m.ctx.submit_and_wait([&](gpu::CommandList& cmd) {
+    m.cmd = &cmd;
+    m.build_level(level, std::make_unique<gpu::Buffer>(gpu::upload_vector(m.ctx, flat, "vae-latent-ijk")));
+    m.level = &level;
+    x = m.res_block("unet.post_kl_bottleneck.post_kl_bottleneck_0", in);
+    x = m.res_block("unet.post_kl_bottleneck.post_kl_bottleneck_1", x);
+  });
+  for (int depth = nb - 1; depth >= 0; --depth) {
+    const std::string idx = std::to_string(depth - nb);
+    if (depth < nb - 1) next_level(logits, cfg.subdivide_factor(depth));
+    m.ctx.submit_and_wait([&](gpu::CommandList& cmd) {
+      m.cmd = &cmd;
+      if (depth < nb - 1)
+        for (int b = 0; b <= cfg.num_res_blocks; ++b)
+          if (x.rows) x = m.res_block("unet.decoders.Dec" + idx + "." + std::to_string(b), x);
+      logits = x.rows ? m.head("unet.struct_convs.Struct" + idx, x) : m.alloc(2, 0);
+    });
+    download_level(depth, logits);
+    if (kept(out.levels[static_cast<size_t>(depth)]) == 0 && out.warning.empty())
+      out.warning = "the structure head at depth " + std::to_string(depth) + " kept no voxel: the chunk decodes empty";
+  }
+  next_level(logits, {1, 1, 1});
+  out.semantic.grid = level.host;
+  out.semantic.channels = cfg.num_semantic_classes;
+  if (x.rows == 0) return out;
+  GT sem;
+  m.ctx.submit_and_wait([&](gpu::CommandList& cmd) {
+    m.cmd = &cmd;
+    sem = m.head("unet.semantic_head", x);
+  });
+  const std::vector<float> cm = gpu::download_vector<float>(m.ctx, *sem.buf, sem.numel());
+  out.semantic.data.resize(cm.size());
+  for (uint32_t r = 0; r < sem.rows; ++r)
+    for (uint32_t c = 0; c < sem.channels; ++c) out.semantic.data[size_t{r} * sem.channels + c] = cm[size_t{c} * sem.rows + r];
+  return out;
+}
+
+}  // namespace icube::nn

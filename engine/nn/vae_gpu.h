@@ -1,0 +1,47 @@
+// InfiniCube's sparse structure VAE decoder on the GPU: VaeReference::decode's
+// module tree recorded as kernels/nn dispatches (sparse_conv over one kernel
+// map per level, Conv3d kernel 1 for the 1x1 convolutions, GroupNorm over the
+// active voxels and the element-wise kernels on the channel-major [C][N]
+// features), one command list per level with a barrier after every dispatch;
+// between levels the structure decision, subdivision and feature copy run on
+// the GPU (kernels/nn/sparse_grid.h), and only the structure logits and grids
+// come back for the result (and the kept count, to size the next level).
+// Activations are pooled as in UNetGpu (a buffer is reused once the tensor in
+// it is dead), so the peak is near the largest live set of a level.
+// Weights as VaeReference takes them (official names, 3^3 kernels already in
+// grid order: vae_weights.h), packed and uploaded once.
+// Tests: tests/nn/test_vae_gpu.cpp (the official vae_small case and the CPU
+// reference of a random-weight model).
+#pragma once
+
+#include "gpu/context.h"
+#include "nn/cpu_tensor.h"
+#include "nn/vae_config.h"
+#include "nn/vae_reference.h"
+
+#include <map>
+#include <memory>
+#include <string>
+
+namespace icube::nn {
+
+class VaeGpu {
+ public:
+  VaeGpu(gpu::Context& ctx, const VaeConfig& config, const std::map<std::string, CpuTensor>& weights);
+  ~VaeGpu();
+  VaeGpu(const VaeGpu&) = delete;
+  VaeGpu& operator=(const VaeGpu&) = delete;
+
+  // As VaeReference::decode: the latent's rows (any order) and channels [N, latent channels].
+  VaeDecoded decode(const SparseTensor& latent);
+
+  // Peak device bytes of the activation pool in the last decode (grids, kernel maps and weights not counted).
+  uint64_t last_activation_bytes() const;
+  uint64_t weight_bytes() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace icube::nn
