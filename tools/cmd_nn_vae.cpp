@@ -1,0 +1,204 @@
+// `icube nn vae` : InfiniCube's sparse structure VAE.
+//
+//   icube nn vae decode LATENT.npy --model CONFIG|infinicube-vae --weights VAE.safetensors
+//                       [--latent-origin I,J,K] [--scale-factor S] [--backend gpu|cpu] [--check-finite]
+//                       [--dump-layers DIR] -o CHUNK.icw
+//
+// decode turns a dense latent [1, C, X, Y, Z] float32 (the box of latent
+// voxels whose element [0,0,0] sits at --latent-origin, default the box
+// centred on the origin as the official neck makes it) into the chunk's 0.2 m
+// semantic voxels (engine/nn/vae_gpu.h, or the CPU reference with --backend
+// cpu), written as an engine world (.icw) in the VAE's frame: voxel centres at
+// ijk * 0.2 + 0.1 m (fVDB), each voxel the argmax of its 23 class logits
+// (class 0, "undefined", is not written: the engine's 0 is empty). A latent
+// from the diffusion model is divided by --scale-factor first (the checkpoint's
+// scale_factor). --dump-layers writes the files of models/vae_small: each
+// level's grid before pruning and its structure logits (struct<d>.ijk.npy /
+// .logits.npy, d = 0 finest), the final ijk.npy and semantic.npy, so a user can
+// compare with PyTorch level by level (rows in brick order; compare as sets).
+// Outputs are written atomically; a failure leaves none.
+#include "cli_common.h"
+#include "command_registry.h"
+#include "staging_dir.h"
+
+#include "gpu/context.h"
+#include "nn/safetensors.h"
+#include "nn/vae_config.h"
+#include "nn/vae_gpu.h"
+#include "nn/vae_reference.h"
+#include "nn/vae_weights.h"
+#include "scene/input_error.h"
+#include "world/npy.h"
+#include "world/world_file.h"
+
+#include <CLI/CLI.hpp>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <optional>
+#include <sstream>
+#include <string>
+
+namespace icube::tools {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct VaeDecodeArgs {
+  std::string latent, model, weights, origin, dump, output, backend = "gpu";
+  double scale_factor = 1.0;
+  bool check_finite = false;
+};
+
+nn::Ijk parse_ijk(const std::string& text, const std::string& what) {
+  nn::Ijk v{};
+  std::istringstream in(text);
+  char sep = 0;
+  if (!(in >> v[0] >> sep) || sep != ',' || !(in >> v[1] >> sep) || sep != ',' || !(in >> v[2]) || !in.eof())
+    throw std::invalid_argument(what + " '" + scene::printable(text) + "' is not I,J,K (three integers)");
+  return v;
+}
+
+void write_levels(const fs::path& dir, const nn::VaeDecoded& d) {
+  auto ijk_array = [](const nn::SparseGrid& g) {
+    std::vector<int32_t> v;
+    for (const nn::Ijk& c : g.ijk) v.insert(v.end(), c.begin(), c.end());
+    return world::NpyArray::make<int32_t>({static_cast<uint64_t>(g.size()), 3}, v);
+  };
+  for (size_t depth = 0; depth < d.levels.size(); ++depth) {
+    const std::string base = (dir / ("struct" + std::to_string(depth))).string();
+    world::write_npy(base + ".ijk.npy", ijk_array(d.levels[depth].grid));
+    world::write_npy(base + ".logits.npy",
+                     world::NpyArray::make<float>({static_cast<uint64_t>(d.levels[depth].grid.size()), 2}, d.levels[depth].logits));
+  }
+  world::write_npy((dir / "ijk.npy").string(), ijk_array(d.semantic.grid));
+  world::write_npy((dir / "semantic.npy").string(),
+                   world::NpyArray::make<float>({static_cast<uint64_t>(d.semantic.rows()), static_cast<uint64_t>(d.semantic.channels)},
+                                                d.semantic.data));
+}
+
+void cmd_vae_decode(const VaeDecodeArgs& a) {
+  run_command([&](scene::Diagnostics& diag) {
+    using Clock = std::chrono::steady_clock;
+    const nn::VaeConfig cfg = nn::load_vae_config(a.model);
+    if (!(a.scale_factor > 0.0) || !std::isfinite(a.scale_factor))
+      throw std::invalid_argument("--scale-factor " + std::to_string(a.scale_factor) + " is not a positive number");
+    const world::NpyArray x = world::read_npy(a.latent);
+    const uint64_t C = static_cast<uint64_t>(cfg.latent_channels());
+    if (x.dtype != world::NpyDtype::F4 || x.shape.size() != 5 || x.shape[0] != 1 || x.shape[1] != C)
+      throw scene::InputError(a.latent, "", "expected float32 [1, " + std::to_string(C) + ", X, Y, Z] (the model's latent)");
+    const nn::Ijk dims{static_cast<int32_t>(x.shape[2]), static_cast<int32_t>(x.shape[3]), static_cast<int32_t>(x.shape[4])};
+    if (uint64_t{x.shape[2]} * x.shape[3] * x.shape[4] > (uint64_t{1} << 24) || dims[0] > 4096 || dims[1] > 4096 || dims[2] > 4096)
+      throw scene::InputError(a.latent, "", "a latent box of " + std::to_string(x.shape[2]) + " x " + std::to_string(x.shape[3]) +
+                                                 " x " + std::to_string(x.shape[4]) + " voxels is too large (at most 2^24)");
+    std::vector<float> v = x.values<float>();
+    for (size_t i = 0; i < v.size(); ++i) {
+      if (!std::isfinite(v[i])) throw scene::InputError(a.latent, "element " + std::to_string(i), "is not finite");
+      v[i] = static_cast<float>(static_cast<double>(v[i]) / a.scale_factor);
+    }
+    const nn::Ijk lo = a.origin.empty() ? nn::Ijk{-dims[0] / 2, -dims[1] / 2, -dims[2] / 2} : parse_ijk(a.origin, "--latent-origin");
+    // The latent level's voxel: 0.2 m times the encoder's pooling factors.
+    std::array<double, 3> vs{0.2, 0.2, 0.2}, origin{};
+    for (int l = 1; l < cfg.num_blocks; ++l)
+      for (int d = 0; d < 3; ++d) vs[d] *= cfg.pool_factor(l)[d];
+    for (int d = 0; d < 3; ++d) origin[d] = vs[d] / 2.0;
+    const nn::SparseGrid grid = nn::dense_box_grid(lo, dims, vs, origin);
+    const nn::SparseTensor latent =
+        nn::cpu::from_dense(nn::CpuTensor({1, static_cast<int64_t>(C), dims[0], dims[1], dims[2]}, v), lo, grid);
+
+    nn::WeightOptions wo;
+    wo.check_finite = a.check_finite;
+    const nn::SafetensorsFile file(a.weights);
+    std::map<std::string, nn::CpuTensor> w = nn::load_vae_weights_cpu(file, cfg, nn::VaePart::Decoder, wo);
+    std::optional<gpu::Context> ctx;
+    std::fprintf(stderr, "vae decode: latent [1, %llu, %d, %d, %d] at ijk (%d, %d, %d), %s\n", static_cast<unsigned long long>(C),
+                 dims[0], dims[1], dims[2], lo[0], lo[1], lo[2], a.backend == "gpu" ? "GPU" : "CPU reference");
+    const Clock::time_point t0 = Clock::now();
+    nn::VaeDecoded d;
+    uint64_t activation_bytes = 0, weight_bytes = 0;
+    if (a.backend == "gpu") {
+      ctx.emplace(gpu::ContextOptions::from_env());
+      nn::VaeGpu vae(*ctx, cfg, w);
+      d = vae.decode(latent);
+      activation_bytes = vae.last_activation_bytes();
+      weight_bytes = vae.weight_bytes();
+    } else {
+      d = nn::VaeReference(cfg, std::move(w)).decode(latent);
+    }
+    const double seconds = std::chrono::duration<double>(Clock::now() - t0).count();
+    if (!d.warning.empty()) diag.warn(a.latent, "", d.warning);
+
+    // The chunk as an engine world: engine centres (ijk + 0.5) * vs + origin = fVDB's ijk * vs + fVDB origin.
+    const nn::SparseGrid& g = d.semantic.grid;
+    world::VoxelGrid out(glm::dvec3(g.origin[0] - g.voxel_size[0] / 2, g.origin[1] - g.voxel_size[1] / 2,
+                                    g.origin[2] - g.voxel_size[2] / 2),
+                         g.voxel_size[0]);
+    uint64_t undefined = 0;
+    for (int64_t r = 0; r < d.semantic.rows(); ++r) {
+      const float* l = d.semantic.row(r);
+      int best = 0;
+      for (int c = 1; c < d.semantic.channels; ++c)
+        if (l[c] > l[best]) best = c;
+      if (best == 0) {
+        ++undefined;
+        continue;
+      }
+      const nn::Ijk& c = g.ijk[static_cast<size_t>(r)];
+      out.set(glm::ivec3(c[0], c[1], c[2]), static_cast<uint8_t>(best));
+    }
+    std::optional<StagingDir> staging;
+    if (!a.dump.empty()) {
+      const fs::path dump(a.dump);
+      staging.emplace(dump.parent_path().empty() ? fs::path(".") : dump.parent_path(), dump.filename().string());
+      write_levels(staging->path, d);
+    }
+    world::save_world(out, a.output);
+    if (staging) {
+      fs::remove_all(a.dump);
+      fs::rename(staging->path, a.dump);
+      staging->keep = true;
+    }
+    std::printf("vae decode: %lld voxels at %.2f m (%llu of class 0 'undefined' left out) in %.2f s", static_cast<long long>(g.size()),
+                g.voxel_size[0], static_cast<unsigned long long>(undefined), seconds);
+    for (size_t depth = d.levels.size(); depth-- > 0;)
+      std::printf("%s depth %zu: %lld", depth + 1 == d.levels.size() ? ";" : ",", depth, static_cast<long long>(d.levels[depth].grid.size()));
+    std::printf("\n");
+    if (a.backend == "gpu")
+      std::printf("vae decode: %.1f MiB of activations (peak pool) and %.1f MiB of weights on the device\n",
+                  static_cast<double>(activation_bytes) / (1024.0 * 1024.0), static_cast<double>(weight_bytes) / (1024.0 * 1024.0));
+    std::printf("vae decode: wrote %s%s\n", a.output.c_str(), a.dump.empty() ? "" : (" and " + a.dump + "/").c_str());
+  });
+}
+
+void add_vae_commands(CLI::App& app) {
+  CLI::App& nn_group = subcommand_group(app, "nn", "Networks: weight files (safetensors), the diffusion UNet");
+  CLI::App* vae = nn_group.add_subcommand("vae", "InfiniCube's sparse structure VAE");
+  vae->require_subcommand(1);
+  auto a = std::make_shared<VaeDecodeArgs>();
+  CLI::App* dec = vae->add_subcommand("decode", "Decode a dense latent into a chunk's 0.2 m semantic voxels (.icw)");
+  dec->add_option("latent", a->latent, "Latent: float32 [1, C, X, Y, Z]")->required()->type_name("LATENT.npy");
+  dec->add_option("--model", a->model, "VAE config JSON (official StructPredictionNet kwargs) or preset infinicube-vae")
+      ->required()
+      ->type_name("CONFIG");
+  dec->add_option("--weights", a->weights, "Weights (.safetensors; unet.* / encoder.* names, or under vae.)")
+      ->required()
+      ->type_name("W");
+  dec->add_option("--latent-origin", a->origin, "Latent ijk of element [0,0,0] (default: the box centred on 0)")->type_name("I,J,K");
+  dec->add_option("--scale-factor", a->scale_factor, "Divide the latent by the diffusion checkpoint's scale_factor first")
+      ->capture_default_str();
+  dec->add_option("--backend", a->backend, "gpu (Vulkan kernels) or cpu (the exact double-accumulation reference)")
+      ->check(CLI::IsMember({"gpu", "cpu"}))
+      ->capture_default_str();
+  dec->add_flag("--check-finite", a->check_finite, "Fail on a NaN or infinity in the weights");
+  dec->add_option("--dump-layers", a->dump, "Write each level's grid, structure logits and the final class logits here (.npy)")
+      ->type_name("DIR");
+  dec->add_option("-o,--output", a->output, "The decoded chunk (.icw)")->required()->type_name("CHUNK.icw");
+  dec->callback([a] { cmd_vae_decode(*a); });
+}
+
+const CommandRegistrar kRegistrar(add_vae_commands, 51);
+
+}  // namespace
+}  // namespace icube::tools
