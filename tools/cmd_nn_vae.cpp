@@ -17,6 +17,17 @@
 // .logits.npy, d = 0 finest), the final ijk.npy and semantic.npy, so a user can
 // compare with PyTorch level by level (rows in brick order; compare as sets).
 // Outputs are written atomically; a failure leaves none.
+//
+//   icube nn vae encode WORLD.icw (--scene SCENE [--mode trajectory|blocks] --chunk K | --at X,Y,Z[,YAW_DEG])
+//                       --model CONFIG|infinicube-vae --weights VAE.safetensors [--scale-factor S]
+//                       [--backend gpu|cpu] [--check-finite] -o LATENT.npy
+//
+// encode re-voxelises the world's voxels into one chunk's frame (engine/world/
+// chunk_voxels.h: the chunk K of the scene's Stage-1 plan, or a chunk centred
+// at X,Y,Z with its x axis at YAW_DEG from the world's), runs the VAE encoder
+// and writes mu on the dense neck box as [1, C, X, Y, Z] float32 (box from
+// -neck_bound, the layout decode reads), times --scale-factor (the diffusion
+// model's latent space).
 #include "cli_common.h"
 #include "command_registry.h"
 #include "staging_dir.h"
@@ -28,6 +39,9 @@
 #include "nn/vae_reference.h"
 #include "nn/vae_weights.h"
 #include "scene/input_error.h"
+#include "scene/scene_load.h"
+#include "world/chunk_plan.h"
+#include "world/chunk_voxels.h"
 #include "world/npy.h"
 #include "world/world_file.h"
 
@@ -172,6 +186,103 @@ void cmd_vae_decode(const VaeDecodeArgs& a) {
   });
 }
 
+struct VaeEncodeArgs {
+  std::string world, scene, mode = "trajectory", at, model, weights, output, backend = "gpu";
+  int chunk = -1;
+  double scale_factor = 1.0;
+  bool check_finite = false;
+};
+
+world::ChunkPose parse_chunk_at(const std::string& text) {
+  std::vector<double> v;
+  std::istringstream in(text);
+  std::string part;
+  while (std::getline(in, part, ',')) {
+    try {
+      size_t used = 0;
+      v.push_back(std::stod(part, &used));
+      if (used != part.size()) v.clear(), v.resize(9);
+    } catch (const std::exception&) {
+      v.resize(9);
+    }
+  }
+  if ((v.size() != 3 && v.size() != 4) || !std::isfinite(v[0]) || !std::isfinite(v[1]) || !std::isfinite(v[2]) ||
+      (v.size() == 4 && !std::isfinite(v[3])))
+    throw std::invalid_argument("--at '" + scene::printable(text) + "' is not X,Y,Z or X,Y,Z,YAW_DEG");
+  const double yaw = v.size() == 4 ? v[3] * 3.14159265358979323846 / 180.0 : 0.0;
+  world::ChunkPose pose;
+  pose.chunk_to_world = glm::dmat4(glm::dvec4(std::cos(yaw), std::sin(yaw), 0, 0), glm::dvec4(-std::sin(yaw), std::cos(yaw), 0, 0),
+                                   glm::dvec4(0, 0, 1, 0), glm::dvec4(v[0], v[1], v[2], 1));
+  return pose;
+}
+
+void cmd_vae_encode(const VaeEncodeArgs& a) {
+  run_command([&](scene::Diagnostics& diag) {
+    using Clock = std::chrono::steady_clock;
+    refuse_overwriting_input(a.world, a.output);
+    if (!(a.scale_factor > 0.0) || !std::isfinite(a.scale_factor))
+      throw std::invalid_argument("--scale-factor " + std::to_string(a.scale_factor) + " is not a positive number");
+    if (a.at.empty() == (a.chunk < 0 || a.scene.empty()))
+      throw std::invalid_argument("give the chunk as --scene SCENE --chunk K, or as --at X,Y,Z[,YAW_DEG] (one of them)");
+    const nn::VaeConfig cfg = nn::load_vae_config(a.model);
+    world::ChunkPose pose;
+    if (!a.at.empty()) {
+      pose = parse_chunk_at(a.at);
+    } else {
+      const scene::Scene s = scene::load_scene(a.scene, {}, &diag);
+      const world::ChunkPlan plan = world::plan_chunks(s, a.mode == "blocks" ? world::PlanMode::Blocks : world::PlanMode::Trajectory);
+      if (a.chunk >= static_cast<int>(plan.chunks.size()))
+        throw scene::InputError(a.scene, "", "--chunk " + std::to_string(a.chunk) + ": the " + a.mode + " plan has " +
+                                                 std::to_string(plan.chunks.size()) + " chunks");
+      pose = plan.chunks[static_cast<size_t>(a.chunk)];
+    }
+    const world::VoxelGrid w = world::load_world(a.world);
+    const world::ChunkVoxelList voxels = world::chunk_voxels(w, pose);
+    if (voxels.ijk.empty())
+      throw scene::InputError(a.world, "", "the chunk at (" + std::to_string(pose.chunk_to_world[3][0]) + ", " +
+                                               std::to_string(pose.chunk_to_world[3][1]) + ", " +
+                                               std::to_string(pose.chunk_to_world[3][2]) + ") holds no voxel of the world");
+    nn::SparseGrid fine;
+    fine.voxel_size = {world::kFineVoxel, world::kFineVoxel, world::kFineVoxel};
+    fine.origin = {world::kFineVoxel / 2, world::kFineVoxel / 2, world::kFineVoxel / 2};
+    fine.ijk = voxels.ijk;
+    const std::vector<int32_t> classes(voxels.class_id.begin(), voxels.class_id.end());
+    nn::WeightOptions wo;
+    wo.check_finite = a.check_finite;
+    const nn::SafetensorsFile file(a.weights);
+    std::map<std::string, nn::CpuTensor> wts = nn::load_vae_weights_cpu(file, cfg, nn::VaePart::Encoder, wo);
+    std::fprintf(stderr, "vae encode: %zu voxels of %s in the chunk, %s\n", voxels.ijk.size(), a.world.c_str(),
+                 a.backend == "gpu" ? "GPU" : "CPU reference");
+    const Clock::time_point t0 = Clock::now();
+    nn::SparseTensor mu;
+    uint64_t activation_bytes = 0;
+    std::optional<gpu::Context> ctx;
+    if (a.backend == "gpu") {
+      ctx.emplace(gpu::ContextOptions::from_env());
+      nn::VaeGpu vae(*ctx, cfg, wts);
+      mu = vae.encode(fine, classes);
+      activation_bytes = vae.last_activation_bytes();
+    } else {
+      mu = nn::VaeReference(cfg, std::move(wts)).encode(fine, classes);
+    }
+    const double seconds = std::chrono::duration<double>(Clock::now() - t0).count();
+    // Dense [1, C, X, Y, Z] over the neck box (or the latent grid's bounding box without a dense neck).
+    nn::Ijk lo = mu.grid.ijk.front(), hi = lo;
+    for (const nn::Ijk& c : mu.grid.ijk)
+      for (int d = 0; d < 3; ++d) lo[d] = std::min(lo[d], c[d]), hi[d] = std::max(hi[d], c[d]);
+    const nn::Ijk dims{hi[0] - lo[0] + 1, hi[1] - lo[1] + 1, hi[2] - lo[2] + 1};
+    nn::CpuTensor dense = nn::cpu::to_dense(mu, lo, dims);
+    for (float& v : dense.data) v = static_cast<float>(static_cast<double>(v) * a.scale_factor);
+    world::write_npy(a.output, world::NpyArray::make<float>({1, static_cast<uint64_t>(mu.channels), static_cast<uint64_t>(dims[0]),
+                                                             static_cast<uint64_t>(dims[1]), static_cast<uint64_t>(dims[2])},
+                                                            dense.data));
+    std::printf("vae encode: latent [1, %lld, %d, %d, %d] from ijk (%d, %d, %d) in %.2f s", static_cast<long long>(mu.channels), dims[0],
+                dims[1], dims[2], lo[0], lo[1], lo[2], seconds);
+    if (a.backend == "gpu") std::printf(", %.1f MiB of activations (peak pool)", static_cast<double>(activation_bytes) / (1024.0 * 1024.0));
+    std::printf("\nvae encode: wrote %s\n", a.output.c_str());
+  });
+}
+
 void add_vae_commands(CLI::App& app) {
   CLI::App& nn_group = subcommand_group(app, "nn", "Networks: weight files (safetensors), the diffusion UNet");
   CLI::App* vae = nn_group.add_subcommand("vae", "InfiniCube's sparse structure VAE");
@@ -196,6 +307,29 @@ void add_vae_commands(CLI::App& app) {
       ->type_name("DIR");
   dec->add_option("-o,--output", a->output, "The decoded chunk (.icw)")->required()->type_name("CHUNK.icw");
   dec->callback([a] { cmd_vae_decode(*a); });
+
+  auto e = std::make_shared<VaeEncodeArgs>();
+  CLI::App* enc = vae->add_subcommand("encode", "Encode one chunk of a world (.icw) into the VAE's dense latent (.npy)");
+  enc->add_option("world", e->world, "World (.icw)")->required()->type_name("WORLD.icw");
+  enc->add_option("--scene", e->scene, "Scene whose Stage-1 plan places the chunk (with --chunk)")->type_name("SCENE");
+  enc->add_option("--mode", e->mode, "Plan mode of --scene")->check(CLI::IsMember({"trajectory", "blocks"}))->capture_default_str();
+  enc->add_option("--chunk", e->chunk, "Chunk index in the plan")->type_name("K");
+  enc->add_option("--at", e->at, "Chunk centre in world metres and heading of its x axis (degrees, default 0)")
+      ->type_name("X,Y,Z[,YAW_DEG]");
+  enc->add_option("--model", e->model, "VAE config JSON (official StructPredictionNet kwargs) or preset infinicube-vae")
+      ->required()
+      ->type_name("CONFIG");
+  enc->add_option("--weights", e->weights, "Weights (.safetensors; encoder.* and unet.* names, or under vae.)")
+      ->required()
+      ->type_name("W");
+  enc->add_option("--scale-factor", e->scale_factor, "Multiply the latent by the diffusion checkpoint's scale_factor")
+      ->capture_default_str();
+  enc->add_option("--backend", e->backend, "gpu (Vulkan kernels) or cpu (the exact double-accumulation reference)")
+      ->check(CLI::IsMember({"gpu", "cpu"}))
+      ->capture_default_str();
+  enc->add_flag("--check-finite", e->check_finite, "Fail on a NaN or infinity in the weights");
+  enc->add_option("-o,--output", e->output, "mu on the dense neck box: float32 [1, C, X, Y, Z]")->required()->type_name("LATENT.npy");
+  enc->callback([e] { cmd_vae_encode(*e); });
 }
 
 const CommandRegistrar kRegistrar(add_vae_commands, 51);

@@ -23,8 +23,8 @@ struct GT {
 // A level's grid on the device: coordinates and the 3^3 kernel map (built once, used by every conv there).
 struct Level {
   SparseGrid host;  // coordinates on the host too (results), voxel size and origin
-  uint32_t rows = 0;
-  std::unique_ptr<gpu::Buffer> ijk, kmap;
+  uint32_t rows = 0, table_size = 0;
+  std::unique_ptr<gpu::Buffer> ijk, kmap, table;
 };
 
 }  // namespace
@@ -54,7 +54,8 @@ struct VaeGpu::Impl {
 
   const gpu::Buffer& P(const std::string& name) const {
     const auto it = params.find(name);
-    if (it == params.end()) throw std::logic_error("VaeGpu: no parameter " + name);
+    if (it == params.end())
+      throw std::invalid_argument("VaeGpu: the weights given have no '" + name + "' (encoding needs the encoder's, decoding the decoder's)");
     return *it->second;
   }
   bool has(const std::string& name) const { return params.count(name) != 0; }
@@ -140,30 +141,47 @@ struct VaeGpu::Impl {
   }
   GT head(const std::string& name, const GT& x) { return conv1(conv_block(name + ".SingleConv", x), name + ".OutConv"); }
 
-  // Uploads `g`'s coordinates and records its kernel map (with the barriers it needs) into `cmd`.
-  std::unique_ptr<gpu::Buffer> table;
+  // Takes `ijk` as the level's coordinates and records its hash table and kernel map (with the barriers
+  // they need) into `cmd`.
   void build_level(Level& l, std::unique_ptr<gpu::Buffer> ijk) {
     l.rows = static_cast<uint32_t>(l.host.size());
     l.ijk = std::move(ijk);
     if (l.rows == 0) return;
-    const uint32_t ts = kernels::nn::SparseKernelMap::table_size(l.rows);
-    table = std::make_unique<gpu::Buffer>(ctx, uint64_t{ts} * 4, gpu::MemoryUsage::DeviceLocal, "vae-hash");
+    l.table_size = kernels::nn::SparseKernelMap::table_size(l.rows);
+    l.table = std::make_unique<gpu::Buffer>(ctx, uint64_t{l.table_size} * 4, gpu::MemoryUsage::DeviceLocal, "vae-hash");
     l.kmap = std::make_unique<gpu::Buffer>(ctx, uint64_t{l.rows} * 27 * 4, gpu::MemoryUsage::DeviceLocal, "vae-kmap");
-    kmap.record_clear(*cmd, *table, ts);
+    kmap.record_clear(*cmd, *l.table, l.table_size);
     cmd->barrier(gpu::deps::kTransferToCompute);
-    kmap.record_insert(*cmd, l.rows, *l.ijk, *table, ts);
+    kmap.record_insert(*cmd, l.rows, *l.ijk, *l.table, l.table_size);
     barrier();
-    kmap.record_map(*cmd, l.rows, *l.ijk, *table, ts, *l.kmap);
+    kmap.record_map(*cmd, l.rows, *l.ijk, *l.table, l.table_size, *l.kmap);
     barrier();
   }
+  static std::vector<int32_t> flat(const SparseGrid& g) {
+    std::vector<int32_t> v;
+    v.reserve(g.ijk.size() * 3);
+    for (const Ijk& c : g.ijk) v.insert(v.end(), c.begin(), c.end());
+    return v;
+  }
+  void reset_pool() {
+    pool.clear();
+    free_list.clear();
+    bytes = 0;
+  }
+  std::vector<float> embedding;  // encoder.semantic_embed_fn.weight [classes, dim], on the host
 };
 
 VaeGpu::VaeGpu(gpu::Context& ctx, const VaeConfig& config, const std::map<std::string, CpuTensor>& weights)
     : impl_(std::make_unique<Impl>(ctx, config)) {
-  for (const ParamSpec& p : vae_param_specs(config, VaePart::Decoder)) {
+  for (const ParamSpec& p : vae_param_specs(config, VaePart::All)) {
     const auto it = weights.find(p.name);
-    if (it == weights.end()) throw std::invalid_argument("VaeGpu: weight '" + p.name + "' is missing");
+    if (it == weights.end()) continue;  // the other part's (P() names what a run misses)
     const CpuTensor& t = it->second;
+    if (t.shape != p.shape) throw std::invalid_argument("VaeGpu: weight '" + p.name + "' has shape " + t.shape_text());
+    if (p.name == "encoder.semantic_embed_fn.weight") {
+      impl_->embedding = t.data;
+      continue;
+    }
     std::vector<float> data = t.data;
     if (t.rank() == 5 && t.dim(2) == 3)
       data = kernels::nn::pack_conv3d_weights(t.data, static_cast<uint32_t>(t.dim(0)), static_cast<uint32_t>(t.dim(1)), 3);
@@ -187,9 +205,7 @@ VaeDecoded VaeGpu::decode(const SparseTensor& latent_in) {
   if (latent_in.channels != cfg.latent_channels())
     throw std::invalid_argument("VAE decode: latent has " + std::to_string(latent_in.channels) + " channels, the model " +
                                 std::to_string(cfg.latent_channels()));
-  m.pool.clear();
-  m.free_list.clear();
-  m.bytes = 0;
+  m.reset_pool();
   // The latent in brick order, channel-major.
   Level level;
   level.host = latent_in.grid;
@@ -198,8 +214,7 @@ VaeDecoded VaeGpu::decode(const SparseTensor& latent_in) {
   std::vector<float> x_cm(static_cast<size_t>(latent_in.channels) * n0);
   for (uint32_t r = 0; r < n0; ++r)
     for (int64_t c = 0; c < latent_in.channels; ++c) x_cm[static_cast<size_t>(c) * n0 + r] = latent_in.row(perm[r])[c];
-  std::vector<int32_t> flat;
-  for (const Ijk& c : level.host.ijk) flat.insert(flat.end(), c.begin(), c.end());
+  const std::vector<int32_t> flat = Impl::flat(level.host);
 
   VaeDecoded out;
   out.levels.resize(static_cast<size_t>(nb));
@@ -284,6 +299,119 @@ VaeDecoded VaeGpu::decode(const SparseTensor& latent_in) {
   for (uint32_t r = 0; r < sem.rows; ++r)
     for (uint32_t c = 0; c < sem.channels; ++c) out.semantic.data[size_t{r} * sem.channels + c] = cm[size_t{c} * sem.rows + r];
   return out;
+}
+
+SparseTensor VaeGpu::encode(const SparseGrid& fine_in, const std::vector<int32_t>& classes_in) {
+  Impl& m = *impl_;
+  const VaeConfig& cfg = m.config;
+  if (static_cast<int64_t>(classes_in.size()) != fine_in.size())
+    throw std::invalid_argument("VAE encode: " + std::to_string(classes_in.size()) + " classes for " +
+                                std::to_string(fine_in.size()) + " voxels");
+  if (m.embedding.empty()) throw std::invalid_argument("VaeGpu: the weights given have no encoder (encoder.semantic_embed_fn.weight)");
+  m.reset_pool();
+  Level level;
+  level.host = fine_in;
+  const std::vector<int64_t> perm = sort_brick_order(level.host);
+  const uint32_t n = static_cast<uint32_t>(level.host.size());
+  if (n == 0) throw std::invalid_argument("VAE encode: the chunk has no voxels");
+  for (const Ijk& c : level.host.ijk)
+    for (const int32_t v : c)
+      if (v <= -(1 << 19) || v >= (1 << 19)) throw std::invalid_argument("VAE encode: voxel coordinate " + std::to_string(v) + " is too far out (|ijk| < 2^19)");
+  // Input features [65][n]: position embedding of the voxel centres, then the class embedding.
+  const int pe = 3 + 6 * cfg.pos_freqs, dim = cfg.encoder_input_dim();
+  std::vector<float> feats(static_cast<size_t>(dim) * n);
+  for (uint32_t r = 0; r < n; ++r) {
+    std::array<float, 3> p{};
+    for (int d = 0; d < 3; ++d)
+      p[static_cast<size_t>(d)] = static_cast<float>(level.host.ijk[r][static_cast<size_t>(d)]) *
+                                      static_cast<float>(level.host.voxel_size[static_cast<size_t>(d)]) +
+                                  static_cast<float>(level.host.origin[static_cast<size_t>(d)]);
+    const std::vector<float> e = position_embedding(p, cfg.pos_freqs);
+    for (int k = 0; k < pe; ++k) feats[static_cast<size_t>(k) * n + r] = e[static_cast<size_t>(k)];
+    const int32_t cls = classes_in[static_cast<size_t>(perm[r])];
+    if (cls < 0 || cls >= cfg.num_semantic)
+      throw std::invalid_argument("VAE encode: class " + std::to_string(cls) + " is outside [0, " + std::to_string(cfg.num_semantic) + ")");
+    for (int k = 0; k < cfg.dim_semantic; ++k)
+      feats[static_cast<size_t>(pe + k) * n + r] = m.embedding[static_cast<size_t>(cls) * cfg.dim_semantic + static_cast<size_t>(k)];
+  }
+  GT in;
+  in.channels = static_cast<uint32_t>(dim);
+  in.rows = n;
+  in.buf = std::make_shared<gpu::Buffer>(gpu::upload_vector(m.ctx, feats, "vae-encoder-input"));
+  feats = {};
+  GT x;
+  m.ctx.submit_and_wait([&](gpu::CommandList& cmd) {
+    m.cmd = &cmd;
+    m.build_level(level, std::make_unique<gpu::Buffer>(gpu::upload_vector(m.ctx, Impl::flat(level.host), "vae-fine-ijk")));
+    m.level = &level;
+    x = m.conv1(m.conv1(in, "encoder.mix_fc"), "unet.pre_conv");
+  });
+  in = {};
+  for (int l = 0; l < cfg.num_blocks; ++l)
+    for (int b = 0; b < cfg.num_res_blocks; ++b) {
+      if (l > 0 && b == 0) {  // max pooling onto the coarsened grid
+        const Ijk f = cfg.pool_factor(l);
+        kernels::nn::SparseGridOps::Coarse coarse = m.grid_ops.coarsen(*level.ijk, level.rows, f);
+        Level next;
+        for (int d = 0; d < 3; ++d) {
+          next.host.voxel_size[d] = level.host.voxel_size[d] * f[d];
+          next.host.origin[d] = level.host.origin[d] + (f[d] - 1) * level.host.voxel_size[d] / 2.0;
+        }
+        const std::vector<int32_t> c = gpu::download_vector<int32_t>(m.ctx, coarse.ijk, size_t{coarse.rows} * 3);
+        next.host.ijk.resize(coarse.rows);
+        for (uint32_t r = 0; r < coarse.rows; ++r) next.host.ijk[r] = {c[3 * r], c[3 * r + 1], c[3 * r + 2]};
+        GT y = m.alloc(x.channels, coarse.rows);
+        m.ctx.submit_and_wait([&](gpu::CommandList& cmd) {
+          m.cmd = &cmd;
+          m.grid_ops.record_max_pool(cmd, coarse, *x.buf, x.channels, *y.buf);
+          m.barrier();
+          m.build_level(next, std::make_unique<gpu::Buffer>(std::move(coarse.ijk)));
+        });
+        x = y;
+        level = std::move(next);
+        m.level = &level;
+      }
+      m.ctx.submit_and_wait([&](gpu::CommandList& cmd) {
+        m.cmd = &cmd;
+        x = m.res_block("unet.encoders.Enc" + std::to_string(l) + "-Block" + std::to_string(b), x);
+      });
+    }
+  if (cfg.neck_dense) {  // the dense neck box [-b, b) at the latent level, zeros where the chunk has no voxel
+    const Ijk& b = cfg.neck_bound;
+    Level box;
+    box.host = dense_box_grid({-b[0], -b[1], -b[2]}, {2 * b[0], 2 * b[1], 2 * b[2]}, level.host.voxel_size, level.host.origin);
+    const uint32_t nb = static_cast<uint32_t>(box.host.size());
+    gpu::Buffer query = gpu::upload_vector(m.ctx, Impl::flat(box.host), "vae-neck-ijk");
+    gpu::Buffer rows(m.ctx, uint64_t{nb} * 4, gpu::MemoryUsage::DeviceLocal, "vae-neck-rows");
+    GT y = m.alloc(x.channels, nb);
+    m.ctx.submit_and_wait([&](gpu::CommandList& cmd) {
+      m.cmd = &cmd;
+      m.grid_ops.record_lookup(cmd, level.rows, *level.ijk, *level.table, level.table_size, nb, query, rows);
+      m.barrier();
+      m.grid_ops.record_gather_rows(cmd, *x.buf, level.rows, x.channels, rows, nb, *y.buf);
+      m.barrier();
+      m.build_level(box, std::make_unique<gpu::Buffer>(std::move(query)));
+    });
+    x = y;
+    level = std::move(box);
+    m.level = &level;
+  }
+  GT moments;
+  m.ctx.submit_and_wait([&](gpu::CommandList& cmd) {
+    m.cmd = &cmd;
+    x = m.res_block("unet.pre_kl_bottleneck.pre_kl_bottleneck_0", x);
+    x = m.res_block("unet.pre_kl_bottleneck.pre_kl_bottleneck_1", x);
+    x = m.group_norm(x, "unet.pre_kl_bottleneck.pre_kl_bottleneck_gn.module");
+    moments = m.conv3(x, "unet.pre_kl_bottleneck.pre_kl_bottleneck_2.module");
+  });
+  SparseTensor mu;
+  mu.grid = level.host;
+  mu.channels = cfg.latent_channels();
+  const std::vector<float> cm = gpu::download_vector<float>(m.ctx, *moments.buf, size_t{static_cast<uint32_t>(mu.channels)} * moments.rows);
+  mu.data.resize(cm.size());
+  for (uint32_t r = 0; r < moments.rows; ++r)
+    for (int64_t c = 0; c < mu.channels; ++c) mu.data[r * static_cast<size_t>(mu.channels) + static_cast<size_t>(c)] = cm[static_cast<size_t>(c) * moments.rows + r];
+  return mu;
 }
 
 }  // namespace icube::nn

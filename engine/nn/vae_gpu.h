@@ -1,4 +1,4 @@
-// InfiniCube's sparse structure VAE decoder on the GPU: VaeReference::decode's
+// InfiniCube's sparse structure VAE (decoder and encoder) on the GPU: VaeReference's
 // module tree recorded as kernels/nn dispatches (sparse_conv over one kernel
 // map per level, Conv3d kernel 1 for the 1x1 convolutions, GroupNorm over the
 // active voxels and the element-wise kernels on the channel-major [C][N]
@@ -34,6 +34,11 @@ class VaeGpu {
 
   // As VaeReference::decode: the latent's rows (any order) and channels [N, latent channels].
   VaeDecoded decode(const SparseTensor& latent);
+  // As VaeReference::encode: mu on the dense neck box (brick order). The position embedding and class
+  // embedding are made on the host (double sin/cos rounded to float32, as upstream's float32 torch is
+  // within an ulp of), everything from mix_fc on runs on the GPU: max pooling onto the coarsened grids,
+  // the neck box filled by hash lookups.
+  SparseTensor encode(const SparseGrid& fine_grid, const std::vector<int32_t>& classes);
 
   // Peak device bytes of the activation pool in the last decode (grids, kernel maps and weights not counted).
   uint64_t last_activation_bytes() const;

@@ -23,6 +23,11 @@ SparseGridOps::SparseGridOps(gpu::Context& ctx)
       children_(ctx.program("nn/sparse_children")),
       permute_(ctx.program("nn/sparse_permute")),
       gather_(ctx.program("nn/sparse_gather_rows")),
+      coarse_keys_(ctx.program("nn/sparse_coarse_keys")),
+      segments_(ctx.program("nn/sparse_segments")),
+      coarse_rows_(ctx.program("nn/sparse_coarse_rows")),
+      max_pool_(ctx.program("nn/sparse_max_pool")),
+      lookup_(ctx.program("nn/sparse_lookup")),
       scan_(ctx),
       sort_(ctx, KeyWidth::Bits64),
       iota_(ctx) {}
@@ -128,6 +133,86 @@ SparseGridOps::Children SparseGridOps::subdivide(const gpu::Buffer& ijk, uint32_
     record_permute(cmd, static_cast<uint32_t>(n), perm, child_ijk, parent, out.ijk, out.parent);
   });
   return out;
+}
+
+SparseGridOps::Coarse SparseGridOps::coarsen(const gpu::Buffer& ijk, uint32_t rows, const std::array<int32_t, 3>& f) {
+  for (const int32_t v : f)
+    if (v < 1 || v > 8) throw std::invalid_argument("sparse max pool: factor " + std::to_string(v) + " (1 to 8)");
+  Coarse c;
+  c.fine_rows = rows;
+  if (rows == 0) {
+    c.ijk = gpu::Buffer(ctx_, 12, gpu::MemoryUsage::DeviceLocal, "sparse-coarse-ijk");
+    c.perm = gpu::Buffer(ctx_, 4, gpu::MemoryUsage::DeviceLocal, "sparse-coarse-perm");
+    c.begin = gpu::Buffer(ctx_, 4, gpu::MemoryUsage::DeviceLocal, "sparse-coarse-begin");
+    return c;
+  }
+  require_one_binding(ctx_, "sparse max pool", "coordinates", uint64_t{rows} * 3);
+  gpu::Buffer keys(ctx_, uint64_t{rows} * 8, gpu::MemoryUsage::DeviceLocal, "sparse-coarse-keys");
+  c.perm = gpu::Buffer(ctx_, uint64_t{rows} * 4, gpu::MemoryUsage::DeviceLocal, "sparse-coarse-perm");
+  gpu::Buffer starts(ctx_, uint64_t{rows} * 4, gpu::MemoryUsage::DeviceLocal, "sparse-coarse-starts");
+  gpu::Buffer incl(ctx_, uint64_t{rows} * 4, gpu::MemoryUsage::DeviceLocal, "sparse-coarse-scan");
+  const uint64_t scratch_n = PrefixScan::scratch_elements(rows);
+  gpu::Buffer scratch(ctx_, at_least_4(scratch_n * 4), gpu::MemoryUsage::DeviceLocal, "sparse-coarse-scan-scratch");
+  RadixSortScratch sort_scratch(ctx_, rows, KeyWidth::Bits64);
+  shader::SparseGridParams pc{};
+  pc.rows = rows;
+  pc.factor_x = static_cast<uint32_t>(f[0]);
+  pc.factor_y = static_cast<uint32_t>(f[1]);
+  pc.factor_z = static_cast<uint32_t>(f[2]);
+  ctx_.submit_and_wait([&](gpu::CommandList& cmd) {
+    cmd.dispatch(coarse_keys_, gpu::Threads{rows}, pc,
+                 {ijk.binding(0, uint64_t{rows} * 12), keys.binding(0, uint64_t{rows} * 8), c.perm.binding(0, uint64_t{rows} * 4)});
+    cmd.barrier(gpu::deps::kComputeToCompute);
+    sort_.record(cmd, keys, c.perm, rows, sort_scratch);
+    cmd.barrier(gpu::deps::kComputeToCompute);
+    cmd.barrier(gpu::deps::kTransferToCompute);  // an odd pass count ends the sort with a copy
+    cmd.dispatch(segments_, gpu::Threads{rows}, pc, {keys.binding(0, uint64_t{rows} * 8), starts.binding(0, uint64_t{rows} * 4)});
+    cmd.barrier(gpu::deps::kComputeToCompute);
+    scan_.record(cmd, starts, incl, rows, ScanKind::Inclusive, scratch_n ? &scratch : nullptr);
+  });
+  c.rows = gpu::download_vector<uint32_t>(ctx_, incl, 1, uint64_t{rows - 1} * 4)[0];
+  c.ijk = gpu::Buffer(ctx_, uint64_t{c.rows} * 12, gpu::MemoryUsage::DeviceLocal, "sparse-coarse-ijk");
+  c.begin = gpu::Buffer(ctx_, uint64_t{c.rows} * 4, gpu::MemoryUsage::DeviceLocal, "sparse-coarse-begin");
+  ctx_.submit_and_wait([&](gpu::CommandList& cmd) {
+    cmd.dispatch(coarse_rows_, gpu::Threads{rows}, pc,
+                 {ijk.binding(0, uint64_t{rows} * 12), c.perm.binding(0, uint64_t{rows} * 4), starts.binding(0, uint64_t{rows} * 4),
+                  incl.binding(0, uint64_t{rows} * 4), c.begin.binding(0, uint64_t{c.rows} * 4), c.ijk.binding(0, uint64_t{c.rows} * 12)});
+  });
+  return c;
+}
+
+void SparseGridOps::record_max_pool(gpu::CommandList& cmd, const Coarse& c, const gpu::Buffer& x, uint32_t channels,
+                                    const gpu::Buffer& y) {
+  if (c.rows == 0 || channels == 0) return;
+  require_buffer("sparse max pool", "input", uint64_t{c.fine_rows} * channels * 4, x);
+  require_buffer("sparse max pool", "output", uint64_t{c.rows} * channels * 4, y);
+  const uint64_t usable = window_elements(ctx_);
+  const uint64_t per_window = usable / c.fine_rows;
+  if (per_window == 0) throw std::invalid_argument("sparse max pool: one channel exceeds one storage binding");
+  for (uint64_t c0 = 0; c0 < channels; c0 += per_window) {
+    const uint64_t cw = std::min<uint64_t>(per_window, channels - c0);
+    const ElementWindow xw = texel_window(ctx_, x, c0 * c.fine_rows, cw * c.fine_rows);
+    const ElementWindow yw = element_window(ctx_, y, c0 * c.rows, cw * c.rows);
+    shader::SparseGridParams pc{};
+    pc.rows = c.rows;
+    pc.in_rows = c.fine_rows;
+    pc.channels = static_cast<uint32_t>(cw);
+    pc.x_offset = xw.offset;
+    pc.y_offset = yw.offset;
+    cmd.dispatch(max_pool_, gpu::Threads{cw * c.rows}, pc,
+                 {xw.binding, c.perm.binding(0, uint64_t{c.fine_rows} * 4), c.begin.binding(0, uint64_t{c.rows} * 4), yw.binding});
+  }
+}
+
+void SparseGridOps::record_lookup(gpu::CommandList& cmd, uint32_t grid_rows, const gpu::Buffer& ijk, const gpu::Buffer& table,
+                                  uint32_t table_size, uint32_t queries, const gpu::Buffer& query_ijk, const gpu::Buffer& rows) {
+  if (queries == 0) return;
+  require_buffer("sparse lookup", "queries", uint64_t{queries} * 12, query_ijk);
+  require_buffer("sparse lookup", "rows", uint64_t{queries} * 4, rows);
+  const shader::SparseHashParams pc{queries, table_size, 0, 0};
+  cmd.dispatch(lookup_, gpu::Threads{queries}, pc,
+               {ijk.binding(0, std::max<uint64_t>(12, uint64_t{grid_rows} * 12)), table.binding(0, uint64_t{table_size} * 4),
+                query_ijk.binding(0, uint64_t{queries} * 12), rows.binding(0, uint64_t{queries} * 4)});
 }
 
 }  // namespace icube::kernels::nn

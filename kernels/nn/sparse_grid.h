@@ -1,5 +1,7 @@
 // Building sparse voxel grids on the GPU (shaders/nn/sparse_keep,
-// sparse_children, sparse_permute, sparse_gather_rows): the structure
+// sparse_children, sparse_permute, sparse_gather_rows, sparse_coarse_keys,
+// sparse_segments, sparse_coarse_rows, sparse_max_pool, sparse_lookup): the
+// encoder's max pooling onto the coarsened grid, hash lookups, the structure
 // decision of a VAE head (keep where logit0 > logit1), subdivision of the kept
 // voxels into their f_x * f_y * f_z children (coordinates ijk * f + o, sorted
 // into brick order by the 64-bit radix sort, features copied from the parent)
@@ -8,7 +10,7 @@
 // The record_* steps leave the barriers to the caller; subdivide() runs the
 // whole sequence in two submissions (the kept count is read back to size the
 // children) with its barriers inside.
-// CPU reference: nn::cpu::subdivide (kernels/nn/sparse_cpu.h).
+// CPU references: nn::cpu::subdivide, max_pool, find_rows (kernels/nn/sparse_cpu.h).
 // Tests: tests/nn/test_sparse_grid_gpu.cpp.
 #pragma once
 
@@ -48,12 +50,33 @@ class SparseGridOps {
   Children subdivide(const gpu::Buffer& ijk, uint32_t rows, const gpu::Buffer& logits,
                      const std::array<int32_t, 3>& factor);
 
+  // The coarsened grid (max pooling's, floor(ijk / factor), brick order) and the sorted fine rows each
+  // coarse row pools: fine rows perm[begin[q] .. begin[q + 1]). Two submissions (the coarse count is read back).
+  struct Coarse {
+    uint32_t rows = 0, fine_rows = 0;
+    gpu::Buffer ijk;    // int32 [rows][3]
+    gpu::Buffer perm;   // uint32 [fine_rows]: fine rows sorted by coarse voxel
+    gpu::Buffer begin;  // uint32 [rows]
+  };
+  Coarse coarsen(const gpu::Buffer& ijk, uint32_t rows, const std::array<int32_t, 3>& factor);
+  // y [channels][coarse.rows] = max pooling of x [channels][coarse.fine_rows].
+  void record_max_pool(gpu::CommandList& cmd, const Coarse& coarse, const gpu::Buffer& x, uint32_t channels,
+                       const gpu::Buffer& y);
+  // rows[i] = the row of query_ijk[i] in the grid hashed into `table` (SparseKernelMap::record_insert), or -1.
+  void record_lookup(gpu::CommandList& cmd, uint32_t grid_rows, const gpu::Buffer& ijk, const gpu::Buffer& table,
+                     uint32_t table_size, uint32_t queries, const gpu::Buffer& query_ijk, const gpu::Buffer& rows);
+
  private:
   gpu::Context& ctx_;
   gpu::Program& keep_;
   gpu::Program& children_;
   gpu::Program& permute_;
   gpu::Program& gather_;
+  gpu::Program& coarse_keys_;
+  gpu::Program& segments_;
+  gpu::Program& coarse_rows_;
+  gpu::Program& max_pool_;
+  gpu::Program& lookup_;
   PrefixScan scan_;
   RadixSort sort_;
   Iota iota_;

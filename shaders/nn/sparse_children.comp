@@ -10,6 +10,7 @@
 // Tests: tests/nn/test_sparse_grid_gpu.cpp.
 #include "shared/nn_params.h"
 #include "common/dispatch.glsl"
+#include "sparse_keys.glsl"
 
 layout(local_size_x = NN_SPARSE_GROUP) in;
 layout(push_constant) uniform Push { SparseGridParams p; };
@@ -33,11 +34,7 @@ void main() {
   child_ijk[3u * child + 1u] = c.y;
   child_ijk[3u * child + 2u] = c.z;
   parent[child] = r;
-  const uvec3 u = uvec3(c + ivec3(NN_SPARSE_COORD_LIMIT));
-  const uvec3 b = u >> 3u, l = u & 7u;
-  // key = b.x << 45 | b.y << 27 | b.z << 9 | l.x << 6 | l.y << 3 | l.z (b.* < 2^18)
-  const uint lo = (b.z << 9u) | (l.x << 6u) | (l.y << 3u) | l.z | ((b.y & 0x1Fu) << 27u);
-  const uint hi = (b.y >> 5u) | (b.x << 13u);
-  keys[2u * child] = lo;
-  keys[2u * child + 1u] = hi;
+  const uvec2 k = icube_brick_key(c);
+  keys[2u * child] = k.x;
+  keys[2u * child + 1u] = k.y;
 }

@@ -198,6 +198,17 @@ struct SparseConvParams {
 // | (u.j & 7) << 3 | (u.k & 7): ascending keys = brick order (sparse_cpu.h).
 #define NN_SPARSE_COORD_LIMIT (1 << 20)
 
+// Max pooling onto the coarsened grid (the VAE encoder's [2,2,1] / [2,2,2]):
+// sparse_coarse_keys  key[r] = brick-order key of floor(ijk[r] / f), value r
+//                     (then the 64-bit radix sort)
+// sparse_segments     starts[i] = 1 where the sorted key differs from the
+//                     previous one (i = 0 included), else 0
+// sparse_coarse_rows  for each sorted i with starts[i] = 1 (incl = inclusive
+//                     scan of starts): coarse row incl[i] - 1 begins at i, its
+//                     ijk floor(ijk[perm[i]] / f)
+// sparse_max_pool     y[c][q] = max over the sorted fine rows of coarse row q
+//                     (segment [begin[q], begin[q + 1]) of perm) of x[c][row]
+// sparse_lookup       rows[i] = the row of query ijk i in a hashed grid, or -1
 struct SparseGridParams {
   uint rows;      // parents (keep, children); outputs (permute, gather)
   uint in_rows;   // gather: rows of x

@@ -8,6 +8,7 @@
 
 #include "gpu_test_context.h"
 #include "nn/sparse_cpu.h"
+#include "nn/sparse_conv.h"
 #include "nn/sparse_grid.h"
 
 #include <random>
@@ -98,4 +99,60 @@ TEST_CASE("sparse grid gpu: row gathers with missing rows read zero") {
   kernels::nn::SparseGridOps ops(ctx);
   ctx.submit_and_wait([&](gpu::CommandList& cmd) { ops.record_gather_rows(cmd, xb, 3, 2, rb, 4, yb); });
   CHECK(gpu::download_vector<float>(ctx, yb, 8) == std::vector<float>{3, 0, 1, 1, 30, 0, 10, 10});
+}
+
+TEST_CASE("sparse grid gpu: max pooling onto the coarsened grid and hash lookups equal the CPU reference") {
+  gpu::Context& ctx = test::gpu_context();
+  kernels::nn::SparseGridOps ops(ctx);
+  for (const Ijk f : {Ijk{2, 2, 1}, Ijk{2, 2, 2}, Ijk{3, 1, 2}}) {
+    CAPTURE(f[0]);
+    CAPTURE(f[2]);
+    const nn::SparseGrid g = random_grid(21 + static_cast<uint32_t>(f[2]), {-23, -9, -14}, {41, 29, 27}, 4000);
+    std::mt19937 rng(4);
+    std::normal_distribution<float> nd(0.0f, 10.0f);
+    nn::SparseTensor x{g, 5, std::vector<float>(static_cast<size_t>(g.size()) * 5)};
+    for (float& v : x.data) v = nd(rng);
+    const nn::SparseTensor want = nn::cpu::max_pool(x, f);
+    const uint32_t n = static_cast<uint32_t>(g.size());
+    std::vector<int32_t> flat;
+    for (const Ijk& c : g.ijk) flat.insert(flat.end(), c.begin(), c.end());
+    std::vector<float> x_cm(x.data.size());
+    for (uint32_t r = 0; r < n; ++r)
+      for (int c = 0; c < 5; ++c) x_cm[c * n + r] = x.row(r)[c];
+    gpu::Buffer ijk = gpu::upload_vector(ctx, flat, "pool-ijk"), xb = gpu::upload_vector(ctx, x_cm, "pool-x");
+    const kernels::nn::SparseGridOps::Coarse coarse = ops.coarsen(ijk, n, f);
+    REQUIRE(coarse.rows == want.rows());
+    gpu::Buffer yb(ctx, uint64_t{coarse.rows} * 5 * 4, gpu::MemoryUsage::DeviceLocal, "pool-y");
+    ctx.submit_and_wait([&](gpu::CommandList& cmd) { ops.record_max_pool(cmd, coarse, xb, 5, yb); });
+    const std::vector<int32_t> cijk = gpu::download_vector<int32_t>(ctx, coarse.ijk, size_t{coarse.rows} * 3);
+    const std::vector<float> y = gpu::download_vector<float>(ctx, yb, size_t{coarse.rows} * 5);
+    size_t bad = 0;
+    for (uint32_t q = 0; q < coarse.rows; ++q) {
+      for (int d = 0; d < 3; ++d) bad += cijk[3 * q + d] != want.grid.ijk[q][d];
+      for (int c = 0; c < 5; ++c) bad += y[c * coarse.rows + q] != want.row(q)[c];
+    }
+    CHECK(bad == 0);
+  }
+  // Lookups of present, absent and far coordinates.
+  const nn::SparseGrid g = random_grid(31, {-6, -6, -6}, {12, 12, 12}, 500);
+  const uint32_t n = static_cast<uint32_t>(g.size());
+  std::vector<int32_t> flat;
+  for (const Ijk& c : g.ijk) flat.insert(flat.end(), c.begin(), c.end());
+  std::vector<Ijk> queries = nn::dense_box_grid({-7, -7, -7}, {14, 14, 14}, {1, 1, 1}, {0, 0, 0}).ijk;
+  queries.push_back({2'000'000'000, 0, -2'000'000'000});
+  std::vector<int32_t> qflat;
+  for (const Ijk& c : queries) qflat.insert(qflat.end(), c.begin(), c.end());
+  gpu::Buffer ijk = gpu::upload_vector(ctx, flat, "lk-ijk"), qb = gpu::upload_vector(ctx, qflat, "lk-q");
+  const uint32_t ts = kernels::nn::SparseKernelMap::table_size(n);
+  gpu::Buffer table(ctx, uint64_t{ts} * 4, gpu::MemoryUsage::DeviceLocal, "lk-table");
+  gpu::Buffer rows(ctx, queries.size() * 4, gpu::MemoryUsage::DeviceLocal, "lk-rows");
+  kernels::nn::SparseKernelMap km(ctx);
+  ctx.submit_and_wait([&](gpu::CommandList& cmd) {
+    km.record_clear(cmd, table, ts);
+    cmd.barrier(gpu::deps::kTransferToCompute);
+    km.record_insert(cmd, n, ijk, table, ts);
+    cmd.barrier(gpu::deps::kComputeToCompute);
+    ops.record_lookup(cmd, n, ijk, table, ts, static_cast<uint32_t>(queries.size()), qb, rows);
+  });
+  CHECK(gpu::download_vector<int32_t>(ctx, rows, queries.size()) == nn::cpu::find_rows(g, queries));
 }
