@@ -11,6 +11,17 @@
 
 namespace icube::kernels::nn {
 
+namespace {
+
+// Kernel-map rows one binding may hold: a multiple of 1,024 rows (so every window starts at a byte offset
+// that is a multiple of 1,024 * 108, aligned for any device), at least one.
+uint64_t kmap_window_rows(const gpu::Context& ctx) {
+  const uint64_t rows = ctx.info().max_storage_buffer_range / (uint64_t{NN_SPARSE_TAPS} * 4) / 1024 * 1024;
+  return std::max<uint64_t>(rows, 1024);
+}
+
+}  // namespace
+
 SparseKernelMap::SparseKernelMap(gpu::Context& ctx)
     : ctx_(ctx), insert_(ctx.program("nn/sparse_hash_insert")), map_(ctx.program("nn/sparse_kernel_map")) {}
 
@@ -45,10 +56,14 @@ void SparseKernelMap::record_map(gpu::CommandList& cmd, uint32_t rows, const gpu
   if (rows == 0) return;
   const uint64_t entries = uint64_t{rows} * NN_SPARSE_TAPS;
   require_buffer("sparse kernel map", "kernel map", entries * 4, kmap);
-  require_one_binding(ctx_, "sparse kernel map", "kernel map", entries);
-  const shader::SparseHashParams pc{rows, table_size, 0, 0};
-  cmd.dispatch(map_, gpu::Threads{entries}, pc,
-               {ijk.binding(0, uint64_t{rows} * 12), table.binding(0, uint64_t{table_size} * 4), kmap.binding(0, entries * 4)});
+  const uint64_t window = kmap_window_rows(ctx_);
+  for (uint64_t r0 = 0; r0 < rows; r0 += window) {  // row windows when the map exceeds one binding
+    const uint64_t count = std::min<uint64_t>(window, rows - r0);
+    const shader::SparseHashParams pc{rows, table_size, static_cast<uint32_t>(r0), static_cast<uint32_t>(count)};
+    cmd.dispatch(map_, gpu::Threads{count * NN_SPARSE_TAPS}, pc,
+                 {ijk.binding(0, uint64_t{rows} * 12), table.binding(0, uint64_t{table_size} * 4),
+                  kmap.binding(r0 * NN_SPARSE_TAPS * 4, count * NN_SPARSE_TAPS * 4)});
+  }
 }
 
 SparseConv3d::SparseConv3d(gpu::Context& ctx) : ctx_(ctx), program_(ctx.program("nn/sparse_conv")) {}
@@ -64,16 +79,13 @@ void SparseConv3d::record(gpu::CommandList& cmd, const SparseConvShape& s, const
   require_buffer("sparse conv", "kernel map", N * NN_SPARSE_TAPS * 4, kmap);
   require_buffer("sparse conv", "packed weights", w_bytes, w);
   if (bias) require_buffer("sparse conv", "bias", uint64_t{s.out_channels} * 4, *bias);
-  require_one_binding(ctx_, "sparse conv", "kernel map", N * NN_SPARSE_TAPS);
   if (w_bytes > ctx_.info().max_storage_buffer_range)
     throw std::invalid_argument("sparse conv: packed weights of " + std::to_string(w_bytes) + " bytes exceed one storage binding");
 
   shader::SparseConvParams pc{};
   pc.rows = s.rows;
   pc.co_vec4s = static_cast<uint32_t>(co_vec4s);
-  pc.row_tiles = static_cast<uint32_t>(gpu::div_up(N, uint64_t{NN_SPARSE_ROWS} * NN_SPARSE_GROUP));
   pc.has_bias = bias ? 1u : 0u;
-  const gpu::BufferBinding kb = kmap.binding(0, N * NN_SPARSE_TAPS * 4);
   const gpu::BufferBinding wb = w.binding(0, w_bytes);
   const gpu::BufferBinding bb = bias ? bias->binding(0, uint64_t{s.out_channels} * 4) : gpu::null_binding();
   // Input channels per dispatch: lavapipe stops an invocation after 65,535 loop iterations; this kernel
@@ -85,21 +97,30 @@ void SparseConv3d::record(gpu::CommandList& cmd, const SparseConvShape& s, const
   if (ci_window == 0 || co_window == 0)
     throw std::invalid_argument("sparse conv: " + std::to_string(NN_CONV_CO_TILE) + " channels of " + std::to_string(N) +
                                 " rows exceed one storage binding");
-  for (uint64_t co0 = 0; co0 < s.out_channels; co0 += co_window) {
-    pc.co_begin = static_cast<uint32_t>(co0);
-    pc.co_count = static_cast<uint32_t>(std::min<uint64_t>(co_window, s.out_channels - co0));
-    pc.co_blocks = static_cast<uint32_t>(gpu::div_up(pc.co_count, NN_CONV_CO_TILE));
-    const ElementWindow yw = element_window(ctx_, y, co0 * N, uint64_t{pc.co_count} * N);
-    pc.y_offset = yw.offset;
-    for (uint64_t ci0 = 0; ci0 < s.in_channels; ci0 += ci_window) {
-      pc.ci_begin = static_cast<uint32_t>(ci0);
-      pc.ci_count = static_cast<uint32_t>(std::min<uint64_t>(ci_window, s.in_channels - ci0));
-      pc.accumulate = ci0 > 0 ? 1u : 0u;
-      if (ci0 > 0) cmd.barrier(gpu::deps::kComputeToCompute);  // later input windows read-modify-write y
-      const ElementWindow xw = texel_window(ctx_, x, ci0 * N, uint64_t{pc.ci_count} * N);
-      pc.x_offset = xw.offset;
-      const uint64_t groups = uint64_t{pc.row_tiles} * pc.co_blocks;
-      cmd.dispatch(program_, gpu::Threads{groups * NN_SPARSE_GROUP}, pc, {xw.binding, kb, wb, bb, yw.binding});
+  // Row windows when the kernel map exceeds one binding (they write disjoint rows of y: no barrier
+  // between them), then output and input channel windows as Conv3d.
+  const uint64_t row_window = kmap_window_rows(ctx_);
+  for (uint64_t r0 = 0; r0 < N; r0 += row_window) {
+    pc.row_begin = static_cast<uint32_t>(r0);
+    pc.row_count = static_cast<uint32_t>(std::min<uint64_t>(row_window, N - r0));
+    pc.row_tiles = static_cast<uint32_t>(gpu::div_up(pc.row_count, uint64_t{NN_SPARSE_ROWS} * NN_SPARSE_GROUP));
+    const gpu::BufferBinding kb = kmap.binding(r0 * NN_SPARSE_TAPS * 4, uint64_t{pc.row_count} * NN_SPARSE_TAPS * 4);
+    for (uint64_t co0 = 0; co0 < s.out_channels; co0 += co_window) {
+      pc.co_begin = static_cast<uint32_t>(co0);
+      pc.co_count = static_cast<uint32_t>(std::min<uint64_t>(co_window, s.out_channels - co0));
+      pc.co_blocks = static_cast<uint32_t>(gpu::div_up(pc.co_count, NN_CONV_CO_TILE));
+      const ElementWindow yw = element_window(ctx_, y, co0 * N, uint64_t{pc.co_count} * N);
+      pc.y_offset = yw.offset;
+      for (uint64_t ci0 = 0; ci0 < s.in_channels; ci0 += ci_window) {
+        pc.ci_begin = static_cast<uint32_t>(ci0);
+        pc.ci_count = static_cast<uint32_t>(std::min<uint64_t>(ci_window, s.in_channels - ci0));
+        pc.accumulate = ci0 > 0 ? 1u : 0u;
+        if (ci0 > 0) cmd.barrier(gpu::deps::kComputeToCompute);  // later input windows read-modify-write y
+        const ElementWindow xw = texel_window(ctx_, x, ci0 * N, uint64_t{pc.ci_count} * N);
+        pc.x_offset = xw.offset;
+        const uint64_t groups = uint64_t{pc.row_tiles} * pc.co_blocks;
+        cmd.dispatch(program_, gpu::Threads{groups * NN_SPARSE_GROUP}, pc, {xw.binding, kb, wb, bb, yw.binding});
+      }
     }
   }
 }

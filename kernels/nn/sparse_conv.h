@@ -9,9 +9,10 @@
 // 1 x 1 x N voxels).
 //
 // A kernel map depends only on the grid: build it once per grid and reuse it
-// for every 3^3 convolution there (the VAE builds one per level). It must fit
-// one storage binding (N * 27 * 4 bytes: 1.24 M rows on lavapipe's 128 MiB);
-// features may exceed one binding (channel windows, as Conv3d).
+// for every 3^3 convolution there (the VAE builds one per level). Kernel maps
+// beyond one storage binding (N * 27 * 4 bytes: 1.24 M rows on lavapipe's
+// 128 MiB) are written and read in row windows, features beyond one binding in
+// channel windows (as Conv3d).
 // CPU references: nn::cpu::kernel_map / nn::cpu::conv3d (kernels/nn/sparse_cpu.h).
 // Tests: tests/nn/test_sparse_conv_gpu.cpp.
 #pragma once

@@ -31,8 +31,8 @@ void main() {
   const uint tile = g % p.row_tiles;
   const uint cob = g / p.row_tiles;
   if (cob >= p.co_blocks) return;
-  const uint r0 = (tile * NN_SPARSE_GROUP + gl_LocalInvocationID.x) * NN_SPARSE_ROWS;
-  const uint last = p.rows - 1u;
+  const uint r0 = (tile * NN_SPARSE_GROUP + gl_LocalInvocationID.x) * NN_SPARSE_ROWS;  // within the row window
+  const uint last = p.row_count - 1u;
   const uint co_vec = p.co_begin / 4u + cob * (NN_CONV_CO_TILE / 4);
 
   vec4 acc_lo[NN_SPARSE_ROWS], acc_hi[NN_SPARSE_ROWS];
@@ -57,8 +57,8 @@ void main() {
     }
   }
   for (int v = 0; v < NN_SPARSE_ROWS; ++v) {
-    const uint r = r0 + uint(v);
-    if (r > last) break;
+    if (r0 + uint(v) > last) break;
+    const uint r = p.row_begin + r0 + uint(v);
     for (uint c = 0u; c < NN_CONV_CO_TILE; ++c) {
       const uint cl = cob * NN_CONV_CO_TILE + c;  // channel within the window
       if (cl >= p.co_count) break;

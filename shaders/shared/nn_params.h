@@ -154,10 +154,10 @@ struct LayerNormParams {
 #define NN_SPARSE_TAPS 27
 
 struct SparseHashParams {
-  uint rows;
+  uint rows;        // hashed rows (insert, lookup: queries)
   uint table_size;
-  uint pad0;
-  uint pad1;
+  uint row_begin;   // sparse_kernel_map: this dispatch's first row (kmap windows)
+  uint row_count;   // sparse_kernel_map: rows in this dispatch; kmap entry (row - row_begin) * 27 + tap
 };
 
 // sparse_conv: submanifold 3^3 convolution as an output-stationary gather
@@ -166,7 +166,9 @@ struct SparseHashParams {
 // ([ci * 27 + tap][co padded to 8], grid-order taps). Windows as conv3d:
 // output channels [co_begin, co_begin + co_count), input channels
 // [ci_begin, ci_begin + ci_count) bound at x_offset / y_offset; accumulate = 1
-// adds to y. Workgroup g: row tile g % row_tiles, channel block g / row_tiles.
+// adds to y. Rows [row_begin, row_begin + row_count) per dispatch, their
+// kernel-map rows bound from row_begin (kernel maps beyond one binding run in
+// row windows). Workgroup g: row tile g % row_tiles, channel block g / row_tiles.
 #define NN_SPARSE_ROWS 16
 
 struct SparseConvParams {
@@ -177,11 +179,15 @@ struct SparseConvParams {
   uint ci_count;
   uint co_blocks;
   uint co_vec4s;   // packed weight row length in vec4s
-  uint row_tiles;  // ceil(rows / (NN_SPARSE_ROWS * NN_SPARSE_GROUP))
+  uint row_tiles;  // ceil(row_count / (NN_SPARSE_ROWS * NN_SPARSE_GROUP))
   uint has_bias;
   uint accumulate;
   uint x_offset;
   uint y_offset;
+  uint row_begin;
+  uint row_count;
+  uint pad0;
+  uint pad1;
 };
 
 // Sparse grid construction (kernels/nn/sparse_grid.h):
@@ -224,7 +230,8 @@ ICUBE_SHADER_NAMESPACE_END
 
 ICUBE_CHECK_SIZE(SparseGridParams, 32);
 ICUBE_CHECK_SIZE(SparseHashParams, 16);
-ICUBE_CHECK_SIZE(SparseConvParams, 48);
+ICUBE_CHECK_SIZE(SparseConvParams, 64);
+ICUBE_CHECK_LAYOUT(SparseConvParams, row_begin, 48);
 ICUBE_CHECK_LAYOUT(SparseConvParams, row_tiles, 28);
 ICUBE_CHECK_LAYOUT(SparseConvParams, y_offset, 44);
 ICUBE_CHECK_SIZE(Conv3dParams, 80);

@@ -8,6 +8,11 @@
 #include "nn/layers_cpu.h"
 #include "nn/safetensors.h"
 #include "nn/sparse_cpu.h"
+#include "nn/random_weights.h"
+#include "nn/vae_config.h"
+#include "scene/atomic_file.h"
+#include "scene/scene_json.h"
+#include "world/demo_scene.h"
 #include "world/npy.h"
 #include "world/world_file.h"
 
@@ -97,4 +102,65 @@ TEST_CASE("cli: icube nn vae decode reproduces vae_small level by level; bad inp
   CHECK(!std::filesystem::exists(out2));
   CHECK(!std::filesystem::exists(dump2));
   CHECK(test::run_icube("nn vae decode --help", tmp.path).code == 0);
+}
+
+TEST_CASE("cli: icube nn vae encode a real world chunk, decode it again: structure sizes per level") {
+  test::TempDir tmp("cli-vae-encode");
+  const std::string scene = (tmp.path / "scene.json").string(), world_path = (tmp.path / "world.icw").string();
+  scene::write_scene_json(world::make_demo_scene(), scene);
+  test::CliRun r = test::run_icube("world build '" + scene + "' -o '" + world_path + "' 2>/dev/null", tmp.path);
+  REQUIRE(r.code == 0);
+  // A narrow model of the released structure with the released neck (64^3 latent box).
+  const std::string cfg_json = R"({"vae_kwargs": {"cut_ratio": 8, "with_semantic_branch": true, "in_channels": 8,
+    "num_blocks": 3, "f_maps": 8, "neck_dense_type": "HAND_CRAFTED", "neck_bound": [32, 32, 32], "num_res_blocks": 1,
+    "use_residual": true, "order": "gcs", "is_add_dec": true, "pooling_level": [2]}, "encoder_kwargs": {"dim_semantic": 6}})";
+  const std::string cfg = (tmp.path / "vae.json").string(), weights = (tmp.path / "vae.safetensors").string();
+  scene::write_file_atomic(cfg, cfg_json);
+  const nn::VaeConfig c = nn::parse_vae_config(cfg_json, cfg);
+  std::vector<nn::TensorToWrite> tensors;
+  for (const auto& [name, t] : nn::random_weights(nn::vae_param_specs(c, nn::VaePart::All), 3))
+    tensors.push_back(nn::f32_tensor(name, t.shape, t.data));
+  nn::write_safetensors(weights, tensors);
+  const std::string latent = (tmp.path / "latent.npy").string();
+  r = test::run_icube("nn vae encode '" + world_path + "' --scene '" + scene + "' --chunk 1 --model '" + cfg + "' --weights '" +
+                          weights + "' --scale-factor 2 -o '" + latent + "'",
+                      tmp.path);
+  INFO(r.output);
+  REQUIRE(r.code == 0);
+  CHECK(r.output.find("latent [1, 4, 64, 64, 64] from ijk (-32, -32, -32)") != std::string::npos);
+  const world::NpyArray a = world::read_npy(latent);
+  CHECK(a.shape == std::vector<uint64_t>{1, 4, 64, 64, 64});
+  const std::string dump = (tmp.path / "layers").string(), chunk = (tmp.path / "chunk.icw").string();
+  r = test::run_icube("nn vae decode '" + latent + "' --model '" + cfg + "' --weights '" + weights +
+                          "' --scale-factor 2 --dump-layers '" + dump + "' -o '" + chunk + "'",
+                      tmp.path);
+  INFO(r.output);
+  REQUIRE(r.code == 0);
+  // Each level holds the kept voxels of the one above, subdivided [2,2,2] then [2,2,1]; the latent level
+  // is the whole 64^3 box.
+  auto kept = [&](int depth) {
+    const std::vector<float> l = world::read_npy(dump + "/struct" + std::to_string(depth) + ".logits.npy").values<float>();
+    uint64_t k = 0;
+    for (size_t i = 0; i + 1 < l.size(); i += 2) k += l[i] > l[i + 1];
+    return k;
+  };
+  auto rows = [&](int depth) { return world::read_npy(dump + "/struct" + std::to_string(depth) + ".ijk.npy").shape[0]; };
+  CHECK(rows(2) == 64u * 64u * 64u);
+  CHECK(rows(1) == kept(2) * 8);
+  CHECK(rows(0) == kept(1) * 4);
+  CHECK(world::read_npy(dump + "/ijk.npy").shape[0] == kept(0));
+  // Bad chunk choices.
+  r = test::run_icube("nn vae encode '" + world_path + "' --model '" + cfg + "' --weights '" + weights + "' -o '" + latent + ".2'", tmp.path);
+  CHECK(r.code != 0);
+  CHECK(r.output.find("give the chunk as --scene SCENE --chunk K, or as --at") != std::string::npos);
+  r = test::run_icube("nn vae encode '" + world_path + "' --at 1e7,0,0 --model '" + cfg + "' --weights '" + weights + "' -o '" +
+                          latent + ".2'",
+                      tmp.path);
+  CHECK(r.code != 0);
+  CHECK(r.output.find("holds no voxel of the world") != std::string::npos);
+  r = test::run_icube("nn vae encode '" + world_path + "' --at 1,2 --model '" + cfg + "' --weights '" + weights + "' -o '" + latent + ".2'",
+                      tmp.path);
+  CHECK(r.output.find("--at '1,2' is not X,Y,Z or X,Y,Z,YAW_DEG") != std::string::npos);
+  CHECK(!std::filesystem::exists(latent + ".2"));
+  CHECK(test::run_icube("nn vae encode --help", tmp.path).code == 0);
 }
