@@ -138,6 +138,8 @@ void cmd_vae_decode(const VaeDecodeArgs& a) {
       d = vae.decode(latent);
       activation_bytes = vae.last_activation_bytes();
       weight_bytes = vae.weight_bytes();
+      for (const nn::VaeGpu::Stage& st : vae.last_stages())
+        std::fprintf(stderr, "vae decode: %-48s %9u rows %10.1f ms\n", st.label.c_str(), st.rows, st.ms);
     } else {
       d = nn::VaeReference(cfg, std::move(w)).decode(latent);
     }
@@ -262,6 +264,8 @@ void cmd_vae_encode(const VaeEncodeArgs& a) {
       nn::VaeGpu vae(*ctx, cfg, wts);
       mu = vae.encode(fine, classes);
       activation_bytes = vae.last_activation_bytes();
+      for (const nn::VaeGpu::Stage& st : vae.last_stages())
+        std::fprintf(stderr, "vae encode: %-48s %9u rows %10.1f ms\n", st.label.c_str(), st.rows, st.ms);
     } else {
       mu = nn::VaeReference(cfg, std::move(wts)).encode(fine, classes);
     }

@@ -7,6 +7,7 @@
 #include "nn/sparse_conv.h"
 #include "nn/sparse_grid.h"
 
+#include <chrono>
 #include <stdexcept>
 
 namespace icube::nn {
@@ -48,6 +49,24 @@ struct VaeGpu::Impl {
   uint64_t bytes = 0;
   gpu::CommandList* cmd = nullptr;
   const Level* level = nullptr;
+  std::vector<VaeGpu::Stage> stages;  // the last run's
+
+  // Runs `fn` (host work and submissions) and books its wall time under `label` with the rows it covers.
+  template <class F>
+  void stage(const std::string& label, uint32_t rows, F&& fn) {
+    const auto t0 = std::chrono::steady_clock::now();
+    fn();
+    stages.push_back({label, rows, std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count()});
+  }
+  template <class F>
+  void submit(const std::string& label, uint32_t rows, F&& record) {
+    stage(label, rows, [&] {
+      ctx.submit_and_wait([&](gpu::CommandList& c) {
+        cmd = &c;
+        record();
+      });
+    });
+  }
 
   Impl(gpu::Context& c, const VaeConfig& cfg)
       : ctx(c), config(cfg), conv1x1(c), sconv(c), kmap(c), grid_ops(c), gn(c), ew(c) {}
@@ -80,10 +99,10 @@ struct VaeGpu::Impl {
   }
   void barrier() { cmd->barrier(gpu::deps::kComputeToCompute); }
 
-  GT conv3(const GT& x, const std::string& name) {
+  GT conv3(const GT& x, const std::string& name, bool silu = false) {
     const std::vector<int64_t>& ws = shapes.at(name + ".weight");
     GT y = alloc(static_cast<uint32_t>(ws[0]), x.rows);
-    const kernels::nn::SparseConvShape s{x.rows, x.channels, y.channels};
+    const kernels::nn::SparseConvShape s{x.rows, x.channels, y.channels, silu};
     sconv.record(*cmd, s, *x.buf, *level->kmap, P(name + ".weight"), has(name + ".bias") ? &P(name + ".bias") : nullptr, *y.buf);
     barrier();
     return y;
@@ -126,11 +145,20 @@ struct VaeGpu::Impl {
     return y;
   }
   GT conv_block(const std::string& name, GT x) {
-    for (const char op : config.order) {
-      if (op == 'g') x = group_norm(x, name + ".GroupNorm");
-      else if (op == 'c') x = conv3(x, name + ".Conv");
-      else if (op == 's') x = silu(x);
-      else if (op == 'r') throw std::invalid_argument("VaeGpu: ConvBlock order 'r' (ReLU) is not implemented on the GPU");
+    const std::string& order = config.order;
+    for (size_t i = 0; i < order.size(); ++i) {
+      const char op = order[i];
+      if (op == 'g') {
+        x = group_norm(x, name + ".GroupNorm");
+      } else if (op == 'c') {
+        const bool fuse = i + 1 < order.size() && order[i + 1] == 's';  // conv then SiLU: one pass
+        x = conv3(x, name + ".Conv", fuse);
+        if (fuse) ++i;
+      } else if (op == 's') {
+        x = silu(x);
+      } else if (op == 'r') {
+        throw std::invalid_argument("VaeGpu: ConvBlock order 'r' (ReLU) is not implemented on the GPU");
+      }
     }
     return x;
   }
@@ -167,6 +195,7 @@ struct VaeGpu::Impl {
     pool.clear();
     free_list.clear();
     bytes = 0;
+    stages.clear();
   }
   std::vector<float> embedding;  // encoder.semantic_embed_fn.weight [classes, dim], on the host
 };
@@ -197,6 +226,7 @@ VaeGpu::~VaeGpu() = default;
 
 uint64_t VaeGpu::last_activation_bytes() const { return impl_->bytes; }
 uint64_t VaeGpu::weight_bytes() const { return impl_->weight_bytes; }
+const std::vector<VaeGpu::Stage>& VaeGpu::last_stages() const { return impl_->stages; }
 
 VaeDecoded VaeGpu::decode(const SparseTensor& latent_in) {
   Impl& m = *impl_;
@@ -237,8 +267,10 @@ VaeDecoded VaeGpu::decode(const SparseTensor& latent_in) {
     return k;
   };
   // Subdivides the current level by its structure logits into the next one (factor 1: pruning).
-  auto next_level = [&](const GT& logits, const Ijk& f) {
-    kernels::nn::SparseGridOps::Children ch = m.grid_ops.subdivide(*level.ijk, level.rows, *logits.buf, f);
+  auto next_level = [&](const GT& logits, const Ijk& f, const std::string& label) {
+    kernels::nn::SparseGridOps::Children ch;
+    m.stage(label + ": structure decision, children", level.rows,
+            [&] { ch = m.grid_ops.subdivide(*level.ijk, level.rows, *logits.buf, f); });
     Level next;
     for (int d = 0; d < 3; ++d) {
       next.host.voxel_size[d] = level.host.voxel_size[d] / f[d];
@@ -248,9 +280,8 @@ VaeDecoded VaeGpu::decode(const SparseTensor& latent_in) {
     next.host.ijk.resize(ch.rows);
     for (uint32_t r = 0; r < ch.rows; ++r) next.host.ijk[r] = {c[3 * r], c[3 * r + 1], c[3 * r + 2]};
     GT y = m.alloc(x.channels, ch.rows);
-    m.ctx.submit_and_wait([&](gpu::CommandList& cmd) {
-      m.cmd = &cmd;
-      m.grid_ops.record_gather_rows(cmd, *x.buf, x.rows, x.channels, ch.parent, ch.rows, *y.buf);
+    m.submit(label + ": feature copy, kernel map", ch.rows, [&] {
+      m.grid_ops.record_gather_rows(*m.cmd, *x.buf, x.rows, x.channels, ch.parent, ch.rows, *y.buf);
       m.barrier();
       m.build_level(next, std::make_unique<gpu::Buffer>(std::move(ch.ijk)));
     });
@@ -264,8 +295,7 @@ VaeDecoded VaeGpu::decode(const SparseTensor& latent_in) {
   in.channels = static_cast<uint32_t>(latent_in.channels);
   in.rows = n0;
   in.buf = std::make_shared<gpu::Buffer>(gpu::upload_vector(m.ctx, x_cm, "vae-latent"));
-  m.ctx.submit_and_wait([&](gpu::CommandList& cmd) {
-    m.cmd = &cmd;
+  m.submit("latent level: kernel map, post-KL blocks", n0, [&] {
     m.build_level(level, std::make_unique<gpu::Buffer>(gpu::upload_vector(m.ctx, flat, "vae-latent-ijk")));
     m.level = &level;
     x = m.res_block("unet.post_kl_bottleneck.post_kl_bottleneck_0", in);
@@ -273,9 +303,8 @@ VaeDecoded VaeGpu::decode(const SparseTensor& latent_in) {
   });
   for (int depth = nb - 1; depth >= 0; --depth) {
     const std::string idx = std::to_string(depth - nb);
-    if (depth < nb - 1) next_level(logits, cfg.subdivide_factor(depth));
-    m.ctx.submit_and_wait([&](gpu::CommandList& cmd) {
-      m.cmd = &cmd;
+    if (depth < nb - 1) next_level(logits, cfg.subdivide_factor(depth), "depth " + std::to_string(depth));
+    m.submit("depth " + std::to_string(depth) + ": blocks, structure head", x.rows, [&] {
       if (depth < nb - 1)
         for (int b = 0; b <= cfg.num_res_blocks; ++b)
           if (x.rows) x = m.res_block("unet.decoders.Dec" + idx + "." + std::to_string(b), x);
@@ -285,15 +314,12 @@ VaeDecoded VaeGpu::decode(const SparseTensor& latent_in) {
     if (kept(out.levels[static_cast<size_t>(depth)]) == 0 && out.warning.empty())
       out.warning = "the structure head at depth " + std::to_string(depth) + " kept no voxel: the chunk decodes empty";
   }
-  next_level(logits, {1, 1, 1});
+  next_level(logits, {1, 1, 1}, "pruning");
   out.semantic.grid = level.host;
   out.semantic.channels = cfg.num_semantic_classes;
   if (x.rows == 0) return out;
   GT sem;
-  m.ctx.submit_and_wait([&](gpu::CommandList& cmd) {
-    m.cmd = &cmd;
-    sem = m.head("unet.semantic_head", x);
-  });
+  m.submit("semantic head", x.rows, [&] { sem = m.head("unet.semantic_head", x); });
   const std::vector<float> cm = gpu::download_vector<float>(m.ctx, *sem.buf, sem.numel());
   out.semantic.data.resize(cm.size());
   for (uint32_t r = 0; r < sem.rows; ++r)
@@ -340,8 +366,7 @@ SparseTensor VaeGpu::encode(const SparseGrid& fine_in, const std::vector<int32_t
   in.buf = std::make_shared<gpu::Buffer>(gpu::upload_vector(m.ctx, feats, "vae-encoder-input"));
   feats = {};
   GT x;
-  m.ctx.submit_and_wait([&](gpu::CommandList& cmd) {
-    m.cmd = &cmd;
+  m.submit("fine level: kernel map, mix_fc, pre_conv", n, [&] {
     m.build_level(level, std::make_unique<gpu::Buffer>(gpu::upload_vector(m.ctx, Impl::flat(level.host), "vae-fine-ijk")));
     m.level = &level;
     x = m.conv1(m.conv1(in, "encoder.mix_fc"), "unet.pre_conv");
@@ -351,7 +376,9 @@ SparseTensor VaeGpu::encode(const SparseGrid& fine_in, const std::vector<int32_t
     for (int b = 0; b < cfg.num_res_blocks; ++b) {
       if (l > 0 && b == 0) {  // max pooling onto the coarsened grid
         const Ijk f = cfg.pool_factor(l);
-        kernels::nn::SparseGridOps::Coarse coarse = m.grid_ops.coarsen(*level.ijk, level.rows, f);
+        kernels::nn::SparseGridOps::Coarse coarse;
+        m.stage("level " + std::to_string(l) + ": coarsened grid", level.rows,
+                [&] { coarse = m.grid_ops.coarsen(*level.ijk, level.rows, f); });
         Level next;
         for (int d = 0; d < 3; ++d) {
           next.host.voxel_size[d] = level.host.voxel_size[d] * f[d];
@@ -361,9 +388,8 @@ SparseTensor VaeGpu::encode(const SparseGrid& fine_in, const std::vector<int32_t
         next.host.ijk.resize(coarse.rows);
         for (uint32_t r = 0; r < coarse.rows; ++r) next.host.ijk[r] = {c[3 * r], c[3 * r + 1], c[3 * r + 2]};
         GT y = m.alloc(x.channels, coarse.rows);
-        m.ctx.submit_and_wait([&](gpu::CommandList& cmd) {
-          m.cmd = &cmd;
-          m.grid_ops.record_max_pool(cmd, coarse, *x.buf, x.channels, *y.buf);
+        m.submit("level " + std::to_string(l) + ": max pooling, kernel map", coarse.rows, [&] {
+          m.grid_ops.record_max_pool(*m.cmd, coarse, *x.buf, x.channels, *y.buf);
           m.barrier();
           m.build_level(next, std::make_unique<gpu::Buffer>(std::move(coarse.ijk)));
         });
@@ -371,10 +397,8 @@ SparseTensor VaeGpu::encode(const SparseGrid& fine_in, const std::vector<int32_t
         level = std::move(next);
         m.level = &level;
       }
-      m.ctx.submit_and_wait([&](gpu::CommandList& cmd) {
-        m.cmd = &cmd;
-        x = m.res_block("unet.encoders.Enc" + std::to_string(l) + "-Block" + std::to_string(b), x);
-      });
+      m.submit("level " + std::to_string(l) + ": encoder block " + std::to_string(b), x.rows,
+               [&] { x = m.res_block("unet.encoders.Enc" + std::to_string(l) + "-Block" + std::to_string(b), x); });
     }
   if (cfg.neck_dense) {  // the dense neck box [-b, b) at the latent level, zeros where the chunk has no voxel
     const Ijk& b = cfg.neck_bound;
@@ -384,11 +408,10 @@ SparseTensor VaeGpu::encode(const SparseGrid& fine_in, const std::vector<int32_t
     gpu::Buffer query = gpu::upload_vector(m.ctx, Impl::flat(box.host), "vae-neck-ijk");
     gpu::Buffer rows(m.ctx, uint64_t{nb} * 4, gpu::MemoryUsage::DeviceLocal, "vae-neck-rows");
     GT y = m.alloc(x.channels, nb);
-    m.ctx.submit_and_wait([&](gpu::CommandList& cmd) {
-      m.cmd = &cmd;
-      m.grid_ops.record_lookup(cmd, level.rows, *level.ijk, *level.table, level.table_size, nb, query, rows);
+    m.submit("neck: dense box, kernel map", nb, [&] {
+      m.grid_ops.record_lookup(*m.cmd, level.rows, *level.ijk, *level.table, level.table_size, nb, query, rows);
       m.barrier();
-      m.grid_ops.record_gather_rows(cmd, *x.buf, level.rows, x.channels, rows, nb, *y.buf);
+      m.grid_ops.record_gather_rows(*m.cmd, *x.buf, level.rows, x.channels, rows, nb, *y.buf);
       m.barrier();
       m.build_level(box, std::make_unique<gpu::Buffer>(std::move(query)));
     });
@@ -397,8 +420,7 @@ SparseTensor VaeGpu::encode(const SparseGrid& fine_in, const std::vector<int32_t
     m.level = &level;
   }
   GT moments;
-  m.ctx.submit_and_wait([&](gpu::CommandList& cmd) {
-    m.cmd = &cmd;
+  m.submit("pre-KL blocks, moments", x.rows, [&] {
     x = m.res_block("unet.pre_kl_bottleneck.pre_kl_bottleneck_0", x);
     x = m.res_block("unet.pre_kl_bottleneck.pre_kl_bottleneck_1", x);
     x = m.group_norm(x, "unet.pre_kl_bottleneck.pre_kl_bottleneck_gn.module");

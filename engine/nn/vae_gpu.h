@@ -22,6 +22,7 @@
 #include <map>
 #include <memory>
 #include <string>
+#include <vector>
 
 namespace icube::nn {
 
@@ -40,8 +41,15 @@ class VaeGpu {
   // the neck box filled by hash lookups.
   SparseTensor encode(const SparseGrid& fine_grid, const std::vector<int32_t>& classes);
 
-  // Peak device bytes of the activation pool in the last decode (grids, kernel maps and weights not counted).
+  // Peak device bytes of the activation pool in the last run (grids, kernel maps and weights not counted).
   uint64_t last_activation_bytes() const;
+  // Wall time of each stage of the last run (submission + wait, host work around it), with its rows.
+  struct Stage {
+    std::string label;
+    uint32_t rows = 0;
+    double ms = 0.0;
+  };
+  const std::vector<Stage>& last_stages() const;
   uint64_t weight_bytes() const;
 
  private:

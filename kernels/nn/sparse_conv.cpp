@@ -115,6 +115,7 @@ void SparseConv3d::record(gpu::CommandList& cmd, const SparseConvShape& s, const
         pc.ci_begin = static_cast<uint32_t>(ci0);
         pc.ci_count = static_cast<uint32_t>(std::min<uint64_t>(ci_window, s.in_channels - ci0));
         pc.accumulate = ci0 > 0 ? 1u : 0u;
+        pc.silu = s.silu && ci0 + pc.ci_count >= s.in_channels ? 1u : 0u;  // on the last input window
         if (ci0 > 0) cmd.barrier(gpu::deps::kComputeToCompute);  // later input windows read-modify-write y
         const ElementWindow xw = texel_window(ctx_, x, ci0 * N, uint64_t{pc.ci_count} * N);
         pc.x_offset = xw.offset;

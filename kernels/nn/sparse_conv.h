@@ -45,6 +45,7 @@ class SparseKernelMap {
 
 struct SparseConvShape {
   uint32_t rows = 0, in_channels = 1, out_channels = 1;
+  bool silu = false;  // y = silu(conv + bias), fused into the store
   uint64_t flops(uint64_t pairs) const { return 2ull * in_channels * out_channels * pairs; }  // pairs: kmap entries >= 0
 };
 

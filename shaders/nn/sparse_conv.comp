@@ -12,7 +12,8 @@
 // neighbours load row 0 and are zeroed by a select, so no lane branches. The
 // features are fetched as an R32_SFLOAT texel buffer (one hardware gather on
 // lavapipe, where a storage load at a per-lane address is a loop over lanes).
-// Windows of input / output channels as nn/conv3d.comp (SparseConvParams).
+// Windows of input / output channels as nn/conv3d.comp (SparseConvParams);
+// p.silu applies SiLU on the final store (the VAE's ConvBlock "gcs": conv then SiLU).
 // Host module: kernels/nn/sparse_conv.{h,cpp}. CPU reference: nn::cpu::conv3d
 // on SparseTensor (kernels/nn/sparse_cpu.h). Tests: tests/nn/test_sparse_conv_gpu.cpp.
 #include "shared/nn_params.h"
@@ -64,8 +65,9 @@ void main() {
       if (cl >= p.co_count) break;
       const float a = c < 4u ? acc_lo[v][c] : acc_hi[v][c - 4u];
       const uint yi = p.y_offset + cl * p.rows + r;
-      if (p.accumulate != 0u) y_out[yi] += a;
-      else y_out[yi] = a + (p.has_bias != 0u ? bias[p.co_begin + cl] : 0.0);
+      float value = p.accumulate != 0u ? y_out[yi] + a : a + (p.has_bias != 0u ? bias[p.co_begin + cl] : 0.0);
+      if (p.silu != 0u) value = value / (1.0 + exp(-value));
+      y_out[yi] = value;
     }
   }
 }

@@ -186,8 +186,8 @@ struct SparseConvParams {
   uint y_offset;
   uint row_begin;
   uint row_count;
+  uint silu;  // 1: y = silu(result) on store (the last input-channel window; the VAE's conv -> SiLU)
   uint pad0;
-  uint pad1;
 };
 
 // Sparse grid construction (kernels/nn/sparse_grid.h):

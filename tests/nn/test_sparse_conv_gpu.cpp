@@ -63,7 +63,7 @@ std::vector<int32_t> gpu_kernel_map(const nn::SparseGrid& g) {
 
 // GPU conv of x (CPU layout [N, C]) vs the CPU reference; bound 1e-6 + n * 2^-23 * sum |w x|.
 void check_conv(const nn::SparseGrid& g, int64_t ci, int64_t co, bool with_bias, float scale, uint32_t seed,
-                uint64_t max_binding_bytes = 0) {
+                uint64_t max_binding_bytes = 0, bool silu = false) {
   CAPTURE(g.size());
   CAPTURE(ci);
   CAPTURE(co);
@@ -75,7 +75,8 @@ void check_conv(const nn::SparseGrid& g, int64_t ci, int64_t co, bool with_bias,
   nn::CpuTensor w({co, ci, 3, 3, 3}), b({co});
   for (float& v : w.data) v = 0.5f * u(rng);
   for (float& v : b.data) v = u(rng);
-  const nn::SparseTensor want = nn::cpu::conv3d(x, w, with_bias ? &b : nullptr);
+  const nn::SparseTensor want =
+      silu ? nn::cpu::silu(nn::cpu::conv3d(x, w, with_bias ? &b : nullptr)) : nn::cpu::conv3d(x, w, with_bias ? &b : nullptr);
   nn::SparseTensor ax = x;
   for (float& v : ax.data) v = std::abs(v);
   nn::CpuTensor aw = w;
@@ -95,7 +96,7 @@ void check_conv(const nn::SparseGrid& g, int64_t ci, int64_t co, bool with_bias,
   gpu::Buffer yb(ctx, uint64_t{rows} * static_cast<uint64_t>(co) * 4, gpu::MemoryUsage::DeviceLocal, "sparse-y");
   kernels::nn::SparseConv3d conv(ctx);
   conv.set_max_binding_bytes(max_binding_bytes);
-  const kernels::nn::SparseConvShape s{rows, static_cast<uint32_t>(ci), static_cast<uint32_t>(co)};
+  const kernels::nn::SparseConvShape s{rows, static_cast<uint32_t>(ci), static_cast<uint32_t>(co), silu};
   ctx.submit_and_wait([&](gpu::CommandList& cmd) { conv.record(cmd, s, xb, kb, wb, with_bias ? &bb : nullptr, yb); });
   const std::vector<float> got = gpu::download_vector<float>(ctx, yb, uint64_t{rows} * static_cast<uint64_t>(co));
   const double n = static_cast<double>(ci) * 27.0;
@@ -103,7 +104,7 @@ void check_conv(const nn::SparseGrid& g, int64_t ci, int64_t co, bool with_bias,
   for (int64_t r = 0; r < want.rows(); ++r)
     for (int64_t c = 0; c < co; ++c) {
       const double ref = want.row(r)[c], gv = got[static_cast<size_t>(c * rows + r)];
-      const double tol = 1e-6 + n * std::ldexp(1.0, -23) * static_cast<double>(bound.row(r)[c]);
+      const double tol = (1e-6 + n * std::ldexp(1.0, -23) * static_cast<double>(bound.row(r)[c])) * (silu ? 1.1 : 1.0) + (silu ? 1e-6 : 0.0);
       if (!(std::abs(gv - ref) <= tol) && ++bad <= 5)
         std::printf("  sparse conv mismatch row %lld channel %lld: got %.9g want %.9g (tol %.3g)\n", static_cast<long long>(r),
                     static_cast<long long>(c), gv, ref, tol);
@@ -145,11 +146,13 @@ TEST_CASE("sparse conv gpu: submanifold 3x3x3 against the CPU reference") {
   check_conv(random_grid(13, {500'000, -500'003, 499'990}, {9, 8, 7}, 200), 6, 5, true, 1.0f, 24);
   check_conv(random_grid(14, {-4, -4, -4}, {8, 8, 8}, 300), 5, 9, true, 1e4f, 25);          // large activations
   check_conv(random_grid(15, {-30, -30, -10}, {60, 60, 20}, 2000), 32, 64, true, 1.0f, 26); // the VAE's widths
+  check_conv(random_grid(16, {-9, -5, -7}, {19, 13, 11}, 700), 12, 9, true, 3.0f, 27, 0, true);  // fused SiLU
 }
 
 TEST_CASE("sparse conv gpu: channel windows when the features exceed one binding") {
   // 2 KiB bindings: 40 rows x 12 channels run as windows of 8 output and 12 input channels.
   check_conv(random_grid(31, {-5, -5, -5}, {10, 10, 10}, 40), 30, 20, true, 1.0f, 32, 2048);
+  check_conv(random_grid(34, {-5, -5, -5}, {10, 10, 10}, 40), 30, 20, true, 1.0f, 35, 2048, true);  // SiLU on the last window
   const nn::SparseGrid g = random_grid(33, {0, 0, 0}, {4, 4, 4}, 10);
   gpu::Context& ctx = test::gpu_context();
   kernels::nn::SparseConv3d conv(ctx);
@@ -157,4 +160,37 @@ TEST_CASE("sparse conv gpu: channel windows when the features exceed one binding
   const kernels::nn::SparseConvShape s{10, 4, 4};
   CHECK_THROWS_WITH_AS(ctx.submit_and_wait([&](gpu::CommandList& cmd) { conv.record(cmd, s, small, small, small, nullptr, small); }),
                        doctest::Contains("sparse conv: input buffer holds 64 bytes"), std::invalid_argument);
+}
+
+TEST_CASE("sparse conv gpu: equals the dense GPU conv3d over the zero-filled box at the active voxels") {
+  gpu::Context& ctx = test::gpu_context();
+  const nn::Ijk dims{13, 11, 9};
+  const nn::SparseGrid g = random_grid(41, {0, 0, 0}, dims, 400);
+  const uint32_t n = static_cast<uint32_t>(g.size()), ci = 6, co = 10;
+  const uint64_t V = uint64_t{13} * 11 * 9;
+  std::mt19937 rng(42);
+  std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+  std::vector<float> xs(uint64_t{ci} * n), w(uint64_t{co} * ci * 27), b(co), xd(uint64_t{ci} * V, 0.0f);
+  for (float& v : xs) v = u(rng);
+  for (float& v : w) v = u(rng);
+  for (float& v : b) v = u(rng);
+  auto voxel = [&](uint32_t r) { return (uint64_t(g.ijk[r][0]) * dims[1] + uint64_t(g.ijk[r][1])) * dims[2] + uint64_t(g.ijk[r][2]); };
+  for (uint32_t r = 0; r < n; ++r)
+    for (uint32_t c = 0; c < ci; ++c) xd[c * V + voxel(r)] = xs[uint64_t{c} * n + r];
+  const std::vector<float> packed = kernels::nn::pack_conv3d_weights(w, co, ci, 3);
+  gpu::Buffer xb = gpu::upload_vector(ctx, xs, "sd-x"), xdb = gpu::upload_vector(ctx, xd, "sd-xd");
+  gpu::Buffer wb = gpu::upload_vector(ctx, packed, "sd-w"), bb = gpu::upload_vector(ctx, b, "sd-b");
+  gpu::Buffer kb = gpu::upload_vector(ctx, nn::cpu::kernel_map(g, 3), "sd-kmap");
+  gpu::Buffer yb(ctx, uint64_t{co} * n * 4, gpu::MemoryUsage::DeviceLocal, "sd-y"), ydb(ctx, uint64_t{co} * V * 4, gpu::MemoryUsage::DeviceLocal, "sd-yd");
+  kernels::nn::SparseConv3d sconv(ctx);
+  kernels::nn::Conv3d dconv(ctx);
+  ctx.submit_and_wait([&](gpu::CommandList& cmd) {
+    sconv.record(cmd, {n, ci, co}, xb, kb, wb, &bb, yb);
+    dconv.record(cmd, {1, ci, co, 13, 11, 9, 3, false}, xdb, wb, &bb, ydb);
+  });
+  const std::vector<float> ys = gpu::download_vector<float>(ctx, yb, uint64_t{co} * n), yd = gpu::download_vector<float>(ctx, ydb, uint64_t{co} * V);
+  double worst = 0.0;
+  for (uint32_t r = 0; r < n; ++r)
+    for (uint32_t c = 0; c < co; ++c) worst = std::max(worst, std::abs(double{ys[uint64_t{c} * n + r]} - double{yd[c * V + voxel(r)]}));
+  CHECK(worst < 1e-5);
 }
