@@ -14,7 +14,10 @@
 #include "nn/conv3d.h"
 #include "nn/layers_cpu.h"
 #include "nn/sparse_conv.h"
+#include "nn/random_weights.h"
 #include "nn/sparse_cpu.h"
+#include "nn/vae_config.h"
+#include "nn/vae_gpu.h"
 #include "scene/scene_load.h"
 #include "torch_side.h"
 #include "world/demo_scene.h"
@@ -201,6 +204,43 @@ bool run_case(gpu::Context& ctx, const std::string& name, const nn::SparseGrid& 
   return ok;
 }
 
+// One structure-VAE decode of a random latent on a dense box (random weights of `model`'s shapes): each
+// stage's wall time and rows, the activation pool's peak and the weights' device memory.
+bool run_vae_decode(gpu::Context& ctx, const std::string& model, const nn::Ijk& box, int runs) {
+  const nn::VaeConfig cfg = nn::load_vae_config(model);
+  std::printf("\nVAE decode (%s, random weights), latent box %d x %d x %d x %d channels\n", model.c_str(), box[0], box[1], box[2],
+              cfg.latent_channels());
+  nn::VaeGpu vae(ctx, cfg, nn::random_weights(nn::vae_param_specs(cfg, nn::VaePart::Decoder), 9));
+  nn::SparseTensor latent;
+  std::array<double, 3> vs{0.2, 0.2, 0.2}, origin{};
+  for (int l = 1; l < cfg.num_blocks; ++l)
+    for (int d = 0; d < 3; ++d) vs[d] *= cfg.pool_factor(l)[d];
+  for (int d = 0; d < 3; ++d) origin[d] = vs[d] / 2;
+  latent.grid = nn::dense_box_grid({-box[0] / 2, -box[1] / 2, -box[2] / 2}, box, vs, origin);
+  latent.channels = cfg.latent_channels();
+  std::mt19937 rng(5);
+  std::normal_distribution<float> n(0.0f, 1.0f);
+  latent.data.resize(static_cast<size_t>(latent.rows() * latent.channels));
+  for (float& v : latent.data) v = n(rng);
+  std::vector<double> totals;
+  for (int r = 0; r < runs; ++r) {
+    const Clock::time_point t0 = Clock::now();
+    const nn::VaeDecoded d = vae.decode(latent);
+    totals.push_back(ms_since(t0));
+    if (r + 1 == runs) {
+      for (const nn::VaeGpu::Stage& st : vae.last_stages())
+        std::printf("  %-48s %9u rows %10.1f ms\n", st.label.c_str(), st.rows, st.ms);
+      std::printf("  output: %lld voxels at 0.2 m; levels (before pruning):", static_cast<long long>(d.semantic.rows()));
+      for (size_t l = d.levels.size(); l-- > 0;) std::printf(" %lld", static_cast<long long>(d.levels[l].grid.size()));
+      std::printf("\n");
+    }
+  }
+  const bench::Summary s = bench::summarize(totals);
+  std::printf("  decode: %.1f / %.1f ms (min / median of %d); activations %.1f MiB peak, weights %.1f MiB\n", s.min_ms, s.median_ms, runs,
+              static_cast<double>(vae.last_activation_bytes()) / (1024.0 * 1024.0), static_cast<double>(vae.weight_bytes()) / (1024.0 * 1024.0));
+  return true;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -215,6 +255,11 @@ int main(int argc, char** argv) {
   app.add_option("--box", box, "Box around the ego in voxels (X Y Z); 256 256 128 = a whole chunk")->expected(3);
   app.add_option("--channels", o.channels, "Channel counts (in = out)");
   app.add_option("--case", which, "all, demo or waymo")->check(CLI::IsMember({"all", "demo", "waymo"}));
+  std::vector<int> vae_box;
+  std::string vae_model = "infinicube-vae";
+  app.add_option("--vae-decode", vae_box, "Only a structure-VAE decode of a random latent on this box (X Y Z latent voxels; 64 64 64 = a chunk)")
+      ->expected(3);
+  app.add_option("--vae-model", vae_model, "VAE config or preset for --vae-decode")->capture_default_str();
   app.add_flag("--torch", with_torch, "Also PyTorch's CPU conv3d on the box (Debian python3-torch), threads = LP_NUM_THREADS");
   CLI11_PARSE(app, argc, argv);
   o.box = {box[0], box[1], box[2]};
@@ -232,6 +277,7 @@ int main(int argc, char** argv) {
   }
   gpu::Context ctx;
   std::printf("device: %s; LP_NUM_THREADS=%s\n", ctx.info().name.c_str(), std::getenv("LP_NUM_THREADS") ? std::getenv("LP_NUM_THREADS") : "unset");
+  if (!vae_box.empty()) return run_vae_decode(ctx, vae_model, {vae_box[0], vae_box[1], vae_box[2]}, o.runs) ? 0 : 1;
   bool ok = true;
   const char* data_env = std::getenv("ICUBE_TEST_DATA");
   const std::string data = data_env ? data_env : "../shared/data";
