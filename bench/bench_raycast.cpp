@@ -43,6 +43,7 @@
 #include "world/demo_scene.h"
 #include "world/procedural/procedural_prior.h"
 #include "world/world_build.h"
+#include "bench_worlds.h"
 
 #ifdef ICUBE_BENCH_OPENVDB
 #include <openvdb/math/DDA.h>
@@ -147,16 +148,6 @@ render::Camera ego_camera(const scene::Scene& sc, int frame) {
   return c;
 }
 
-world::VoxelGrid build_procedural(const scene::Scene& sc, world::PlanMode mode, double& seconds) {
-  const Clock::time_point t0 = Clock::now();
-  const world::ProceduralPrior prior(sc);
-  world::WorldBuildOptions o;
-  o.mode = mode;
-  o.threads = 2;
-  world::VoxelGrid g = world::build_world(sc, prior, o).world;
-  seconds = std::chrono::duration<double>(Clock::now() - t0).count();
-  return g;
-}
 
 #ifdef ICUBE_BENCH_OPENVDB
 struct VdbResult {
@@ -450,7 +441,7 @@ int main(int argc, char** argv) {
   if (which == "all" || which == "demo") {
     const scene::Scene sc = world::make_demo_scene();
     double s = 0.0;
-    Case c{"demo (trajectory)", build_procedural(sc, world::PlanMode::Trajectory, s), ego_camera(sc, frame)};
+    Case c{"demo (trajectory)", bench::build_procedural(sc, world::PlanMode::Trajectory, s), ego_camera(sc, frame)};
     std::printf("\n(demo world built in %.1f s, not timed below)\n", s);
     ok = run_case(ctx, c, opts, runs, warmup, cpu_threads, flat, quick) && ok;
   }
@@ -461,7 +452,7 @@ int main(int argc, char** argv) {
     } else {
       const scene::Scene sc = scene::load_scene(path);
       double s = 0.0;
-      Case c{"waymo (blocks)", build_procedural(sc, world::PlanMode::Blocks, s), ego_camera(sc, frame)};
+      Case c{"waymo (blocks)", bench::build_procedural(sc, world::PlanMode::Blocks, s), ego_camera(sc, frame)};
       std::printf("\n(waymo world built in %.1f s, not timed below)\n", s);
       ok = run_case(ctx, c, opts, runs, warmup, cpu_threads, flat, quick) && ok;
     }

@@ -23,6 +23,7 @@
 #include "world/demo_scene.h"
 #include "world/procedural/procedural_prior.h"
 #include "world/world_build.h"
+#include "bench_worlds.h"
 
 #include <CLI/CLI.hpp>
 
@@ -59,16 +60,6 @@ bench::Summary time_runs(int runs, int warmup, const std::function<void()>& fn) 
   return bench::summarize(ms);
 }
 
-world::VoxelGrid build(const scene::Scene& sc, world::PlanMode mode, double& seconds) {
-  const Clock::time_point t0 = Clock::now();
-  const world::ProceduralPrior prior(sc);
-  world::WorldBuildOptions o;
-  o.mode = mode;
-  o.threads = 2;
-  world::VoxelGrid g = world::build_world(sc, prior, o).world;
-  seconds = ms_since(t0) / 1e3;
-  return g;
-}
 
 // The world's voxels inside a box around the ego at the middle of its track: ijk relative to the box's
 // low corner, brick order. The box reaches a quarter of its height below the ego and the rest above.
@@ -284,7 +275,7 @@ int main(int argc, char** argv) {
   if (which == "all" || which == "demo") {
     const scene::Scene sc = world::make_demo_scene();
     double s = 0.0;
-    const world::VoxelGrid w = build(sc, world::PlanMode::Trajectory, s);
+    const world::VoxelGrid w = bench::build_procedural(sc, world::PlanMode::Trajectory, s);
     std::printf("\n(demo world built in %.1f s, not timed)\n", s);
     ok = run_case(ctx, "demo world (trajectory)", box_around_ego(w, sc, o.box), o) && ok;
   }
@@ -295,7 +286,7 @@ int main(int argc, char** argv) {
     } else {
       const scene::Scene sc = scene::load_scene(path);
       double s = 0.0;
-      const world::VoxelGrid w = build(sc, world::PlanMode::Blocks, s);
+      const world::VoxelGrid w = bench::build_procedural(sc, world::PlanMode::Blocks, s);
       std::printf("\n(waymo world built in %.1f s, not timed)\n", s);
       ok = run_case(ctx, "waymo world (blocks)", box_around_ego(w, sc, o.box), o) && ok;
     }

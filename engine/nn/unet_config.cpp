@@ -2,6 +2,7 @@
 #include "nn/unet_config.h"
 
 #include "scene/atomic_file.h"
+#include "nn/kwargs_reader.h"
 #include "scene/input_error.h"
 
 #include <nlohmann/json.hpp>
@@ -11,41 +12,7 @@
 
 namespace icube::nn {
 
-namespace {
-
 using json = nlohmann::json;
-
-struct Reader {
-  const std::string& source;
-  [[noreturn]] void fail(const std::string& key, const std::string& what) const {
-    throw scene::InputError(source, key, what);
-  }
-  int integer(const std::string& key, const json& v) const {
-    if (!v.is_number_integer()) fail(key, "is not an integer");
-    const int64_t i = v.get<int64_t>();
-    if (i < -1 || i > 1'000'000) fail(key, std::to_string(i) + " is out of range");
-    return static_cast<int>(i);
-  }
-  bool boolean(const std::string& key, const json& v) const {
-    if (!v.is_boolean()) fail(key, "is not true or false");
-    return v.get<bool>();
-  }
-  std::vector<int> list(const std::string& key, const json& v) const {
-    if (!v.is_array() || v.empty()) fail(key, "is not a non-empty list of integers");
-    std::vector<int> out;
-    for (const json& e : v) {
-      const int i = integer(key, e);
-      if (i < 1) fail(key, "entry " + std::to_string(i) + " is not positive");
-      out.push_back(i);
-    }
-    return out;
-  }
-  void null_only(const std::string& key, const json& v, const std::string& what) const {
-    if (!v.is_null()) fail(key, what + " is not implemented (must be null)");
-  }
-};
-
-}  // namespace
 
 UNetConfig infinicube_diffusion_config() { return UNetConfig{}; }
 
@@ -58,7 +25,7 @@ UNetConfig parse_unet_config(const std::string& text, const std::string& source)
   }
   if (j.is_object() && j.contains("unet_kwargs")) j = j["unet_kwargs"];
   if (!j.is_object()) throw scene::InputError(source, "", "is not a JSON object of UNetModel keyword arguments");
-  const Reader r{source};
+  const KwargsReader r{source};
   UNetConfig c;
   c.out_channels = -1;
   bool have_in = false, have_model = false, have_blocks = false, have_attn = false, have_image = false;

@@ -1,6 +1,8 @@
 // The dense diffusion UNet on the GPU; see unet_gpu.h.
 #include "nn/unet_gpu.h"
 
+#include "nn/activation_pool.h"
+
 #include "nn/attention.h"
 #include "nn/conv3d.h"
 #include "nn/elementwise.h"
@@ -44,19 +46,12 @@ struct UNetGpu::Impl {
   std::map<std::string, std::unique_ptr<gpu::Buffer>> params;  // packed conv / linear weights, raw vectors
   std::map<std::string, std::vector<int64_t>> param_shapes;
   bool f16_weights = false;  // conv / linear weights packed as fp16
-  // Activation memory plan: buffers are pooled; a tensor's buffer returns to the
-  // free list when its last handle dies during recording and is reused by a
-  // later tensor that fits (best fit, at most twice the size). Recording order
-  // is execution order and every op ends with a barrier, so the reuse is safe
-  // (write-after-read needs only the execution dependency the barriers give).
-  std::vector<std::unique_ptr<gpu::Buffer>> pool;
-  std::multimap<uint64_t, gpu::Buffer*> free_list;
+  ActivationPool pool;  // activation memory plan (activation_pool.h)
   std::vector<std::shared_ptr<gpu::Buffer>> alive;  // inputs, kept until the forward ends
-  uint64_t bytes = 0;
   gpu::CommandList* cmd = nullptr;
 
   Impl(gpu::Context& c, const UNetConfig& cfg)
-      : ctx(c), tree(cfg), conv(c), gn(c), ln(c), ew(c), attn(c) {}
+      : ctx(c), tree(cfg), conv(c), gn(c), ln(c), ew(c), attn(c), pool(c, "unet-activation") {}
 
   const gpu::Buffer& P(const std::string& name) const {
     const auto it = params.find(name);
@@ -66,18 +61,7 @@ struct UNetGpu::Impl {
   GT alloc(std::vector<int64_t> shape) {
     GT t;
     t.shape = std::move(shape);
-    const uint64_t n = std::max<uint64_t>(t.numel(), 1) * 4;
-    gpu::Buffer* b = nullptr;
-    const auto it = free_list.lower_bound(n);
-    if (it != free_list.end() && it->first <= 2 * n) {
-      b = it->second;
-      free_list.erase(it);
-    } else {
-      pool.push_back(std::make_unique<gpu::Buffer>(ctx, n, gpu::MemoryUsage::DeviceLocal, "unet-activation"));
-      b = pool.back().get();
-      bytes += n;
-    }
-    t.buf = std::shared_ptr<gpu::Buffer>(b, [this](gpu::Buffer* r) { free_list.emplace(r->size(), r); });
+    t.buf = pool.take(std::max<uint64_t>(t.numel(), 1) * 4);
     return t;
   }
   void barrier() { cmd->barrier(gpu::deps::kComputeToCompute); }
@@ -285,9 +269,7 @@ CpuTensor UNetGpu::forward(const CpuTensor& x, const std::vector<int64_t>& t, co
   if (static_cast<int64_t>(t.size()) != x.dim(0))
     throw std::invalid_argument("UNet: " + std::to_string(t.size()) + " timesteps for a batch of " + std::to_string(x.dim(0)));
   m.alive.clear();
-  m.free_list.clear();
-  m.pool.clear();
-  m.bytes = 0;
+  m.pool.reset();
   const CpuTensor t_emb = cpu::timestep_embedding(t, c.model_channels);
   auto upload = [&](const CpuTensor& v, std::vector<int64_t> shape) {
     GT g;
@@ -323,7 +305,7 @@ CpuTensor UNetGpu::forward(const CpuTensor& x, const std::vector<int64_t>& t, co
     cmd.barrier(gpu::deps::kComputeToTransfer);
     m.cmd = nullptr;
   });
-  activation_bytes_ = m.bytes;
+  activation_bytes_ = m.pool.bytes();
   auto download = [&](const GT& g) {
     CpuTensor r(g.shape);
     r.data = gpu::download_vector<float>(m.ctx, *g.buf, static_cast<size_t>(g.numel()));
@@ -341,8 +323,7 @@ CpuTensor UNetGpu::forward(const CpuTensor& x, const std::vector<int64_t>& t, co
   captured.clear();
   out = GT{};
   m.alive.clear();
-  m.free_list.clear();
-  m.pool.clear();
+  m.pool.reset();
   return y;
 }
 

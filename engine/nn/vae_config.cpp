@@ -2,6 +2,7 @@
 #include "nn/vae_config.h"
 
 #include "scene/atomic_file.h"
+#include "nn/kwargs_reader.h"
 #include "scene/input_error.h"
 
 #include <nlohmann/json.hpp>
@@ -15,26 +16,6 @@ namespace icube::nn {
 namespace {
 
 using json = nlohmann::json;
-
-struct Reader {
-  const std::string& source;
-  [[noreturn]] void fail(const std::string& key, const std::string& what) const {
-    throw scene::InputError(source, key, what);
-  }
-  int integer(const std::string& key, const json& v, int lo = 1, int hi = 1'000'000) const {
-    if (!v.is_number_integer()) fail(key, "is not an integer");
-    const int64_t i = v.get<int64_t>();
-    if (i < lo || i > hi) fail(key, std::to_string(i) + " is out of range [" + std::to_string(lo) + ", " + std::to_string(hi) + "]");
-    return static_cast<int>(i);
-  }
-  bool boolean(const std::string& key, const json& v) const {
-    if (!v.is_boolean()) fail(key, "is not true or false");
-    return v.get<bool>();
-  }
-  void must_be(const std::string& key, const json& v, bool expected, const std::string& what) const {
-    if (boolean(key, v) != expected) fail(key, what + " is not implemented (must be " + (expected ? "true" : "false") + ")");
-  }
-};
 
 // ConvBlock(in, out): GroupNorm over `in` channels when g precedes c, else over `out`.
 void conv_block(std::vector<ParamSpec>& p, const VaeConfig& c, const std::string& name, int in, int out) {
@@ -96,7 +77,7 @@ VaeConfig parse_vae_config(const std::string& text, const std::string& source) {
   if (!root.is_object()) throw scene::InputError(source, "", "is not a JSON object of StructPredictionNet keyword arguments");
   const json j = root.contains("vae_kwargs") ? root["vae_kwargs"] : root;
   if (!j.is_object()) throw scene::InputError(source, "vae_kwargs", "is not a JSON object");
-  const Reader r{source};
+  const KwargsReader r{source};
   VaeConfig c;
   bool have_in = false, have_blocks = false;
   c.f_maps = 64;
@@ -107,14 +88,14 @@ VaeConfig parse_vae_config(const std::string& text, const std::string& source) {
   c.neck_bound = {4, 4, 4};
   c.with_semantic_branch = false;
   const std::map<std::string, std::function<void(const json&)>> keys = {
-      {"in_channels", [&](const json& v) { c.in_channels = r.integer("in_channels", v); have_in = true; }},
+      {"in_channels", [&](const json& v) { c.in_channels = r.integer("in_channels", v, 1); have_in = true; }},
       {"num_blocks", [&](const json& v) { c.num_blocks = r.integer("num_blocks", v, 1, 8); have_blocks = true; }},
-      {"f_maps", [&](const json& v) { c.f_maps = r.integer("f_maps", v); }},
+      {"f_maps", [&](const json& v) { c.f_maps = r.integer("f_maps", v, 1); }},
       {"order", [&](const json& v) {
          if (!v.is_string()) r.fail("order", "is not a string");
          c.order = v.get<std::string>();
        }},
-      {"num_groups", [&](const json& v) { c.num_groups = r.integer("num_groups", v); }},
+      {"num_groups", [&](const json& v) { c.num_groups = r.integer("num_groups", v, 1); }},
       {"pooling", [&](const json& v) {
          if (!v.is_string() || v.get<std::string>() != "max") r.fail("pooling", "only \"max\" is implemented");
        }},
@@ -128,7 +109,7 @@ VaeConfig parse_vae_config(const std::string& text, const std::string& source) {
          if (t != "HAND_CRAFTED" && t != "UNCHANGED") r.fail("neck_dense_type", "is not \"HAND_CRAFTED\" or \"UNCHANGED\"");
          c.neck_dense = t == "HAND_CRAFTED";
        }},
-      {"cut_ratio", [&](const json& v) { c.cut_ratio = r.integer("cut_ratio", v); }},
+      {"cut_ratio", [&](const json& v) { c.cut_ratio = r.integer("cut_ratio", v, 1); }},
       {"neck_bound", [&](const json& v) {
          if (v.is_number_integer()) {
            const int b = r.integer("neck_bound", v, 1, 4096);
@@ -140,7 +121,7 @@ VaeConfig parse_vae_config(const std::string& text, const std::string& source) {
          }
        }},
       {"with_semantic_branch", [&](const json& v) { c.with_semantic_branch = r.boolean("with_semantic_branch", v); }},
-      {"num_semantic_classes", [&](const json& v) { c.num_semantic_classes = r.integer("num_semantic_classes", v); }},
+      {"num_semantic_classes", [&](const json& v) { c.num_semantic_classes = r.integer("num_semantic_classes", v, 1); }},
       {"num_res_blocks", [&](const json& v) { c.num_res_blocks = r.integer("num_res_blocks", v, 1, 16); }},
       {"with_normal_branch", [&](const json& v) { r.must_be("with_normal_branch", v, false, "the normal head"); }},
       {"with_color_branch", [&](const json& v) { r.must_be("with_color_branch", v, false, "the colour head"); }},
@@ -162,8 +143,8 @@ VaeConfig parse_vae_config(const std::string& text, const std::string& source) {
     if (!e.is_object()) r.fail("encoder_kwargs", "is not a JSON object");
     for (auto it = e.begin(); it != e.end(); ++it) {
       const std::string key = "encoder_kwargs." + scene::printable(it.key());
-      if (it.key() == "num_semantic") c.num_semantic = r.integer(key, it.value());
-      else if (it.key() == "dim_semantic") c.dim_semantic = r.integer(key, it.value());
+      if (it.key() == "num_semantic") c.num_semantic = r.integer(key, it.value(), 1);
+      else if (it.key() == "dim_semantic") c.dim_semantic = r.integer(key, it.value(), 1);
       else if (it.key() == "use_input_semantic") r.must_be(key, it.value(), true, "an encoder without semantics");
       else if (it.key() == "use_input_normal" || it.key() == "use_input_intensity" || it.key() == "use_input_color")
         r.must_be(key, it.value(), false, it.key().substr(10) + " input");

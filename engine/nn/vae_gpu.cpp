@@ -1,6 +1,8 @@
 // The structure VAE decoder on the GPU; see vae_gpu.h.
 #include "nn/vae_gpu.h"
 
+#include "nn/activation_pool.h"
+
 #include "nn/conv3d.h"
 #include "nn/elementwise.h"
 #include "nn/group_norm.h"
@@ -42,11 +44,7 @@ struct VaeGpu::Impl {
   std::map<std::string, std::unique_ptr<gpu::Buffer>> params;
   std::map<std::string, std::vector<int64_t>> shapes;
   uint64_t weight_bytes = 0;
-  // Activation pool (as UNetGpu): buffers return to the free list when their last handle dies during
-  // recording; every op ends with a barrier, so reuse within a command list is safe.
-  std::vector<std::unique_ptr<gpu::Buffer>> pool;
-  std::multimap<uint64_t, gpu::Buffer*> free_list;
-  uint64_t bytes = 0;
+  ActivationPool pool;  // activation memory plan (activation_pool.h)
   gpu::CommandList* cmd = nullptr;
   const Level* level = nullptr;
   std::vector<VaeGpu::Stage> stages;  // the last run's
@@ -69,7 +67,7 @@ struct VaeGpu::Impl {
   }
 
   Impl(gpu::Context& c, const VaeConfig& cfg)
-      : ctx(c), config(cfg), conv1x1(c), sconv(c), kmap(c), grid_ops(c), gn(c), ew(c) {}
+      : ctx(c), config(cfg), conv1x1(c), sconv(c), kmap(c), grid_ops(c), gn(c), ew(c), pool(c, "vae-activation") {}
 
   const gpu::Buffer& P(const std::string& name) const {
     const auto it = params.find(name);
@@ -83,18 +81,7 @@ struct VaeGpu::Impl {
     GT t;
     t.channels = channels;
     t.rows = rows;
-    const uint64_t n = std::max<uint64_t>(t.numel(), 1) * 4;
-    gpu::Buffer* b = nullptr;
-    const auto it = free_list.lower_bound(n);
-    if (it != free_list.end() && it->first <= 2 * n) {
-      b = it->second;
-      free_list.erase(it);
-    } else {
-      pool.push_back(std::make_unique<gpu::Buffer>(ctx, n, gpu::MemoryUsage::DeviceLocal, "vae-activation"));
-      b = pool.back().get();
-      bytes += n;
-    }
-    t.buf = std::shared_ptr<gpu::Buffer>(b, [this](gpu::Buffer* r) { free_list.emplace(r->size(), r); });
+    t.buf = pool.take(std::max<uint64_t>(t.numel(), 1) * 4);
     return t;
   }
   void barrier() { cmd->barrier(gpu::deps::kComputeToCompute); }
@@ -192,9 +179,7 @@ struct VaeGpu::Impl {
     return v;
   }
   void reset_pool() {
-    pool.clear();
-    free_list.clear();
-    bytes = 0;
+    pool.reset();
     stages.clear();
   }
   std::vector<float> embedding;  // encoder.semantic_embed_fn.weight [classes, dim], on the host
@@ -224,7 +209,7 @@ VaeGpu::VaeGpu(gpu::Context& ctx, const VaeConfig& config, const std::map<std::s
 
 VaeGpu::~VaeGpu() = default;
 
-uint64_t VaeGpu::last_activation_bytes() const { return impl_->bytes; }
+uint64_t VaeGpu::last_activation_bytes() const { return impl_->pool.bytes(); }
 uint64_t VaeGpu::weight_bytes() const { return impl_->weight_bytes; }
 const std::vector<VaeGpu::Stage>& VaeGpu::last_stages() const { return impl_->stages; }
 

@@ -12,6 +12,7 @@
 #include "nn/conv3d.h"
 #include "nn/sparse_conv.h"
 #include "nn/sparse_cpu.h"
+#include "sparse_test_util.h"
 
 #include <algorithm>
 #include <cmath>
@@ -23,18 +24,6 @@ using namespace icube;
 using nn::Ijk;
 
 namespace {
-
-nn::SparseGrid random_grid(uint32_t seed, const Ijk& lo, const Ijk& dims, size_t count) {
-  std::mt19937 rng(seed);
-  std::set<Ijk> s;
-  std::uniform_int_distribution<int32_t> di(0, dims[0] - 1), dj(0, dims[1] - 1), dk(0, dims[2] - 1);
-  const size_t cap = static_cast<size_t>(int64_t{dims[0]} * dims[1] * dims[2]);
-  while (s.size() < std::min(count, cap)) s.insert({lo[0] + di(rng), lo[1] + dj(rng), lo[2] + dk(rng)});
-  nn::SparseGrid g;
-  g.ijk.assign(s.begin(), s.end());
-  nn::sort_brick_order(g);
-  return g;
-}
 
 std::vector<int32_t> flat_ijk(const nn::SparseGrid& g) {
   std::vector<int32_t> v;
@@ -116,12 +105,12 @@ void check_conv(const nn::SparseGrid& g, int64_t ci, int64_t co, bool with_bias,
 
 TEST_CASE("sparse conv gpu: the hashed kernel map equals the CPU reference exactly") {
   const std::vector<nn::SparseGrid> grids = {
-      random_grid(1, {-20, -9, -13}, {41, 23, 29}, 5000),                   // random occupancy, negative coordinates
+      test::random_sparse_grid(1, {-20, -9, -13}, {41, 23, 29}, 5000),                   // random occupancy, negative coordinates
       nn::dense_box_grid({-3, 5, -2}, {9, 7, 5}, {1, 1, 1}, {0, 0, 0}),      // fully dense: 27 neighbours inside
-      random_grid(2, {7, 7, 7}, {1, 1, 1}, 1),                               // one voxel: only its centre
-      random_grid(3, {6, 14, -10}, {4, 4, 4}, 40),                           // across brick boundaries
-      random_grid(4, {500'000, -500'003, 499'990}, {16, 9, 7}, 600),         // 100 km from the origin at 0.2 m
-      random_grid(5, {-2'000'000'000, 2'000'000'000, -5}, {5, 5, 5}, 60),    // int32 extremes (no wrap needed)
+      test::random_sparse_grid(2, {7, 7, 7}, {1, 1, 1}, 1),                               // one voxel: only its centre
+      test::random_sparse_grid(3, {6, 14, -10}, {4, 4, 4}, 40),                           // across brick boundaries
+      test::random_sparse_grid(4, {500'000, -500'003, 499'990}, {16, 9, 7}, 600),         // 100 km from the origin at 0.2 m
+      test::random_sparse_grid(5, {-2'000'000'000, 2'000'000'000, -5}, {5, 5, 5}, 60),    // int32 extremes (no wrap needed)
   };
   for (const nn::SparseGrid& g : grids) {
     CAPTURE(g.size());
@@ -140,20 +129,20 @@ TEST_CASE("sparse conv gpu: the hashed kernel map equals the CPU reference exact
 }
 
 TEST_CASE("sparse conv gpu: submanifold 3x3x3 against the CPU reference") {
-  check_conv(random_grid(11, {-9, -5, -7}, {19, 13, 11}, 900), 13, 19, true, 1.0f, 21);   // odd channel counts
+  check_conv(test::random_sparse_grid(11, {-9, -5, -7}, {19, 13, 11}, 900), 13, 19, true, 1.0f, 21);   // odd channel counts
   check_conv(nn::dense_box_grid({0, 0, 0}, {6, 5, 7}, {1, 1, 1}, {0, 0, 0}), 8, 16, false, 1.0f, 22);
-  check_conv(random_grid(12, {3, 3, 3}, {1, 1, 1}, 1), 4, 3, true, 1.0f, 23);                // a single voxel
-  check_conv(random_grid(13, {500'000, -500'003, 499'990}, {9, 8, 7}, 200), 6, 5, true, 1.0f, 24);
-  check_conv(random_grid(14, {-4, -4, -4}, {8, 8, 8}, 300), 5, 9, true, 1e4f, 25);          // large activations
-  check_conv(random_grid(15, {-30, -30, -10}, {60, 60, 20}, 2000), 32, 64, true, 1.0f, 26); // the VAE's widths
-  check_conv(random_grid(16, {-9, -5, -7}, {19, 13, 11}, 700), 12, 9, true, 3.0f, 27, 0, true);  // fused SiLU
+  check_conv(test::random_sparse_grid(12, {3, 3, 3}, {1, 1, 1}, 1), 4, 3, true, 1.0f, 23);                // a single voxel
+  check_conv(test::random_sparse_grid(13, {500'000, -500'003, 499'990}, {9, 8, 7}, 200), 6, 5, true, 1.0f, 24);
+  check_conv(test::random_sparse_grid(14, {-4, -4, -4}, {8, 8, 8}, 300), 5, 9, true, 1e4f, 25);          // large activations
+  check_conv(test::random_sparse_grid(15, {-30, -30, -10}, {60, 60, 20}, 2000), 32, 64, true, 1.0f, 26); // the VAE's widths
+  check_conv(test::random_sparse_grid(16, {-9, -5, -7}, {19, 13, 11}, 700), 12, 9, true, 3.0f, 27, 0, true);  // fused SiLU
 }
 
 TEST_CASE("sparse conv gpu: channel windows when the features exceed one binding") {
   // 2 KiB bindings: 40 rows x 12 channels run as windows of 8 output and 12 input channels.
-  check_conv(random_grid(31, {-5, -5, -5}, {10, 10, 10}, 40), 30, 20, true, 1.0f, 32, 2048);
-  check_conv(random_grid(34, {-5, -5, -5}, {10, 10, 10}, 40), 30, 20, true, 1.0f, 35, 2048, true);  // SiLU on the last window
-  const nn::SparseGrid g = random_grid(33, {0, 0, 0}, {4, 4, 4}, 10);
+  check_conv(test::random_sparse_grid(31, {-5, -5, -5}, {10, 10, 10}, 40), 30, 20, true, 1.0f, 32, 2048);
+  check_conv(test::random_sparse_grid(34, {-5, -5, -5}, {10, 10, 10}, 40), 30, 20, true, 1.0f, 35, 2048, true);  // SiLU on the last window
+  const nn::SparseGrid g = test::random_sparse_grid(33, {0, 0, 0}, {4, 4, 4}, 10);
   gpu::Context& ctx = test::gpu_context();
   kernels::nn::SparseConv3d conv(ctx);
   gpu::Buffer small(ctx, 64, gpu::MemoryUsage::DeviceLocal, "small");
@@ -165,7 +154,7 @@ TEST_CASE("sparse conv gpu: channel windows when the features exceed one binding
 TEST_CASE("sparse conv gpu: equals the dense GPU conv3d over the zero-filled box at the active voxels") {
   gpu::Context& ctx = test::gpu_context();
   const nn::Ijk dims{13, 11, 9};
-  const nn::SparseGrid g = random_grid(41, {0, 0, 0}, dims, 400);
+  const nn::SparseGrid g = test::random_sparse_grid(41, {0, 0, 0}, dims, 400);
   const uint32_t n = static_cast<uint32_t>(g.size()), ci = 6, co = 10;
   const uint64_t V = uint64_t{13} * 11 * 9;
   std::mt19937 rng(42);

@@ -4,6 +4,7 @@
 // order; grids with negative and far-from-origin coordinates.
 #include "nn/layers_cpu.h"
 #include "nn/sparse_cpu.h"
+#include "sparse_test_util.h"
 
 #include <doctest/doctest.h>
 
@@ -17,18 +18,6 @@ using namespace icube;
 using nn::Ijk;
 
 namespace {
-
-// `count` distinct random voxels inside [lo, lo + dims), brick order.
-nn::SparseGrid random_grid(std::mt19937& rng, const Ijk& lo, const Ijk& dims, size_t count) {
-  std::set<Ijk> s;
-  std::uniform_int_distribution<int32_t> di(0, dims[0] - 1), dj(0, dims[1] - 1), dk(0, dims[2] - 1);
-  const size_t cap = static_cast<size_t>(int64_t{dims[0]} * dims[1] * dims[2]);
-  while (s.size() < std::min(count, cap)) s.insert({lo[0] + di(rng), lo[1] + dj(rng), lo[2] + dk(rng)});
-  nn::SparseGrid g;
-  g.ijk.assign(s.begin(), s.end());
-  nn::sort_brick_order(g);
-  return g;
-}
 
 nn::SparseTensor random_features(std::mt19937& rng, const nn::SparseGrid& g, int64_t channels, float scale = 1.0f) {
   std::normal_distribution<float> n(0.0f, scale);
@@ -98,15 +87,15 @@ TEST_CASE("sparse cpu: brick order, dense boxes and row lookup") {
 TEST_CASE("sparse cpu: submanifold conv equals dense conv3d over the zero-filled box") {
   std::mt19937 rng(17);
   // Random occupancy, odd channel counts, 3^3 and 1^3 (as a conv) kernels.
-  check_conv_against_dense(rng, random_grid(rng, {-5, -3, -7}, {11, 9, 7}, 300), 5, 7, 3);
-  check_conv_against_dense(rng, random_grid(rng, {-5, -3, -7}, {11, 9, 7}, 300), 3, 2, 1);
+  check_conv_against_dense(rng, test::random_sparse_grid(rng, {-5, -3, -7}, {11, 9, 7}, 300), 5, 7, 3);
+  check_conv_against_dense(rng, test::random_sparse_grid(rng, {-5, -3, -7}, {11, 9, 7}, 300), 3, 2, 1);
   // Fully dense box: sparse conv is the dense conv with zero padding.
   check_conv_against_dense(rng, nn::dense_box_grid({-2, -2, -2}, {5, 4, 3}, {1, 1, 1}, {0, 0, 0}), 4, 6, 3);
   // A single voxel sees only its centre tap; voxels on brick boundaries and across them.
-  check_conv_against_dense(rng, random_grid(rng, {7, 7, 7}, {1, 1, 1}, 1), 3, 3, 3);
-  check_conv_against_dense(rng, random_grid(rng, {6, -10, 14}, {4, 4, 4}, 40), 9, 5, 3);
+  check_conv_against_dense(rng, test::random_sparse_grid(rng, {7, 7, 7}, {1, 1, 1}, 1), 3, 3, 3);
+  check_conv_against_dense(rng, test::random_sparse_grid(rng, {6, -10, 14}, {4, 4, 4}, 40), 9, 5, 3);
   // 100 km from the origin at 0.2 m: ijk ~ 5e5.
-  check_conv_against_dense(rng, random_grid(rng, {500'000, -500'003, 499'990}, {6, 7, 5}, 120), 4, 4, 3);
+  check_conv_against_dense(rng, test::random_sparse_grid(rng, {500'000, -500'003, 499'990}, {6, 7, 5}, 120), 4, 4, 3);
   // Empty grid.
   const nn::SparseTensor empty = nn::cpu::conv3d(nn::SparseTensor{{}, 4, {}}, random_tensor(rng, {2, 4, 3, 3, 3}), nullptr);
   CHECK(empty.rows() == 0);
@@ -129,7 +118,7 @@ TEST_CASE("sparse cpu: kernel map taps in grid order") {
 
 TEST_CASE("sparse cpu: max pooling onto the coarsened grid, subdivision and pruning") {
   std::mt19937 rng(5);
-  const nn::SparseGrid g = random_grid(rng, {-9, -6, -5}, {13, 12, 9}, 250);
+  const nn::SparseGrid g = test::random_sparse_grid(rng, {-9, -6, -5}, {13, 12, 9}, 250);
   nn::SparseGrid fine = g;
   fine.voxel_size = {0.2, 0.2, 0.2};
   fine.origin = {0.1, 0.1, 0.1};
@@ -183,7 +172,7 @@ TEST_CASE("sparse cpu: max pooling onto the coarsened grid, subdivision and prun
 
 TEST_CASE("sparse cpu: GroupNorm over the active voxels only") {
   std::mt19937 rng(9);
-  const nn::SparseGrid g = random_grid(rng, {0, 0, 0}, {9, 9, 9}, 77);
+  const nn::SparseGrid g = test::random_sparse_grid(rng, {0, 0, 0}, {9, 9, 9}, 77);
   const nn::SparseTensor x = random_features(rng, g, 8, 50.0f);
   const nn::CpuTensor gamma = random_tensor(rng, {8}), beta = random_tensor(rng, {8});
   const nn::SparseTensor y = nn::cpu::group_norm(x, 4, gamma, beta);

@@ -8,6 +8,7 @@
 
 #include "gpu_test_context.h"
 #include "nn/sparse_cpu.h"
+#include "sparse_test_util.h"
 #include "nn/sparse_conv.h"
 #include "nn/sparse_grid.h"
 
@@ -18,17 +19,6 @@ using namespace icube;
 using nn::Ijk;
 
 namespace {
-
-nn::SparseGrid random_grid(uint32_t seed, const Ijk& lo, const Ijk& dims, size_t count) {
-  std::mt19937 rng(seed);
-  std::set<Ijk> s;
-  std::uniform_int_distribution<int32_t> di(0, dims[0] - 1), dj(0, dims[1] - 1), dk(0, dims[2] - 1);
-  while (s.size() < count) s.insert({lo[0] + di(rng), lo[1] + dj(rng), lo[2] + dk(rng)});
-  nn::SparseGrid g;
-  g.ijk.assign(s.begin(), s.end());
-  nn::sort_brick_order(g);
-  return g;
-}
 
 void check_subdivide(const nn::SparseGrid& g, const Ijk& f, float keep_fraction, uint32_t seed) {
   CAPTURE(f[0]);
@@ -80,14 +70,14 @@ void check_subdivide(const nn::SparseGrid& g, const Ijk& f, float keep_fraction,
 }  // namespace
 
 TEST_CASE("sparse grid gpu: subdivision and pruning by structure logits equal the CPU reference") {
-  const nn::SparseGrid g = random_grid(3, {-20, -17, -9}, {40, 33, 18}, 3000);
+  const nn::SparseGrid g = test::random_sparse_grid(3, {-20, -17, -9}, {40, 33, 18}, 3000);
   check_subdivide(g, {2, 2, 2}, 0.4f, 1);
   check_subdivide(g, {2, 2, 1}, 0.7f, 2);
   check_subdivide(g, {1, 1, 1}, 0.5f, 3);  // pruning only
   check_subdivide(g, {2, 2, 2}, 0.0f, 4);  // nothing kept
   check_subdivide(g, {2, 2, 2}, 1.0f, 5);
-  check_subdivide(random_grid(6, {100'000, -200'000, 50'000}, {9, 9, 9}, 200), {2, 2, 2}, 0.5f, 7);  // far, still < 2^20 after x2
-  check_subdivide(random_grid(8, {0, 0, 0}, {1, 1, 1}, 1), {2, 2, 1}, 1.0f, 9);
+  check_subdivide(test::random_sparse_grid(6, {100'000, -200'000, 50'000}, {9, 9, 9}, 200), {2, 2, 2}, 0.5f, 7);  // far, still < 2^20 after x2
+  check_subdivide(test::random_sparse_grid(8, {0, 0, 0}, {1, 1, 1}, 1), {2, 2, 1}, 1.0f, 9);
 }
 
 TEST_CASE("sparse grid gpu: row gathers with missing rows read zero") {
@@ -107,7 +97,7 @@ TEST_CASE("sparse grid gpu: max pooling onto the coarsened grid and hash lookups
   for (const Ijk f : {Ijk{2, 2, 1}, Ijk{2, 2, 2}, Ijk{3, 1, 2}}) {
     CAPTURE(f[0]);
     CAPTURE(f[2]);
-    const nn::SparseGrid g = random_grid(21 + static_cast<uint32_t>(f[2]), {-23, -9, -14}, {41, 29, 27}, 4000);
+    const nn::SparseGrid g = test::random_sparse_grid(21 + static_cast<uint32_t>(f[2]), {-23, -9, -14}, {41, 29, 27}, 4000);
     std::mt19937 rng(4);
     std::normal_distribution<float> nd(0.0f, 10.0f);
     nn::SparseTensor x{g, 5, std::vector<float>(static_cast<size_t>(g.size()) * 5)};
@@ -134,7 +124,7 @@ TEST_CASE("sparse grid gpu: max pooling onto the coarsened grid and hash lookups
     CHECK(bad == 0);
   }
   // Lookups of present, absent and far coordinates.
-  const nn::SparseGrid g = random_grid(31, {-6, -6, -6}, {12, 12, 12}, 500);
+  const nn::SparseGrid g = test::random_sparse_grid(31, {-6, -6, -6}, {12, 12, 12}, 500);
   const uint32_t n = static_cast<uint32_t>(g.size());
   std::vector<int32_t> flat;
   for (const Ijk& c : g.ijk) flat.insert(flat.end(), c.begin(), c.end());
