@@ -141,6 +141,7 @@ bool run_case(gpu::Context& ctx, const std::string& name, const nn::SparseGrid& 
     const double sparse_mb = (2.0 * c * N * 4 + N * 27.0 * 4) / 1e6;
     std::printf("%-26s %8d %10.1f %10.1f %9.2f %11.2f %10.1f %9s\n", "sparse (gather, kmap)", C, ts_sparse.min_ms,
                 ts_sparse.median_ms, useful / (ts_sparse.min_ms * 1e-3), useful / (ts_sparse.min_ms * 1e-3), sparse_mb, "-");
+    if (o.dense_runs < 1) continue;  // sparse only
     // Dense conv3d over the zero-filled box (NCDHW), the same weights (grid order = the dense kernel's).
     nn::CpuTensor xd({1, C, o.box[0], o.box[1], o.box[2]});
     for (uint32_t r = 0; r < N; ++r) {
@@ -242,7 +243,7 @@ int main(int argc, char** argv) {
   std::vector<int> box{128, 128, 64};
   app.add_option("--runs", o.runs, "Timed runs (min 5 for the tables)");
   app.add_option("--warmup", o.warmup, "Untimed runs first");
-  app.add_option("--dense-runs", o.dense_runs, "Timed runs of the dense convolutions (seconds to minutes each)");
+  app.add_option("--dense-runs", o.dense_runs, "Timed runs of the dense convolutions (seconds to minutes each; 0: sparse only)");
   app.add_option("--box", box, "Box around the ego in voxels (X Y Z); 256 256 128 = a whole chunk")->expected(3);
   app.add_option("--channels", o.channels, "Channel counts (in = out)");
   app.add_option("--case", which, "all, demo or waymo")->check(CLI::IsMember({"all", "demo", "waymo"}));
