@@ -2,7 +2,10 @@
 // nn/sparse_children, nn/sparse_permute, nn/sparse_gather_rows) against the CPU
 // reference (nn::cpu::subdivide): the same children in the same brick order,
 // each with its parent's features, for factors [2,2,2], [2,2,1] and 1 (pruning),
-// negative coordinates, nothing kept, and row gathers with missing rows.
+// negative coordinates, nothing kept, and row gathers with missing rows; max
+// pooling (nn/sparse_coarse_keys, nn/sparse_segments, nn/sparse_coarse_rows,
+// nn/sparse_max_pool) against nn::cpu::max_pool and hash lookups
+// (nn/sparse_lookup) against nn::cpu::find_rows.
 // Runs under the validation layer.
 #include <doctest/doctest.h>
 
@@ -91,7 +94,8 @@ TEST_CASE("sparse grid gpu: row gathers with missing rows read zero") {
   CHECK(gpu::download_vector<float>(ctx, yb, 8) == std::vector<float>{3, 0, 1, 1, 30, 0, 10, 10});
 }
 
-TEST_CASE("sparse grid gpu: max pooling onto the coarsened grid and hash lookups equal the CPU reference") {
+TEST_CASE("sparse grid gpu: max pooling (sparse_coarse_keys, sparse_segments, sparse_coarse_rows, sparse_max_pool) and "
+          "hash lookups (sparse_lookup) equal the CPU reference") {
   gpu::Context& ctx = test::gpu_context();
   kernels::nn::SparseGridOps ops(ctx);
   for (const Ijk f : {Ijk{2, 2, 1}, Ijk{2, 2, 2}, Ijk{3, 1, 2}}) {
