@@ -10,13 +10,13 @@
 // nn::cpu::kernel_map. Tests: tests/nn/test_sparse_conv_gpu.cpp.
 #include "shared/nn_params.h"
 #include "common/dispatch.glsl"
-#include "sparse_hash.glsl"
 
 layout(local_size_x = NN_SPARSE_GROUP) in;
 layout(push_constant) uniform Push { SparseHashParams p; };
 layout(std430, binding = 0) readonly buffer Coords { int ijk[]; };
 layout(std430, binding = 1) readonly buffer Table { uint table[]; };
 layout(std430, binding = 2) writeonly buffer Map { int kmap[]; };
+#include "sparse_hash_find.glsl"
 
 void main() {
   const uint id = ICUBE_THREAD_LINEAR();  // (row - row_begin) * 27 + tap
@@ -24,18 +24,5 @@ void main() {
   const uint r = p.row_begin + id / NN_SPARSE_TAPS, tap = id % NN_SPARSE_TAPS;
   const ivec3 q = ivec3(ijk[3u * r], ijk[3u * r + 1u], ijk[3u * r + 2u]) +
                   ivec3(int(tap / 9u), int((tap / 3u) % 3u), int(tap % 3u)) - ivec3(1);
-  const uint mask = p.table_size - 1u;
-  uint h = icube_ijk_hash(q) & mask;
-  int found = -1;
-  for (uint probe = 0u; probe < p.table_size; ++probe) {
-    const uint s = table[h];
-    if (s == 0u) break;
-    const uint row = s - 1u;
-    if (ijk[3u * row] == q.x && ijk[3u * row + 1u] == q.y && ijk[3u * row + 2u] == q.z) {
-      found = int(row);
-      break;
-    }
-    h = (h + 1u) & mask;
-  }
-  kmap[id] = found;
+  kmap[id] = icube_hash_find(q, p.table_size);
 }

@@ -7,7 +7,6 @@
 // Tests: tests/nn/test_sparse_grid_gpu.cpp.
 #include "shared/nn_params.h"
 #include "common/dispatch.glsl"
-#include "sparse_hash.glsl"
 
 layout(local_size_x = NN_SPARSE_GROUP) in;
 layout(push_constant) uniform Push { SparseHashParams p; };  // rows = queries
@@ -15,23 +14,11 @@ layout(std430, binding = 0) readonly buffer Coords { int ijk[]; };
 layout(std430, binding = 1) readonly buffer Table { uint table[]; };
 layout(std430, binding = 2) readonly buffer Queries { int query[]; };
 layout(std430, binding = 3) writeonly buffer Rows { int rows[]; };
+#include "sparse_hash_find.glsl"
 
 void main() {
   const uint i = ICUBE_THREAD_LINEAR();
   if (i >= p.rows) return;
   const ivec3 q = ivec3(query[3u * i], query[3u * i + 1u], query[3u * i + 2u]);
-  const uint mask = p.table_size - 1u;
-  uint h = icube_ijk_hash(q) & mask;
-  int found = -1;
-  for (uint probe = 0u; probe < p.table_size; ++probe) {
-    const uint s = table[h];
-    if (s == 0u) break;
-    const uint row = s - 1u;
-    if (ijk[3u * row] == q.x && ijk[3u * row + 1u] == q.y && ijk[3u * row + 2u] == q.z) {
-      found = int(row);
-      break;
-    }
-    h = (h + 1u) & mask;
-  }
-  rows[i] = found;
+  rows[i] = icube_hash_find(q, p.table_size);
 }
