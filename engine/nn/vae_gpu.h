@@ -10,9 +10,9 @@
 // it is dead), so the peak is near the largest live set of a level.
 // Weights as VaeReference takes them (official names, 3^3 kernels already in
 // grid order: vae_weights.h), packed and uploaded once.
-// Limit: GroupNorm windows whole groups, so one group (channels / 8 x rows)
-// must fit one storage binding (lavapipe: 128 MiB, e.g. 16 channels x 2 M
-// voxels); larger levels fail with group_norm's one-line error.
+// Tensors beyond one storage binding (lavapipe: 128 MiB; a full chunk's finest
+// level is ~2.7 M rows) run in windows: sparse_conv by row and channel
+// windows, GroupNorm by groups or, for one group beyond a binding, in spans.
 // Tests: tests/nn/test_vae_gpu.cpp (the official vae_small case and the CPU
 // reference of a random-weight model).
 #pragma once

@@ -11,7 +11,10 @@
 // x and y may exceed one storage binding: record() then runs windows of one
 // batch element and as many whole groups as fit (each bound at its aligned
 // offset, channel and batch offsets in the push constants), with a barrier
-// between windows as they reuse the scratch.
+// between windows as they reuse the scratch. A single group larger than one
+// binding (a full VAE chunk level: 16 channels x 2.7 M voxels) runs in spans:
+// the partials pass once per span, continuing the same Welford triples, then
+// the statistics once, then the apply pass once per span.
 // CPU reference: nn::cpu::group_norm / scale_shift / silu (layers_cpu.h).
 // Tests: tests/nn/test_group_norm_gpu.cpp.
 #pragma once

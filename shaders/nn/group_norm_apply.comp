@@ -4,6 +4,8 @@
 // y = ((x - shift) - (mean - shift)) * rstd * weight[c] + bias[c], then optionally the ResBlock's
 // scale-shift modulation y * (1 + scale[b, c]) + shift[b, c] and SiLU
 // y / (1 + exp(-y)) (NN_GN_FLAG_*), fused so the tensor is read and written once.
+// Thread i is element span_begin + i of the window's channels (span_begin > 0
+// when a group larger than one binding is applied in pieces).
 // Host module: kernels/nn/group_norm.{h,cpp}. Tests: tests/nn/test_group_norm_gpu.cpp.
 #include "shared/nn_params.h"
 #include "common/dispatch.glsl"
@@ -19,9 +21,8 @@ layout(std430, binding = 5) writeonly buffer Out { float y_out[]; };
 
 void main() {
   const uint i = ICUBE_THREAD_LINEAR();
-  const uint total = p.batch * p.channels * p.spatial;
-  if (i >= total) return;
-  const uint bc = i / p.spatial;
+  if (i >= p.span_end - p.span_begin) return;
+  const uint bc = (p.span_begin + i) / p.spatial;
   const uint cl = bc % p.channels, bl = bc / p.channels;  // in the window
   const uint c = p.channel_offset + cl, b = p.batch_offset + bl;  // in the whole tensor
   const vec4 st = stats[bl * p.groups + cl / (p.channels / p.groups)];  // (shift, mean - shift, rstd)

@@ -2,8 +2,9 @@
 #extension GL_GOOGLE_include_directive : require
 // group_norm_stats: pass 2 of GroupNorm. Thread bg combines the group's
 // `chunks` Welford partials (Chan et al.'s parallel update, deviations from
-// the group's first element) and writes stats[bg] = (shift, mean deviation,
-// 1 / sqrt(var + eps), 0), var the biased variance as torch.nn.GroupNorm uses it.
+// the group's first element, which every partial carries in .w) and writes
+// stats[bg] = (shift, mean deviation, 1 / sqrt(var + eps), 0), var the biased
+// variance as torch.nn.GroupNorm uses it.
 // Host module: kernels/nn/group_norm.{h,cpp}. Tests: tests/nn/test_group_norm_gpu.cpp.
 #include "shared/nn_params.h"
 #include "common/dispatch.glsl"
@@ -11,8 +12,7 @@
 layout(local_size_x = NN_GN_GROUP) in;
 layout(push_constant) uniform Push { GroupNormParams p; };
 layout(std430, binding = 0) readonly buffer Partials { vec4 partials[]; };
-layout(std430, binding = 1) readonly buffer In { float x_in[]; };
-layout(std430, binding = 2) writeonly buffer Stats { vec4 stats[]; };
+layout(std430, binding = 1) writeonly buffer Stats { vec4 stats[]; };
 
 void main() {
   const uint bg = ICUBE_THREAD_LINEAR();
@@ -27,6 +27,5 @@ void main() {
     m2 += q.y + d * d * (count * q.z / total);
     count = total;
   }
-  const float shift = x_in[p.x_offset + bg * (p.channels / p.groups * p.spatial)];
-  stats[bg] = vec4(shift, mean, inversesqrt(max(m2, 0.0) / count + p.eps), 0.0);
+  stats[bg] = vec4(partials[bg * p.chunks].w, mean, inversesqrt(max(m2, 0.0) / count + p.eps), 0.0);
 }

@@ -48,12 +48,15 @@ struct Conv3dParams {
 // group_norm_partials / group_norm_stats / group_norm_apply: GroupNorm over
 // NCDHW float32 with fp32 statistics. A group's channels are contiguous
 // (count = channels / groups * spatial elements); partials: `chunks` Welford
-// triples (mean, M2, count) per (batch, group), chunk c taking elements c,
+// triples (mean, M2, count, shift) per (batch, group), chunk c taking elements c,
 // c + chunks, ..., of x minus the group's first element; stats: (shift,
 // mean - shift, 1 / sqrt(var + eps), 0) per (batch, group).
 #define NN_GN_GROUP 64
 #define NN_GN_FLAG_SILU 1u
 #define NN_GN_FLAG_MODULATE 2u  // y * (1 + scale[b, c]) + shift[b, c], modulation [B, 2C] = (scale, shift)
+// partials: continue the Welford triples already in the partials buffer (a group split over windows:
+// the window holds elements [span_begin, span_end) of one group; the shift comes from partial .w).
+#define NN_GN_FLAG_CONTINUE 4u
 
 struct GroupNormParams {
   uint batch;           // in this dispatch (one window: 1)
@@ -68,6 +71,10 @@ struct GroupNormParams {
   uint channel_offset;  // the window's first channel in the whole tensor (weight, bias, modulation)
   uint channels_total;  // the whole tensor's channels (modulation rows)
   uint batch_offset;    // the window's batch element (modulation rows)
+  uint span_begin;      // elements of the group (partials) or of the window's channels (apply) this
+  uint span_end;        //   dispatch covers: [0, C/G * S) and [0, C * S) for whole groups
+  uint pad0;
+  uint pad1;
 };
 
 // elementwise: one thread per output element. OP_SILU y = a / (1 + e^-a);
@@ -91,6 +98,33 @@ struct ElementwiseParams {
   uint b_offset;
   uint y_offset;
   uint pad0;
+};
+
+// ddim_step: one DDIM step on v-prediction (engine/diffusion/ddim_schedule.h),
+// optionally with classifier-free guidance v = cond + cfg_scale (cond - uncond)
+// and the step's noise sigma z. latent_overwrite: outpainting's known cells,
+// x = sqrt_alpha known + sqrt_beta z where mask[voxel] != 0 (element i is
+// voxel i % spatial of its channel).
+#define NN_DDIM_GROUP 64
+#define NN_DDIM_FLAG_CFG 1u
+#define NN_DDIM_FLAG_NOISE 2u
+
+struct DdimStepParams {
+  uint count;
+  uint flags;
+  float cfg_scale;
+  float sqrt_alpha;       // sqrt(a_t)
+  float sqrt_beta;        // sqrt(1 - a_t)
+  float sqrt_alpha_prev;  // sqrt(a_prev)
+  float direction;        // sqrt(max(0, 1 - a_prev - sigma^2))
+  float sigma;
+};
+
+struct LatentOverwriteParams {
+  uint count;    // elements (channels * spatial)
+  uint spatial;  // voxels per channel (the mask's length)
+  float sqrt_alpha;
+  float sqrt_beta;
 };
 
 struct ResampleParams {
@@ -240,7 +274,8 @@ ICUBE_CHECK_LAYOUT(Conv3dParams, kernel, 44);
 ICUBE_CHECK_LAYOUT(Conv3dParams, x_offset, 60);
 ICUBE_CHECK_LAYOUT(Conv3dParams, y_batch_stride, 72);
 
-ICUBE_CHECK_SIZE(GroupNormParams, 48);
+ICUBE_CHECK_SIZE(GroupNormParams, 64);
+ICUBE_CHECK_LAYOUT(GroupNormParams, span_end, 52);
 ICUBE_CHECK_LAYOUT(GroupNormParams, batch_offset, 44);
 ICUBE_CHECK_SIZE(LayerNormParams, 16);
 ICUBE_CHECK_SIZE(AttentionParams, 48);
@@ -248,6 +283,9 @@ ICUBE_CHECK_LAYOUT(AttentionParams, scale, 36);
 ICUBE_CHECK_SIZE(ElementwiseParams, 32);
 ICUBE_CHECK_LAYOUT(ElementwiseParams, y_offset, 24);
 ICUBE_CHECK_SIZE(ResampleParams, 32);
+ICUBE_CHECK_SIZE(DdimStepParams, 32);
+ICUBE_CHECK_LAYOUT(DdimStepParams, sigma, 28);
+ICUBE_CHECK_SIZE(LatentOverwriteParams, 16);
 ICUBE_CHECK_LAYOUT(ResampleParams, x_offset, 20);
 ICUBE_CHECK_LAYOUT(GroupNormParams, eps, 20);
 

@@ -68,14 +68,14 @@ TEST_CASE("group_norm gpu: tensors beyond one binding run in windows of whole gr
   // windows starting off the binding alignment, the modulation rows of both batch elements.
   check_gn({2, 96, 32, 5 * 7 * 3, 1e-5f, true, true}, 0.0f, 2.0f, 7, 2e-5, 4096);
   check_gn({1, 64, 32, 9 * 9 * 9, 1e-5f, false, false}, 3.0f, 1.0f, 8, 2e-5, 16384);
-  // One group larger than the binding: a clear error.
-  gpu::Context& ctx = test::gpu_context();
-  kernels::nn::GroupNorm gn(ctx);
-  gn.set_max_binding_bytes(256);
-  const kernels::nn::GroupNormShape s{1, 64, 32, 9 * 9 * 9, 1e-5f, false, false};
-  gpu::Buffer big(ctx, 64 * 729 * 4), small(ctx, 64 * 4), scratch(ctx, kernels::nn::GroupNorm::scratch_bytes(s));
-  ctx.submit_and_wait([&](gpu::CommandList& cmd) {
-    CHECK_THROWS_WITH_AS(gn.record(cmd, s, big, small, small, nullptr, scratch, big),
-                         doctest::Contains("one group of 5832 bytes exceeds one storage binding"), std::invalid_argument);
-  });
+}
+
+TEST_CASE("group_norm gpu: one group larger than a binding runs in spans (continued partials, then the statistics)") {
+  // As if one binding held 256 B (a few dozen elements): groups of 2 x 729 = 1,458 elements in spans
+  // that start off the chunk stride (22 partials a group), so each span continues every chunk's triple.
+  check_gn({1, 64, 32, 9 * 9 * 9, 1e-5f, false, false}, 0.0f, 1.0f, 9, 2e-5, 256);
+  check_gn({2, 48, 8, 5 * 7 * 3, 1e-5f, true, true}, 0.0f, 2.0f, 10, 2e-5, 512);  // modulated, batch 2
+  // The shift (the group's first element) travels with the partials: a large offset stays exact.
+  check_gn({1, 32, 32, 4 * 4 * 4, 1e-5f, false, false}, 1e4f, 1.0f, 11, 2e-3, 128);
+  check_gn({1, 32, 32, 9 * 9 * 9, 1e-5f, false, false}, 7.25f, 0.0f, 12, 0.0, 256);  // constant: exactly the bias
 }
