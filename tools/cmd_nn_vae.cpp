@@ -2,7 +2,7 @@
 //
 //   icube nn vae decode LATENT.npy --model CONFIG|infinicube-vae --weights VAE.safetensors
 //                       [--latent-origin I,J,K] [--scale-factor S] [--backend gpu|cpu] [--check-finite]
-//                       [--dump-layers DIR] -o CHUNK.icw
+//                       [--scene SCENE [--mode M] --chunk K | --at X,Y,Z[,YAW_DEG]] [--dump-layers DIR] -o CHUNK.icw
 //
 // decode turns a dense latent [1, C, X, Y, Z] float32 (the box of latent
 // voxels whose element [0,0,0] sits at --latent-origin, default the box
@@ -10,9 +10,13 @@
 // semantic voxels (engine/nn/vae_gpu.h, or the CPU reference with --backend
 // cpu), written as an engine world (.icw) in the VAE's frame: voxel centres at
 // ijk * 0.2 + 0.1 m (fVDB), each voxel the argmax of its 23 class logits
-// (class 0, "undefined", is not written: the engine's 0 is empty). A latent
-// from the diffusion model is divided by --scale-factor first (the checkpoint's
-// scale_factor). --dump-layers writes the files of models/vae_small: each
+// (class 0, "undefined", is not written: the engine's 0 is empty); with a
+// chunk placement (chunk K of a scene's plan, or --at) the chunk is moved into
+// the world's frame by chunk fusion (world/chunk_fusion.h, conventions §9.4)
+// on the world lattice (0.2 m, origin the chunk centre rounded to it). A latent
+// from the diffusion model is divided by its scale_factor first (--scale-factor,
+// else the weights' metadata as tools/convert_checkpoint.py writes it, else 1:
+// nn/latent_scale.h). --dump-layers writes the files of models/vae_small: each
 // level's grid before pruning and its structure logits (struct<d>.ijk.npy /
 // .logits.npy, d = 0 finest), the final ijk.npy and semantic.npy, so a user can
 // compare with PyTorch level by level (rows in brick order; compare as sets).
@@ -26,13 +30,14 @@
 // chunk_voxels.h: the chunk K of the scene's Stage-1 plan, or a chunk centred
 // at X,Y,Z with its x axis at YAW_DEG from the world's), runs the VAE encoder
 // and writes mu on the dense neck box as [1, C, X, Y, Z] float32 (box from
-// -neck_bound, the layout decode reads), times --scale-factor (the diffusion
-// model's latent space).
+// -neck_bound, the layout decode reads), times the scale_factor (the diffusion
+// model's latent space; resolved as for decode).
 #include "cli_common.h"
 #include "command_registry.h"
 #include "staging_dir.h"
 
 #include "gpu/context.h"
+#include "nn/latent_scale.h"
 #include "nn/safetensors.h"
 #include "nn/vae_config.h"
 #include "nn/vae_gpu.h"
@@ -40,12 +45,14 @@
 #include "nn/vae_weights.h"
 #include "scene/input_error.h"
 #include "scene/scene_load.h"
+#include "world/chunk_fusion.h"
 #include "world/chunk_plan.h"
 #include "world/chunk_voxels.h"
 #include "world/npy.h"
 #include "world/world_file.h"
 
 #include <CLI/CLI.hpp>
+#include <glm/gtc/matrix_transform.hpp>
 
 #include <chrono>
 #include <cmath>
@@ -60,11 +67,43 @@ namespace {
 
 namespace fs = std::filesystem;
 
+// Where a chunk sits in the world: chunk K of a scene's Stage-1 plan, or a pose given on the command line.
+struct ChunkPlacement {
+  std::string scene, mode = "trajectory", at;
+  int chunk = -1;
+  bool given() const { return !at.empty() || chunk >= 0 || !scene.empty(); }
+};
+
 struct VaeDecodeArgs {
   std::string latent, model, weights, origin, dump, output, backend = "gpu";
+  ChunkPlacement place;
   double scale_factor = 1.0;
+  bool scale_given = false;  // else from the weights' metadata, else 1
   bool check_finite = false;
 };
+
+world::ChunkPose parse_chunk_at(const std::string& text);
+
+world::ChunkPose chunk_pose(const ChunkPlacement& p, scene::Diagnostics& diag) {
+  const bool from_plan = p.chunk >= 0 || !p.scene.empty();
+  if (!p.at.empty() ? from_plan : (p.chunk < 0 || p.scene.empty()))
+    throw std::invalid_argument("give the chunk as --scene SCENE --chunk K, or as --at X,Y,Z[,YAW_DEG] (one of them)");
+  if (!p.at.empty()) return parse_chunk_at(p.at);
+  const scene::Scene s = scene::load_scene(p.scene, {}, &diag);
+  const world::ChunkPlan plan = world::plan_chunks(s, p.mode == "blocks" ? world::PlanMode::Blocks : world::PlanMode::Trajectory);
+  if (p.chunk >= static_cast<int>(plan.chunks.size()))
+    throw scene::InputError(p.scene, "", "--chunk " + std::to_string(p.chunk) + ": the " + p.mode + " plan has " +
+                                             std::to_string(plan.chunks.size()) + " chunks");
+  return plan.chunks[static_cast<size_t>(p.chunk)];
+}
+
+void add_placement_options(CLI::App* cmd, ChunkPlacement& p, const std::string& verb) {
+  cmd->add_option("--scene", p.scene, "Scene whose Stage-1 plan places the chunk (with --chunk)")->type_name("SCENE");
+  cmd->add_option("--mode", p.mode, "Plan mode of --scene")->check(CLI::IsMember({"trajectory", "blocks"}))->capture_default_str();
+  cmd->add_option("--chunk", p.chunk, "Chunk index in the plan")->type_name("K");
+  cmd->add_option("--at", p.at, "Chunk centre in world metres and heading of its x axis (degrees, default 0)" + verb)
+      ->type_name("X,Y,Z[,YAW_DEG]");
+}
 
 nn::Ijk parse_ijk(const std::string& text, const std::string& what) {
   nn::Ijk v{};
@@ -97,8 +136,10 @@ void cmd_vae_decode(const VaeDecodeArgs& a) {
   run_command([&](scene::Diagnostics& diag) {
     using Clock = std::chrono::steady_clock;
     const nn::VaeConfig cfg = nn::load_vae_config(a.model);
-    if (!(a.scale_factor > 0.0) || !std::isfinite(a.scale_factor))
-      throw std::invalid_argument("--scale-factor " + std::to_string(a.scale_factor) + " is not a positive number");
+    const nn::SafetensorsFile file(a.weights);
+    const nn::LatentScale scale = nn::resolve_latent_scale(a.scale_given ? std::optional<double>(a.scale_factor) : std::nullopt, file);
+    std::optional<world::ChunkPose> pose;
+    if (a.place.given()) pose = chunk_pose(a.place, diag);
     const world::NpyArray x = world::read_npy(a.latent);
     const uint64_t C = static_cast<uint64_t>(cfg.latent_channels());
     if (x.dtype != world::NpyDtype::F4 || x.shape.size() != 5 || x.shape[0] != 1 || x.shape[1] != C)
@@ -110,7 +151,7 @@ void cmd_vae_decode(const VaeDecodeArgs& a) {
     std::vector<float> v = x.values<float>();
     for (size_t i = 0; i < v.size(); ++i) {
       if (!std::isfinite(v[i])) throw scene::InputError(a.latent, "element " + std::to_string(i), "is not finite");
-      v[i] = static_cast<float>(static_cast<double>(v[i]) / a.scale_factor);
+      v[i] = static_cast<float>(static_cast<double>(v[i]) / scale.value);
     }
     const nn::Ijk lo = a.origin.empty() ? nn::Ijk{-dims[0] / 2, -dims[1] / 2, -dims[2] / 2} : parse_ijk(a.origin, "--latent-origin");
     // The latent level's voxel: 0.2 m times the encoder's pooling factors.
@@ -124,11 +165,11 @@ void cmd_vae_decode(const VaeDecodeArgs& a) {
 
     nn::WeightOptions wo;
     wo.check_finite = a.check_finite;
-    const nn::SafetensorsFile file(a.weights);
     std::map<std::string, nn::CpuTensor> w = nn::load_vae_weights_cpu(file, cfg, nn::VaePart::Decoder, wo);
     std::optional<gpu::Context> ctx;
-    std::fprintf(stderr, "vae decode: latent [1, %llu, %d, %d, %d] at ijk (%d, %d, %d), %s\n", static_cast<unsigned long long>(C),
-                 dims[0], dims[1], dims[2], lo[0], lo[1], lo[2], a.backend == "gpu" ? "GPU" : "CPU reference");
+    std::fprintf(stderr, "vae decode: latent [1, %llu, %d, %d, %d] at ijk (%d, %d, %d) divided by scale_factor %g (%s), %s\n",
+                 static_cast<unsigned long long>(C), dims[0], dims[1], dims[2], lo[0], lo[1], lo[2], scale.value,
+                 scale.source.c_str(), a.backend == "gpu" ? "GPU" : "CPU reference");
     const Clock::time_point t0 = Clock::now();
     nn::VaeDecoded d;
     uint64_t activation_bytes = 0, weight_bytes = 0;
@@ -146,11 +187,13 @@ void cmd_vae_decode(const VaeDecodeArgs& a) {
     const double seconds = std::chrono::duration<double>(Clock::now() - t0).count();
     if (!d.warning.empty()) diag.warn(a.latent, "", d.warning);
 
-    // The chunk as an engine world: engine centres (ijk + 0.5) * vs + origin = fVDB's ijk * vs + fVDB origin.
+    // The chunk as an engine world. In the VAE's frame: engine centres (ijk + 0.5) * vs + origin = fVDB's
+    // ijk * vs + fVDB origin. Placed (--at / --scene --chunk): moved into the world by chunk fusion
+    // (conventions §9.4: exact copy on a shifted lattice, else subdivided and re-voxelised).
     const nn::SparseGrid& g = d.semantic.grid;
-    world::VoxelGrid out(glm::dvec3(g.origin[0] - g.voxel_size[0] / 2, g.origin[1] - g.voxel_size[1] / 2,
-                                    g.origin[2] - g.voxel_size[2] / 2),
-                         g.voxel_size[0]);
+    world::ChunkVoxels chunk;
+    chunk.voxel_size = g.voxel_size[0];
+    chunk.voxels.reserve(static_cast<size_t>(d.semantic.rows()));
     uint64_t undefined = 0;
     for (int64_t r = 0; r < d.semantic.rows(); ++r) {
       const float* l = d.semantic.row(r);
@@ -162,7 +205,19 @@ void cmd_vae_decode(const VaeDecodeArgs& a) {
         continue;
       }
       const nn::Ijk& c = g.ijk[static_cast<size_t>(r)];
-      out.set(glm::ivec3(c[0], c[1], c[2]), static_cast<uint8_t>(best));
+      chunk.voxels.push_back({glm::ivec3(c[0], c[1], c[2]), static_cast<uint8_t>(best), 0});
+    }
+    const glm::dvec3 fvdb_corner(g.origin[0] - g.voxel_size[0] / 2, g.origin[1] - g.voxel_size[1] / 2,
+                                 g.origin[2] - g.voxel_size[2] / 2);
+    world::VoxelGrid out(fvdb_corner, g.voxel_size[0]);
+    world::FusionStats placed;
+    if (pose) {
+      chunk.lattice_to_world = pose->chunk_to_world * glm::translate(glm::dmat4(1.0), fvdb_corner);
+      const glm::dvec3 centre(pose->chunk_to_world[3]);
+      out = world::VoxelGrid(glm::floor(centre / world::kFineVoxel + 0.5) * world::kFineVoxel, world::kFineVoxel);
+      placed = world::fuse_chunk(out, chunk);
+    } else {
+      for (const world::ChunkVoxel& cv : chunk.voxels) out.set(cv.ijk, cv.class_id);
     }
     std::optional<StagingDir> staging;
     if (!a.dump.empty()) {
@@ -178,6 +233,10 @@ void cmd_vae_decode(const VaeDecodeArgs& a) {
     }
     std::printf("vae decode: %lld voxels at %.2f m (%llu of class 0 'undefined' left out) in %.2f s", static_cast<long long>(g.size()),
                 g.voxel_size[0], static_cast<unsigned long long>(undefined), seconds);
+    if (pose)
+      std::printf("; placed at (%.2f, %.2f, %.2f): %llu world cells (%s)", pose->chunk_to_world[3][0], pose->chunk_to_world[3][1],
+                  pose->chunk_to_world[3][2], static_cast<unsigned long long>(placed.written),
+                  placed.exact_copy ? "the world lattice, copied exactly" : "re-voxelised");
     for (size_t depth = d.levels.size(); depth-- > 0;)
       std::printf("%s depth %zu: %lld", depth + 1 == d.levels.size() ? ";" : ",", depth, static_cast<long long>(d.levels[depth].grid.size()));
     std::printf("\n");
@@ -189,9 +248,10 @@ void cmd_vae_decode(const VaeDecodeArgs& a) {
 }
 
 struct VaeEncodeArgs {
-  std::string world, scene, mode = "trajectory", at, model, weights, output, backend = "gpu";
-  int chunk = -1;
+  std::string world, model, weights, output, backend = "gpu";
+  ChunkPlacement place;
   double scale_factor = 1.0;
+  bool scale_given = false;  // else from the weights' metadata, else 1
   bool check_finite = false;
 };
 
@@ -222,22 +282,8 @@ void cmd_vae_encode(const VaeEncodeArgs& a) {
   run_command([&](scene::Diagnostics& diag) {
     using Clock = std::chrono::steady_clock;
     refuse_overwriting_input(a.world, a.output);
-    if (!(a.scale_factor > 0.0) || !std::isfinite(a.scale_factor))
-      throw std::invalid_argument("--scale-factor " + std::to_string(a.scale_factor) + " is not a positive number");
-    if (a.at.empty() == (a.chunk < 0 || a.scene.empty()))
-      throw std::invalid_argument("give the chunk as --scene SCENE --chunk K, or as --at X,Y,Z[,YAW_DEG] (one of them)");
     const nn::VaeConfig cfg = nn::load_vae_config(a.model);
-    world::ChunkPose pose;
-    if (!a.at.empty()) {
-      pose = parse_chunk_at(a.at);
-    } else {
-      const scene::Scene s = scene::load_scene(a.scene, {}, &diag);
-      const world::ChunkPlan plan = world::plan_chunks(s, a.mode == "blocks" ? world::PlanMode::Blocks : world::PlanMode::Trajectory);
-      if (a.chunk >= static_cast<int>(plan.chunks.size()))
-        throw scene::InputError(a.scene, "", "--chunk " + std::to_string(a.chunk) + ": the " + a.mode + " plan has " +
-                                                 std::to_string(plan.chunks.size()) + " chunks");
-      pose = plan.chunks[static_cast<size_t>(a.chunk)];
-    }
+    const world::ChunkPose pose = chunk_pose(a.place, diag);
     const world::VoxelGrid w = world::load_world(a.world);
     const world::ChunkVoxelList voxels = world::chunk_voxels(w, pose);
     if (voxels.ijk.empty())
@@ -252,6 +298,7 @@ void cmd_vae_encode(const VaeEncodeArgs& a) {
     nn::WeightOptions wo;
     wo.check_finite = a.check_finite;
     const nn::SafetensorsFile file(a.weights);
+    const nn::LatentScale scale = nn::resolve_latent_scale(a.scale_given ? std::optional<double>(a.scale_factor) : std::nullopt, file);
     std::map<std::string, nn::CpuTensor> wts = nn::load_vae_weights_cpu(file, cfg, nn::VaePart::Encoder, wo);
     std::fprintf(stderr, "vae encode: %zu voxels of %s in the chunk, %s\n", voxels.ijk.size(), a.world.c_str(),
                  a.backend == "gpu" ? "GPU" : "CPU reference");
@@ -276,12 +323,13 @@ void cmd_vae_encode(const VaeEncodeArgs& a) {
       for (int d = 0; d < 3; ++d) lo[d] = std::min(lo[d], c[d]), hi[d] = std::max(hi[d], c[d]);
     const nn::Ijk dims{hi[0] - lo[0] + 1, hi[1] - lo[1] + 1, hi[2] - lo[2] + 1};
     nn::CpuTensor dense = nn::cpu::to_dense(mu, lo, dims);
-    for (float& v : dense.data) v = static_cast<float>(static_cast<double>(v) * a.scale_factor);
+    for (float& v : dense.data) v = static_cast<float>(static_cast<double>(v) * scale.value);
     world::write_npy(a.output, world::NpyArray::make<float>({1, static_cast<uint64_t>(mu.channels), static_cast<uint64_t>(dims[0]),
                                                              static_cast<uint64_t>(dims[1]), static_cast<uint64_t>(dims[2])},
                                                             dense.data));
-    std::printf("vae encode: latent [1, %lld, %d, %d, %d] from ijk (%d, %d, %d) in %.2f s", static_cast<long long>(mu.channels), dims[0],
-                dims[1], dims[2], lo[0], lo[1], lo[2], seconds);
+    std::printf("vae encode: latent [1, %lld, %d, %d, %d] from ijk (%d, %d, %d), times scale_factor %g (%s), in %.2f s",
+                static_cast<long long>(mu.channels), dims[0], dims[1], dims[2], lo[0], lo[1], lo[2], scale.value, scale.source.c_str(),
+                seconds);
     if (a.backend == "gpu") std::printf(", %.1f MiB of activations (peak pool)", static_cast<double>(activation_bytes) / (1024.0 * 1024.0));
     std::printf("\nvae encode: wrote %s\n", a.output.c_str());
   });
@@ -301,12 +349,15 @@ void add_vae_commands(CLI::App& app) {
       ->required()
       ->type_name("W");
   dec->add_option("--latent-origin", a->origin, "Latent ijk of element [0,0,0] (default: the box centred on 0)")->type_name("I,J,K");
-  dec->add_option("--scale-factor", a->scale_factor, "Divide the latent by the diffusion checkpoint's scale_factor first")
-      ->capture_default_str();
+  dec->add_option("--scale-factor", a->scale_factor,
+                  "Divide the latent by this first (default: the weights' metadata scale_factor, else 1)")
+      ->type_name("S")
+      ->each([a](const std::string&) { a->scale_given = true; });
   dec->add_option("--backend", a->backend, "gpu (Vulkan kernels) or cpu (the exact double-accumulation reference)")
       ->check(CLI::IsMember({"gpu", "cpu"}))
       ->capture_default_str();
   dec->add_flag("--check-finite", a->check_finite, "Fail on a NaN or infinity in the weights");
+  add_placement_options(dec, a->place, ": the chunk is written in the world's frame");
   dec->add_option("--dump-layers", a->dump, "Write each level's grid, structure logits and the final class logits here (.npy)")
       ->type_name("DIR");
   dec->add_option("-o,--output", a->output, "The decoded chunk (.icw)")->required()->type_name("CHUNK.icw");
@@ -315,19 +366,17 @@ void add_vae_commands(CLI::App& app) {
   auto e = std::make_shared<VaeEncodeArgs>();
   CLI::App* enc = vae->add_subcommand("encode", "Encode one chunk of a world (.icw) into the VAE's dense latent (.npy)");
   enc->add_option("world", e->world, "World (.icw)")->required()->type_name("WORLD.icw");
-  enc->add_option("--scene", e->scene, "Scene whose Stage-1 plan places the chunk (with --chunk)")->type_name("SCENE");
-  enc->add_option("--mode", e->mode, "Plan mode of --scene")->check(CLI::IsMember({"trajectory", "blocks"}))->capture_default_str();
-  enc->add_option("--chunk", e->chunk, "Chunk index in the plan")->type_name("K");
-  enc->add_option("--at", e->at, "Chunk centre in world metres and heading of its x axis (degrees, default 0)")
-      ->type_name("X,Y,Z[,YAW_DEG]");
+  add_placement_options(enc, e->place, "");
   enc->add_option("--model", e->model, "VAE config JSON (official StructPredictionNet kwargs) or preset infinicube-vae")
       ->required()
       ->type_name("CONFIG");
   enc->add_option("--weights", e->weights, "Weights (.safetensors; encoder.* and unet.* names, or under vae.)")
       ->required()
       ->type_name("W");
-  enc->add_option("--scale-factor", e->scale_factor, "Multiply the latent by the diffusion checkpoint's scale_factor")
-      ->capture_default_str();
+  enc->add_option("--scale-factor", e->scale_factor,
+                  "Multiply the latent by this (default: the weights' metadata scale_factor, else 1)")
+      ->type_name("S")
+      ->each([e](const std::string&) { e->scale_given = true; });
   enc->add_option("--backend", e->backend, "gpu (Vulkan kernels) or cpu (the exact double-accumulation reference)")
       ->check(CLI::IsMember({"gpu", "cpu"}))
       ->capture_default_str();

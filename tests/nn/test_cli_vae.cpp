@@ -76,6 +76,33 @@ TEST_CASE("cli: icube nn vae decode reproduces vae_small level by level; bad inp
   const glm::dvec3 c = w.ijk_to_world(glm::ivec3(-32, -30, -7));
   CHECK(c.x == doctest::Approx(-32 * 0.2 + 0.1));
   CHECK(c.z == doctest::Approx(-7 * 0.2 + 0.1));
+  glm::ivec3 v0(0);
+  uint8_t cls = 0;
+  w.for_each_voxel([&](const glm::ivec3& ijk, const world::Voxel& v) {
+    if (cls == 0) v0 = ijk, cls = v.class_id;
+  });
+  REQUIRE(cls != 0);
+  const glm::dvec3 p0 = w.ijk_to_world(v0);  // in the chunk frame
+
+  // Placed into a world (--at): on the world lattice the cells are copied exactly; a quarter turn
+  // re-voxelises (subdivided centres) onto the same number of cells, each at its rotated place.
+  const std::string placed = (tmp.path / "placed.icw").string();
+  const std::string latent = " '" + dir + "small.latent.npy' ";
+  r = test::run_icube(common + latent + "--at 100,50.2,3 -o '" + placed + "'", tmp.path);
+  REQUIRE(r.code == 0);
+  CHECK(r.output.find("placed at (100.00, 50.20, 3.00): 2099 world cells (the world lattice, copied exactly)") != std::string::npos);
+  world::VoxelGrid pw = world::load_world(placed);
+  CHECK(pw.voxel_count() == 2099);
+  CHECK(pw.get(pw.world_to_ijk(glm::dvec3(100 + p0.x, 50.2 + p0.y, 3 + p0.z))).class_id == cls);
+  r = test::run_icube(common + latent + "--at 100,50,3,90 -o '" + placed + "'", tmp.path);
+  REQUIRE(r.code == 0);
+  CHECK(r.output.find("2099 world cells (re-voxelised)") != std::string::npos);
+  pw = world::load_world(placed);
+  CHECK(pw.voxel_count() == 2099);
+  CHECK(pw.get(pw.world_to_ijk(glm::dvec3(100 - p0.y, 50 + p0.x, 3 + p0.z))).class_id == cls);  // chunk (x, y) -> world (-y, x)
+  r = test::run_icube(common + latent + "--at 1,2,3 --chunk 0 -o '" + placed + "'", tmp.path);
+  CHECK(r.code != 0);
+  CHECK(r.output.find("give the chunk as --scene SCENE --chunk K, or as --at") != std::string::npos);
 
   // Bad inputs: one-line errors, no output written.
   const std::string out2 = (tmp.path / "bad.icw").string(), dump2 = (tmp.path / "bad-layers").string();
