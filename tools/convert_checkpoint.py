@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Converts an official InfiniCube PyTorch Lightning checkpoint (.ckpt) into the
 files `icube` loads: .safetensors weights under the official state-dict names,
-the UNet configuration as JSON, and the latent scale factor.
+the UNet's and the VAE's configurations as JSON, and the latent scale factor.
 
   tools/convert_checkpoint.py diffusion.ckpt -o models/diffusion
   tools/convert_checkpoint.py vae.ckpt -o models/vae
@@ -17,12 +17,20 @@ optionally `vae.*`) gives
                        channels, levels, attention levels and transformer depth read
                        off the weights, the rest from the checkpoint's hyper_parameters
                        (network.diffuser) or else the released model's values
-  vae.safetensors      the VAE's parameters (when the checkpoint carries `vae.*`)
+  vae.safetensors      the frozen structure VAE's parameters (`vae.encoder.*`, `vae.unet.*`) under
+                       their bare names, scale_factor in its __metadata__
+  vae_config.json      {"vae_kwargs": StructPredictionNet's keyword arguments, "encoder_kwargs",
+                       "scale_factor"}: widths, levels, residual blocks and cut_ratio read off
+                       the weights, the rest (neck, pooling levels, ConvBlock order) the released
+                       model's and named as assumed
 A standalone VAE checkpoint (keys `encoder.*`, `unet.encoders.*`, ...) gives
-vae.safetensors alone. Everything else (optimizer state, condition encoders)
+vae.safetensors and vae_config.json, the arguments the weights cannot tell from
+its hyper_parameters (cut_ratio, network.unet.params), checked against the
+weights. Everything else (optimizer state, condition encoders, loss buffers)
 is left out and listed.
 
 Then:  icube nn info OUT/unet.safetensors --model OUT/unet_config.json
+       icube nn vae decode LATENT.npy --model OUT/vae_config.json --weights OUT/vae.safetensors -o chunk.icw
 
 Needs numpy only: not PyTorch, Lightning or the InfiniCube sources. The
 checkpoint (torch.save's zip format: data.pkl + one record per storage) is read
@@ -57,6 +65,16 @@ NOT_IN_WEIGHTS = ["image_size", "num_heads", "num_head_channels", "num_heads_ups
 CHANGE_INFERENCE = {"num_heads", "num_head_channels", "num_heads_upsample", "legacy", "conv_resample", "dims",
                     "transformer_depth", "middle_disable_first_sa"}
 LEFT_OUT_BUFFERS = {"unet_ema.decay", "unet_ema.num_updates"}
+# The released VAE's StructPredictionNet keyword arguments and encoder settings (shared/reference/models/vae.tsv).
+RELEASED_VAE_KWARGS = {
+    "cut_ratio": 32, "with_normal_branch": False, "with_semantic_branch": True, "in_channels": 32, "num_blocks": 3,
+    "f_maps": 64, "neck_dense_type": "HAND_CRAFTED", "neck_bound": [32, 32, 32], "num_res_blocks": 1,
+    "use_residual": True, "order": "gcs", "is_add_dec": True, "use_attention": False, "use_checkpoint": False,
+    "pooling_level": [2],
+}
+# StructPredictionNet arguments the weights cannot tell (inference changes with all but use_checkpoint).
+VAE_NOT_IN_WEIGHTS = ["neck_dense_type", "neck_bound", "pooling_level", "order", "num_groups", "use_residual",
+                      "is_add_dec", "use_checkpoint"]
 
 
 class ConvertError(Exception):
@@ -337,6 +355,113 @@ def infer_unet_kwargs(unet, path, hparams):
     return out, assumed
 
 
+def vae_hparams(ckpt):
+    """The VAE Lightning module's hyper_parameters: StructPredictionNet's arguments are
+    cut_ratio / with_*_branch at the top plus network.unet.params; the encoder's settings are top-level."""
+    hp = as_plain(ckpt.get("hyper_parameters")) if isinstance(ckpt, dict) else None
+    if not isinstance(hp, dict):
+        return {}, {}
+    net = hp.get("network")
+    params = net.get("unet", {}).get("params", {}) if isinstance(net, dict) and isinstance(net.get("unet"), dict) else {}
+    out = dict(params) if isinstance(params, dict) else {}
+    for key in ("cut_ratio", "with_normal_branch", "with_semantic_branch"):
+        if key in hp:
+            out[key] = hp[key]
+
+    def resolve(v):  # an unresolved OmegaConf interpolation "${name}" from a plain-dict checkpoint
+        m = re.fullmatch(r"\$\{([A-Za-z_][A-Za-z0-9_]*)\}", v) if isinstance(v, str) else None
+        return hp.get(m.group(1), v) if m else v
+    out = {k: resolve(v) for k, v in out.items()}
+    enc = {k: hp[k] for k in ("num_semantic", "dim_semantic", "use_input_semantic", "use_input_normal",
+                              "use_input_intensity") if k in hp}
+    return out, enc
+
+
+def infer_vae_kwargs(vae, path, where, hparams):
+    """StructPredictionNet kwargs from the VAE's bare-named tensors (encoder.*, unet.*), checked against
+    hyper_parameters; returns (vae_kwargs, encoder_kwargs, assumed)."""
+    def need(key):
+        if key not in vae:
+            fail(path, f"tensor '{where}{key}'", "missing: not an InfiniCube structure VAE")
+        return shape(vae, key)
+
+    enc_levels = {int(m.group(1)) for k in vae for m in [re.match(r"unet\.encoders\.Enc(\d+)-Block", k)] if m}
+    if not enc_levels or sorted(enc_levels) != list(range(max(enc_levels) + 1)):
+        fail(path, f"'{where}unet.encoders'", f"levels {sorted(enc_levels)} are not Enc0..EncN")
+    num_blocks = max(enc_levels) + 1
+    res = {int(m.group(1)) for k in vae for m in [re.match(r"unet\.encoders\.Enc0-Block(\d+)\.", k)] if m}
+    num_res_blocks = max(res) + 1
+    first = need("unet.encoders.Enc0-Block0.conv1.Conv.weight")
+    last = need(f"unet.encoders.Enc0-Block{num_res_blocks - 1}.conv2.Conv.weight")
+    if len(first) != 5 or len(last) != 5:
+        fail(path, f"tensor '{where}unet.encoders.Enc0-Block0.conv1.Conv.weight'", f"shape {first}: not a 3^3 sparse convolution")
+    in_channels, f_maps = first[1], last[0]
+    top = f_maps << (num_blocks - 1)
+    latent = need("unet.post_kl_bottleneck.post_kl_bottleneck_0.conv1.Conv.weight")[1]
+    if latent < 1 or top % latent != 0:
+        fail(path, f"tensor '{where}unet.post_kl_bottleneck.post_kl_bottleneck_0.conv1.Conv.weight'",
+             f"{latent} latent channels do not divide the {top} bottleneck channels")
+    gn = "unet.encoders.Enc0-Block0.conv1.GroupNorm.weight"
+    kw = {
+        "in_channels": in_channels, "num_blocks": num_blocks, "f_maps": f_maps, "num_res_blocks": num_res_blocks,
+        "cut_ratio": top // latent,
+        "with_semantic_branch": any(k.startswith("unet.semantic_head.") for k in vae),
+        "with_normal_branch": any(k.startswith("unet.normal_head.") for k in vae),
+        "use_attention": any(".attention" in k or ".attn" in k for k in vae),
+    }
+    out = dict(RELEASED_VAE_KWARGS)
+    assumed = []
+    for key in VAE_NOT_IN_WEIGHTS:
+        if key in hparams:
+            out[key] = hparams[key]
+        elif key in RELEASED_VAE_KWARGS and key != "use_checkpoint":
+            assumed.append(key)
+    # GroupNorm before the convolution (its width is the conv's input width) or after it (the output's),
+    # told apart on a convolution that changes the width (the order's activation is not in the weights).
+    order = out["order"]
+    for conv in ("conv1", "conv2"):
+        gn = f"unet.encoders.Enc0-Block0.{conv}.GroupNorm.weight"
+        cw = need(f"unet.encoders.Enc0-Block0.{conv}.Conv.weight")
+        if ("g" in order) != (gn in vae):
+            fail(path, f"tensor '{where}{gn}'", f"{'missing' if gn not in vae else 'present'}: "
+                 f"the ConvBlock order '{order}' {'has' if 'g' in order else 'has no'} GroupNorm")
+        if gn in vae and cw[0] != cw[1]:
+            width, g_first = shape(vae, gn)[0], order.index("g") < order.index("c")
+            if width != (cw[1] if g_first else cw[0]):
+                fail(path, f"tensor '{where}{gn}'", f"width {width} does not fit the ConvBlock order '{order}' "
+                     f"(convolution {cw[1]} -> {cw[0]} channels)")
+    for key, value in kw.items():
+        if key in hparams and hparams[key] != value:
+            fail(path, f"hyper_parameters {key}", f"says {json.dumps(hparams[key])}, the weights hold {json.dumps(value)}")
+        out[key] = value
+    emb = need("encoder.semantic_embed_fn.weight")
+    mix = need("encoder.mix_fc.weight")
+    if len(emb) != 2 or len(mix) != 2 or mix[1] != 3 + 6 * 5 + emb[1]:
+        fail(path, f"tensor '{where}encoder.mix_fc.weight'", f"shape {mix} does not take the 33 position channels + "
+             f"{emb[1] if len(emb) == 2 else '?'} semantic channels (semantic inputs only)")
+    encoder = {"num_semantic": emb[0], "dim_semantic": emb[1], "use_input_semantic": True,
+               "use_input_normal": False, "use_input_intensity": False}
+    return out, encoder, assumed
+
+
+def vae_outputs(path, src, vae, where, hparams, enc_hparams, scale, report):
+    """vae.safetensors + vae_config.json for the VAE's bare-named float tensors."""
+    kwargs, encoder, assumed = infer_vae_kwargs(vae, path, where, hparams)
+    for key, value in enc_hparams.items():
+        if key in encoder and value != encoder[key]:
+            fail(path, f"hyper_parameters {key}", f"says {json.dumps(value)}, the weights hold {json.dumps(encoder[key])}")
+    meta = {"source": src, "model": "vae"}
+    if scale is not None:
+        meta["scale_factor"] = repr(scale)
+    config = {"description": f"InfiniCube structure VAE converted from {src}", "vae_kwargs": kwargs,
+              "encoder_kwargs": encoder, "scale_factor": scale, "assumed_from_released_model": assumed}
+    report.append(f"vae.safetensors: {len(vae)} tensors, {sum(t.numel() for t in vae.values()):,} parameters")
+    report.append("vae_config.json: in_channels {in_channels}, f_maps {f_maps}, num_blocks {num_blocks}, "
+                  "num_res_blocks {num_res_blocks}, cut_ratio {cut_ratio}".format(**kwargs) +
+                  (f"; from the released model (not in the checkpoint): {', '.join(assumed)}" if assumed else ""))
+    return {"vae.safetensors": ("safetensors", vae, meta), "vae_config.json": ("json", config, None)}
+
+
 def write_safetensors(path, tensors, metadata):
     """safetensors: 8-byte little-endian header length, JSON header, then the tensors' bytes."""
     header, blobs, offset = {"__metadata__": {k: str(v) for k, v in metadata.items()}}, [], 0
@@ -379,11 +504,13 @@ def convert(args):
     outputs, used = {}, set()
     report = []
     if is_vae:
-        vae = float_tensors(args.checkpoint, [(k, v) for k, v in sd.items() if isinstance(v, Tensor) and
-                                              v.is_float], "")
+        # The Lightning module's encoder.* and unet.* (its loss module's tensors, if any, are left out).
+        vae = float_tensors(args.checkpoint, [(k, v) for k, v in sd.items() if isinstance(v, Tensor) and v.is_float
+                                              and (k.startswith("encoder.") or k.startswith("unet."))], "")
         used.update(vae)
-        outputs["vae.safetensors"] = ("safetensors", vae, {"source": src, "model": "vae"})
-        report.append(f"vae.safetensors: {len(vae)} tensors")
+        hp, enc_hp = vae_hparams(ckpt)
+        outputs.update(vae_outputs(args.checkpoint, src, vae, "", hp, enc_hp, None, report))
+        report.append("scale_factor: a standalone VAE has none (icube uses 1 unless --scale-factor)")
     else:
         live = {k[5:]: v for k, v in sd.items() if k.startswith("unet.")}
         ema_flat = {k[9:]: v for k, v in sd.items() if k.startswith("unet_ema.") and k not in LEFT_OUT_BUFFERS}
@@ -449,13 +576,13 @@ def convert(args):
                       (f"; from the released model (not in the checkpoint): {', '.join(assumed)}" if assumed else ""))
         report.append("scale_factor: " + (repr(scale) if scale is not None else
                                           "not in the checkpoint (icube uses 1 with a warning unless --scale-factor)"))
-        vae = {k[4:]: v for k, v in sd.items() if k.startswith("vae.")}
+        vae = {k[4:]: v for k, v in sd.items() if k.startswith("vae.encoder.") or k.startswith("vae.unet.")}
         if vae:
             vae = float_tensors(args.checkpoint, [(k, v) for k, v in vae.items() if isinstance(v, Tensor) and
                                                   v.is_float], "vae.")
             used.update("vae." + k for k in vae)
-            outputs["vae.safetensors"] = ("safetensors", vae, {"source": src, "model": "vae"})
-            report.append(f"vae.safetensors: {len(vae)} tensors")
+            # The diffusion checkpoint's hyper_parameters describe the diffusion model, not the VAE.
+            outputs.update(vae_outputs(args.checkpoint, src, vae, "vae.", {}, {}, scale, report))
     if Placeholder.seen:
         report.append("pickled objects not built (inert placeholders): " + ", ".join(sorted(Placeholder.seen)))
     left = sorted(k for k in sd if k not in used)

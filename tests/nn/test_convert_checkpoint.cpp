@@ -9,8 +9,12 @@
 #include <doctest/doctest.h>
 
 #include "cli_test_util.h"
+#include "nn/latent_scale.h"
+#include "nn/random_weights.h"
 #include "nn/safetensors.h"
 #include "nn/unet_config.h"
+#include "nn/vae_config.h"
+#include "nn/vae_weights.h"
 #include "nn/unet_reference.h"
 #include "nn/weights.h"
 #include "scene/atomic_file.h"
@@ -30,6 +34,27 @@ const char* kTinyKwargs = R"({"unet_kwargs": {"image_size": 8, "num_input_channe
   "model_channels": 32, "num_res_blocks": 1, "attention_resolutions": [2], "channel_mult": [1, 2], "num_heads": 4,
   "use_scale_shift_norm": true, "resblock_updown": true, "transformer_depth": 2, "legacy": true,
   "middile_force_spatial_transformer": true, "middle_disable_first_sa": false, "dropout": 0.0}})";
+
+// A reduced structure VAE of the official structure (two levels, 16 feature maps, a 4^3 neck).
+const char* kTinyVae = R"({"vae_kwargs": {"in_channels": 32, "num_blocks": 2, "f_maps": 16, "cut_ratio": 4,
+  "neck_dense_type": "HAND_CRAFTED", "neck_bound": [4, 4, 4], "num_res_blocks": 1, "use_residual": true,
+  "order": "gcs", "is_add_dec": true, "use_attention": false, "use_checkpoint": false, "pooling_level": [1],
+  "with_semantic_branch": true, "with_normal_branch": false}})";
+
+void check_same_vae(const nn::VaeConfig& a, const nn::VaeConfig& b, bool with_hparams) {
+  CHECK(a.in_channels == b.in_channels);
+  CHECK(a.num_blocks == b.num_blocks);
+  CHECK(a.f_maps == b.f_maps);
+  CHECK(a.cut_ratio == b.cut_ratio);
+  CHECK(a.num_res_blocks == b.num_res_blocks);
+  CHECK(a.order == b.order);
+  CHECK(a.num_semantic == b.num_semantic);
+  CHECK(a.dim_semantic == b.dim_semantic);
+  if (with_hparams) {  // what the weights cannot tell
+    CHECK(a.neck_bound == b.neck_bound);
+    CHECK(a.pooling_level == b.pooling_level);
+  }
+}
 
 float bf16_round(float f) {  // round to nearest even, as torch's .to(bfloat16)
   uint32_t u;
@@ -68,6 +93,13 @@ TEST_CASE("convert_checkpoint: Lightning diffusion checkpoints to safetensors + 
     original[p.name] = v;
   }
   nn::write_safetensors(dir + "/bare.safetensors", bare);
+  scene::write_file_atomic(dir + "/vae_kwargs.json", kTinyVae);
+  const nn::VaeConfig tiny_vae = nn::load_vae_config(dir + "/vae_kwargs.json");
+  const std::map<std::string, nn::CpuTensor> vae_weights =
+      nn::random_weights(nn::vae_param_specs(tiny_vae, nn::VaePart::All), 23);
+  std::vector<nn::TensorToWrite> vae_bare;
+  for (const auto& [name, t] : vae_weights) vae_bare.push_back(nn::f32_tensor(name, t.shape, t.data));
+  nn::write_safetensors(dir + "/vae_bare.safetensors", vae_bare);
   const std::string first = net.parameters().front().name;
   // Makes DIR/NAME.ckpt from the bare weights, converts it into DIR/NAME; both must succeed.
   // Returns the converter's output.
@@ -80,7 +112,7 @@ TEST_CASE("convert_checkpoint: Lightning diffusion checkpoints to safetensors + 
   };
 
   SUBCASE("EMA copy by default, hyper_parameters as the config, scale_factor and the VAE") {
-    const std::string out = make_and_convert("a", "--kwargs " + dir + "/kwargs.json", "");
+    const std::string out = make_and_convert("a", "--kwargs " + dir + "/kwargs.json --vae " + dir + "/vae_bare.safetensors", "");
     INFO(out);
     CHECK(out.find("(ema weights)") != std::string::npos);
     CHECK(out.find("left out: 3 entries (cond_stage_model, unet_ema)") != std::string::npos);
@@ -102,10 +134,50 @@ TEST_CASE("convert_checkpoint: Lightning diffusion checkpoints to safetensors + 
       for (float& v : want) v *= 2.0f;  // the helper's EMA copy
       CHECK_MESSAGE(w.at(p.name).data == want, p.name);
     }
-    const nn::SafetensorsFile vae(dir + "/a/vae.safetensors");
-    REQUIRE(vae.find("encoder.mix_fc.weight"));
-    CHECK(vae.find("encoder.mix_fc.weight")->shape == std::vector<int64_t>{32, 65});
     CHECK(scene::read_file(dir + "/a/unet_config.json").find("\"scale_factor\": 0.73") != std::string::npos);
+    // The VAE: its config read off the weights (the rest assumed from the released model and named), the
+    // weights loading against it unchanged, the diffusion checkpoint's scale_factor in the metadata.
+    CHECK(out.find("vae_config.json: in_channels 32, f_maps 16, num_blocks 2, num_res_blocks 1, cut_ratio 4; from the "
+                   "released model (not in the checkpoint): neck_dense_type, neck_bound, pooling_level, order") != std::string::npos);
+    const nn::VaeConfig vc = nn::load_vae_config(dir + "/a/vae_config.json");
+    check_same_vae(vc, tiny_vae, false);
+    const nn::SafetensorsFile vae(dir + "/a/vae.safetensors");
+    const auto vw = nn::load_vae_weights_cpu(vae, vc, nn::VaePart::All, {});
+    CHECK(vw.size() == vae_weights.size());
+    CHECK(vw.at("unet.encoders.Enc1-Block0.conv2.Conv.weight").data ==
+          nn::load_vae_weights_cpu(nn::SafetensorsFile(dir + "/vae_bare.safetensors"), tiny_vae, nn::VaePart::All, {})
+              .at("unet.encoders.Enc1-Block0.conv2.Conv.weight")
+              .data);
+    const nn::LatentScale scale = nn::resolve_latent_scale(std::nullopt, vae);
+    CHECK(scale.value == doctest::Approx(0.73).epsilon(1e-7));
+    CHECK(scale.source == dir + "/a/vae.safetensors metadata");
+    CHECK(nn::resolve_latent_scale(2.5, vae).value == 2.5);
+  }
+
+  SUBCASE("a standalone VAE checkpoint: vae.safetensors and vae_config.json from its weights and hyper_parameters") {
+    const auto [mrc, mout] = run_shell(make + dir + "/vae_bare.safetensors " + dir + "/v.ckpt --standalone-vae --kwargs " + dir +
+                                       "/vae_kwargs.json");
+    REQUIRE_MESSAGE(mrc == 0, mout);
+    const auto [rc, out] = run_shell(convert + dir + "/v.ckpt -o " + dir + "/v");
+    INFO(out);
+    REQUIRE(rc == 0);
+    CHECK(out.find("left out: 1 entries (loss)") != std::string::npos);
+    CHECK(out.find("from the released model") == std::string::npos);  // all from hyper_parameters
+    CHECK_FALSE(std::filesystem::exists(dir + "/v/unet.safetensors"));
+    check_same_vae(nn::load_vae_config(dir + "/v/vae_config.json"), tiny_vae, true);
+    const nn::SafetensorsFile vae(dir + "/v/vae.safetensors");
+    CHECK_FALSE(nn::resolve_latent_scale(std::nullopt, vae).given());
+    CHECK(nn::load_vae_weights_cpu(vae, tiny_vae, nn::VaePart::All, {}).size() == vae_weights.size());
+    // hyper_parameters that contradict the weights: refused.
+    std::string wrong = kTinyVae;
+    wrong.replace(wrong.find("\"f_maps\": 16"), 12, "\"f_maps\": 32");
+    scene::write_file_atomic(dir + "/vae_wrong.json", wrong);
+    REQUIRE(run_shell(make + dir + "/vae_bare.safetensors " + dir + "/vw.ckpt --standalone-vae --kwargs " + dir + "/vae_wrong.json")
+                .first == 0);
+    const auto [rc2, out2] = run_shell(convert + dir + "/vw.ckpt -o " + dir + "/vw");
+    CHECK(rc2 == 1);
+    CHECK(out2.find("vw.ckpt: hyper_parameters f_maps: says 32, the weights hold 16") != std::string::npos);
+    CHECK_FALSE(std::filesystem::exists(dir + "/vw"));
   }
 
   SUBCASE("--weights live keeps bfloat16 as stored; hparams as a Namespace; foreign classes stay inert") {
