@@ -1,0 +1,24 @@
+#version 460
+#extension GL_GOOGLE_include_directive : require
+// latent_overwrite: outpainting's per-step overwrite (conventions §9.3). The
+// known latents, noised to the current level with fresh noise,
+// sqrt_alpha * known + sqrt_beta * z, replace the model input x where the
+// voxel's mask is set; other elements are left alone. Channel-major
+// [C][spatial]: element i is voxel i % spatial. One thread per element.
+// Host module: kernels/nn/sampler_step.{h,cpp}. Tests: tests/diffusion/test_sampler_step_gpu.cpp.
+#include "shared/nn_params.h"
+#include "common/dispatch.glsl"
+
+layout(local_size_x = NN_DDIM_GROUP) in;
+layout(push_constant) uniform Push { LatentOverwriteParams p; };
+layout(std430, binding = 0) buffer X { float x[]; };
+layout(std430, binding = 1) readonly buffer Known { float known[]; };
+layout(std430, binding = 2) readonly buffer Mask { uint mask[]; };
+layout(std430, binding = 3) readonly buffer Noise { float z_in[]; };
+
+void main() {
+  const uint i = ICUBE_THREAD_LINEAR();
+  if (i >= p.count || mask[i % p.spatial] == 0u) return;
+  precise const float y = p.sqrt_alpha * known[i] + p.sqrt_beta * z_in[i];
+  x[i] = y;
+}
