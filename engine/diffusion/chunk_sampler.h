@@ -1,0 +1,73 @@
+// Stage 1's sampler for one chunk (conventions §9.1-9.3): the chunk's latent
+// [C, X, Y, Z] starts as counter-based noise and is denoised by DDIM over the
+// schedule; at every step the denoiser sees the latent concatenated with the
+// chunk's condition volume [8, X, Y, Z] (position, map and box channels,
+// world/conditions.h) and predicts v. With guidance scale s != 1 a second,
+// unconditional input (map and box channels zeroed, positions kept) runs in
+// the same batch and v = cond + s (cond - uncond) (InfiniCube's form; s = 1 is
+// one pass). Outpainting: before every denoiser call the known latents
+// (clean, in the diffusion model's scaled space) are noised to the current
+// level with fresh noise and overwrite their cells; after the last step the
+// known cells are set to the clean known latents (the step to alpha_prev = 1),
+// so an overlap carries exactly the latents already generated — upstream stops
+// at the model's last prediction there, which the fusion's "existing voxels
+// win" hides in the world anyway.
+// Noise: diffusion/counter_noise.h, streams (seed, chunk, timestep, purpose):
+// a chunk is the same on any device and in any order. The step runs on the GPU
+// (kernels/nn/sampler_step.h) when a context is given, else the CPU reference.
+// Tests: tests/diffusion/test_chunk_sampler.cpp.
+#pragma once
+
+#include "diffusion/ddim_schedule.h"
+#include "nn/cpu_tensor.h"
+
+#include <cstdint>
+#include <functional>
+#include <vector>
+
+namespace icube::gpu {
+class Context;
+}
+
+namespace icube::diffusion {
+
+// v-prediction for a batch: x_in [B, C + 8, X, Y, Z] at integer timestep t -> [B, C, X, Y, Z].
+class Denoiser {
+ public:
+  virtual ~Denoiser() = default;
+  virtual nn::CpuTensor predict(const nn::CpuTensor& x_in, int t) = 0;
+};
+
+// Condition channels zeroed in the unconditional input (world/conditions.h: 3..7 = map and boxes).
+inline constexpr int kUncondFirstChannel = 3;
+
+struct KnownLatents {
+  std::vector<uint32_t> mask;  // per voxel (X * Y * Z), 1 = known
+  std::vector<float> values;   // [C][X * Y * Z], clean latents times scale_factor
+  bool any() const;
+};
+
+struct SamplerOptions {
+  DdimOptions ddim;
+  float cfg_scale = 1.0f;
+  uint64_t seed = 0;
+  bool final_overwrite = true;  // set the known cells to the clean known latents after the last step
+};
+
+struct StepTiming {
+  int t = 0;
+  double denoise_ms = 0.0, step_ms = 0.0;
+};
+
+struct ChunkSample {
+  nn::CpuTensor latent;  // [1, C, X, Y, Z] in the diffusion model's space (divide by scale_factor to decode)
+  std::vector<StepTiming> steps;
+};
+
+// cond: [8, X, Y, Z]. progress(i, n) after each step. Throws std::invalid_argument on shapes that do not
+// fit (cond not 8 channels, known arrays of the wrong length).
+ChunkSample sample_chunk(Denoiser& denoiser, int latent_channels, const nn::CpuTensor& cond, const KnownLatents* known,
+                         uint32_t chunk_index, const SamplerOptions& options, gpu::Context* ctx = nullptr,
+                         const std::function<void(size_t, size_t)>& progress = {});
+
+}  // namespace icube::diffusion
