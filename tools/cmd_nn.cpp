@@ -3,6 +3,7 @@
 //   icube nn info WEIGHTS.safetensors [--model CONFIG|PRESET [--ema]] [--check-finite] [--limit N]
 //   icube nn forward --model CONFIG|PRESET --weights W.safetensors --input x.npy --timestep t.npy
 //                    [--backend gpu|cpu] [--precision fp32|fp16] [--ema] [--check-finite] [--dump-layers FILE.safetensors] -o y.npy
+//   icube nn random-weights (--model CONFIG|PRESET | --vae-model CONFIG|PRESET) [--seed N] [--scale-factor S] -o W.safetensors
 //
 // info validates the file (engine/nn/safetensors.h: header, dtypes, shapes,
 // ranges), lists its tensors and the totals per name prefix (`unet.`,
@@ -15,10 +16,16 @@
 // the names of unet_small/*.intermediates.safetensors. Outputs are written
 // atomically. Any NaN/Inf with --check-finite, missing or extra tensor, or
 // wrong shape is a one-line error naming the file and the tensor.
+// random-weights writes a seeded random-weight model of the official
+// structure (engine/nn/random_weights.h: the UNet, or the whole structure
+// VAE), for smoke tests and benchmarks of the pipeline without a checkpoint;
+// --scale-factor goes into the metadata as the converter writes it.
 #include "cli_common.h"
 #include "command_registry.h"
 
+#include "nn/random_weights.h"
 #include "nn/safetensors.h"
+#include "nn/vae_config.h"
 #include "gpu/context.h"
 #include "nn/unet_config.h"
 #include "nn/unet_gpu.h"
@@ -150,6 +157,38 @@ void cmd_nn_info(const NnInfoArgs& a) {
   });
 }
 
+struct RandomWeightsArgs {
+  std::string model, vae_model, output;
+  uint32_t seed = 0;
+  double scale_factor = 0.0;
+};
+
+void cmd_random_weights(const RandomWeightsArgs& a) {
+  run_command([&](scene::Diagnostics&) {
+    if (a.model.empty() == a.vae_model.empty()) throw std::invalid_argument("give --model (a UNet) or --vae-model (a VAE)");
+    if (a.scale_factor < 0.0 || !std::isfinite(a.scale_factor))
+      throw std::invalid_argument("--scale-factor " + std::to_string(a.scale_factor) + " is not a positive number");
+    const std::vector<nn::ParamSpec> specs = a.model.empty()
+                                                 ? nn::vae_param_specs(nn::load_vae_config(a.vae_model), nn::VaePart::All)
+                                                 : nn::UNetReference(nn::load_unet_config(a.model)).parameters();
+    std::vector<nn::TensorToWrite> tensors;
+    uint64_t params = 0;
+    for (const auto& [name, w] : nn::random_weights(specs, a.seed)) {
+      tensors.push_back(nn::f32_tensor(name, w.shape, w.data));
+      params += w.data.size();
+    }
+    std::map<std::string, std::string> meta{{"source", "icube nn random-weights seed " + std::to_string(a.seed)}};
+    if (a.scale_factor > 0.0) {
+      char text[40];
+      std::snprintf(text, sizeof(text), "%.17g", a.scale_factor);
+      meta["scale_factor"] = text;
+    }
+    nn::write_safetensors(a.output, tensors, meta);
+    std::printf("random-weights: %zu tensors, %llu parameters (seed %u) -> %s\n", tensors.size(),
+                static_cast<unsigned long long>(params), a.seed, a.output.c_str());
+  });
+}
+
 void add_nn_commands(CLI::App& app) {
   CLI::App& group = subcommand_group(app, "nn", "Networks: weight files (safetensors), the diffusion UNet");
   auto a = std::make_shared<NnInfoArgs>();
@@ -186,6 +225,20 @@ void add_nn_commands(CLI::App& app) {
 }
 
 const CommandRegistrar kRegistrar(add_nn_commands, 50);
+
+void add_random_weights_command(CLI::App& app) {
+  CLI::App& group = subcommand_group(app, "nn", "Networks: weight files (safetensors), the diffusion UNet");
+  auto r = std::make_shared<RandomWeightsArgs>();
+  CLI::App* cmd = group.add_subcommand("random-weights", "Write a seeded random-weight model of the official structure");
+  cmd->add_option("--model", r->model, "UNet config JSON or preset infinicube-diffusion")->type_name("CONFIG");
+  cmd->add_option("--vae-model", r->vae_model, "Structure VAE config JSON or preset infinicube-vae")->type_name("CONFIG");
+  cmd->add_option("--seed", r->seed, "Seed")->capture_default_str();
+  cmd->add_option("--scale-factor", r->scale_factor, "Write this latent scale_factor into the metadata")->type_name("S");
+  cmd->add_option("-o,--output", r->output, "Weights file")->required()->type_name("W.safetensors");
+  cmd->callback([r] { cmd_random_weights(*r); });
+}
+
+const CommandRegistrar kRandomWeightsRegistrar(add_random_weights_command, 52);
 
 }  // namespace
 }  // namespace icube::tools

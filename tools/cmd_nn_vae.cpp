@@ -36,6 +36,7 @@
 #include "command_registry.h"
 #include "staging_dir.h"
 
+#include "diffusion/decoded_chunk.h"
 #include "gpu/context.h"
 #include "nn/latent_scale.h"
 #include "nn/safetensors.h"
@@ -52,7 +53,6 @@
 #include "world/world_file.h"
 
 #include <CLI/CLI.hpp>
-#include <glm/gtc/matrix_transform.hpp>
 
 #include <chrono>
 #include <cmath>
@@ -191,28 +191,13 @@ void cmd_vae_decode(const VaeDecodeArgs& a) {
     // ijk * vs + fVDB origin. Placed (--at / --scene --chunk): moved into the world by chunk fusion
     // (conventions §9.4: exact copy on a shifted lattice, else subdivided and re-voxelised).
     const nn::SparseGrid& g = d.semantic.grid;
-    world::ChunkVoxels chunk;
-    chunk.voxel_size = g.voxel_size[0];
-    chunk.voxels.reserve(static_cast<size_t>(d.semantic.rows()));
     uint64_t undefined = 0;
-    for (int64_t r = 0; r < d.semantic.rows(); ++r) {
-      const float* l = d.semantic.row(r);
-      int best = 0;
-      for (int c = 1; c < d.semantic.channels; ++c)
-        if (l[c] > l[best]) best = c;
-      if (best == 0) {
-        ++undefined;
-        continue;
-      }
-      const nn::Ijk& c = g.ijk[static_cast<size_t>(r)];
-      chunk.voxels.push_back({glm::ivec3(c[0], c[1], c[2]), static_cast<uint8_t>(best), 0});
-    }
+    world::ChunkVoxels chunk = diffusion::decoded_chunk(d, pose ? pose->chunk_to_world : glm::dmat4(1.0), &undefined);
     const glm::dvec3 fvdb_corner(g.origin[0] - g.voxel_size[0] / 2, g.origin[1] - g.voxel_size[1] / 2,
                                  g.origin[2] - g.voxel_size[2] / 2);
     world::VoxelGrid out(fvdb_corner, g.voxel_size[0]);
     world::FusionStats placed;
     if (pose) {
-      chunk.lattice_to_world = pose->chunk_to_world * glm::translate(glm::dmat4(1.0), fvdb_corner);
       const glm::dvec3 centre(pose->chunk_to_world[3]);
       out = world::VoxelGrid(glm::floor(centre / world::kFineVoxel + 0.5) * world::kFineVoxel, world::kFineVoxel);
       placed = world::fuse_chunk(out, chunk);

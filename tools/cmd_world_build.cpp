@@ -2,9 +2,11 @@
 // chunk, engine/world/world_build.h) and `icube world plot` (a top-down PNG
 // of a world, engine/world/world_plot.h).
 //
-//   icube world build SCENE -o world.icw [--mode trajectory|blocks] [--generator procedural]
+//   icube world build SCENE -o world.icw [--mode trajectory|blocks] [--generator procedural|diffusion]
 //                     [--seed N] [--record SEL] [--extrapolate N] [--threads N] [--no-vehicles]
 //                     [--vehicle-mesh FILE [--mesh-axes F,U] | --vehicle-meshes JSON] [--png top.png]
+//     diffusion:      --model CONFIG|PRESET --weights UNET.safetensors --vae VAE.safetensors [--vae-model CONFIG|PRESET]
+//                     [--steps N] [--eta E] [--cfg S] [--precision fp32|fp16] [--scale-factor S] [--keep-latents DIR]
 //   icube world plot WORLD -o top.png [--max-pixels N]
 #include "cli_common.h"
 #include "command_registry.h"
@@ -12,6 +14,13 @@
 #include "progress.h"
 #include "world_top_png.h"
 
+#include "diffusion/diffusion_generator.h"
+#include "gpu/context.h"
+#include "nn/latent_scale.h"
+#include "nn/safetensors.h"
+#include "nn/unet_reference.h"
+#include "nn/vae_weights.h"
+#include "nn/weights.h"
 #include "scene/scene_load.h"
 #include "world/procedural/procedural_prior.h"
 #include "world/semantics.h"
@@ -24,7 +33,9 @@
 #include <sys/resource.h>
 
 #include <cstdio>
+#include <filesystem>
 #include <memory>
+#include <optional>
 #include <string>
 
 namespace icube::tools {
@@ -39,6 +50,12 @@ struct BuildArgs {
   int threads = 0;
   bool no_vehicles = false;
   world::PlanOptions plan;
+  // --generator diffusion
+  std::string model, weights, vae, vae_model, precision = "fp32", keep_latents;
+  int steps = 100;
+  float eta = 1.0f, cfg = 2.0f;
+  double scale_factor = 1.0;
+  bool scale_given = false;
 };
 
 double peak_rss_mib() {
@@ -88,6 +105,76 @@ world::VehicleMeshSet vehicle_meshes(const BuildArgs& a) {
   return world::single_vehicle_mesh(std::move(f), source);
 }
 
+// The learned generator: configurations and weights loaded and checked before any chunk runs.
+std::unique_ptr<diffusion::DiffusionGenerator> make_diffusion_generator(const BuildArgs& a, const scene::Scene& s,
+                                                                        world::PlanMode mode, std::optional<gpu::Context>& ctx,
+                                                                        scene::Diagnostics& diag,
+                                                                        std::optional<ProgressBar>& bar) {
+  if (a.model.empty() || a.weights.empty() || a.vae.empty())
+    throw std::invalid_argument("--generator diffusion needs --model, --weights (the UNet) and --vae (the structure VAE)");
+  if (!a.keep_latents.empty()) refuse_overwriting_input(a.file, a.keep_latents);
+  const nn::UNetConfig unet_cfg = nn::load_unet_config(a.model);
+  // The VAE's configuration: --vae-model, else vae_config.json beside the VAE weights (the converter writes
+  // it there), else the released preset.
+  std::string vae_model = a.vae_model;
+  if (vae_model.empty()) {
+    const std::filesystem::path beside = std::filesystem::path(a.vae).parent_path() / "vae_config.json";
+    vae_model = std::filesystem::exists(beside) ? beside.string() : "infinicube-vae";
+  }
+  const nn::VaeConfig vae_cfg = nn::load_vae_config(vae_model);
+  const nn::SafetensorsFile unet_file(a.weights), vae_file(a.vae);
+  const std::map<std::string, nn::CpuTensor> unet_w =
+      nn::load_weights_cpu(unet_file, nn::UNetReference(unet_cfg).parameters(), nn::WeightOptions{});
+  const std::map<std::string, nn::CpuTensor> vae_w = nn::load_vae_weights_cpu(vae_file, vae_cfg, nn::VaePart::Decoder, {});
+  nn::LatentScale scale = nn::resolve_latent_scale(a.scale_given ? std::optional<double>(a.scale_factor) : std::nullopt, unet_file);
+  if (!scale.given()) scale = nn::resolve_latent_scale(std::nullopt, vae_file);
+  if (!scale.given())
+    diag.warn(a.weights, "__metadata__", "no scale_factor (neither --scale-factor nor the weights' metadata): using 1");
+
+  diffusion::DiffusionGeneratorOptions o;
+  o.sampler.ddim.steps = a.steps;
+  o.sampler.ddim.eta = a.eta;
+  o.sampler.cfg_scale = a.cfg;
+  o.sampler.seed = a.seed;
+  o.scale_factor = scale.value;
+  o.precision = a.precision == "fp16" ? nn::UNetGpu::Precision::F16Weights : nn::UNetGpu::Precision::F32;
+  o.keep_latents = a.keep_latents;
+  // One bar per chunk over its denoising steps (elapsed time and ETA).
+  o.progress = [&bar, current = std::make_shared<size_t>(SIZE_MAX)](size_t chunk, size_t done, size_t total,
+                                                                    const diffusion::StepTiming&) {
+    if (*current != chunk) {
+      *current = chunk;
+      bar.emplace("world build: chunk " + std::to_string(chunk), "DDIM steps");
+    }
+    bar->update(done, total);
+  };
+  ctx.emplace(gpu::ContextOptions::from_env());
+  std::fprintf(stderr, "world build: diffusion UNet %s (%s), VAE %s (%s), %d DDIM steps, eta %g, cfg %g, scale_factor %g (%s)\n",
+               a.weights.c_str(), a.model.c_str(), a.vae.c_str(), vae_model.c_str(), a.steps, static_cast<double>(a.eta),
+               static_cast<double>(a.cfg), scale.value, scale.source.c_str());
+  return std::make_unique<diffusion::DiffusionGenerator>(*ctx, s, mode, unet_cfg, unet_w, vae_cfg, vae_w, o);
+}
+
+void print_diffusion_summary(const diffusion::DiffusionGenerator& g, const std::string& file, scene::Diagnostics& diag) {
+  double cond = 0, sample = 0, decode = 0;
+  size_t steps_total = 0;
+  for (size_t n = 0; n < g.timings().size(); ++n) {
+    const diffusion::ChunkTiming& t = g.timings()[n];
+    cond += t.conditions_ms;
+    sample += t.sample_ms;
+    decode += t.decode_ms;
+    std::printf("  chunk %zu: conditions %.0f ms, sampling %.1f s (%llu known latent cells), decode %.1f s, %llu voxels\n", n,
+                t.conditions_ms, t.sample_ms / 1000.0, static_cast<unsigned long long>(t.known_cells), t.decode_ms / 1000.0,
+                static_cast<unsigned long long>(t.voxels));
+    if (!t.warning.empty()) diag.warn(file, "chunk " + std::to_string(n), t.warning);
+    ++steps_total;
+  }
+  std::printf("  diffusion: conditions %.2f s, sampling %.1f s, VAE decode %.1f s over %zu chunk(s); device memory peak ~%.0f MiB "
+              "(weights + largest activation pool)\n",
+              cond / 1000.0, sample / 1000.0, decode / 1000.0, steps_total,
+              static_cast<double>(g.peak_device_bytes()) / (1024.0 * 1024.0));
+}
+
 void cmd_build(BuildArgs& a) {
   run_command([&](scene::Diagnostics& diag) {
     refuse_overwriting_input(a.file, a.output);
@@ -96,21 +183,33 @@ void cmd_build(BuildArgs& a) {
     lo.waymo_selector = a.record;
     const scene::Scene s = scene::load_scene(a.file, lo, &diag);
     const world::VehicleMeshSet meshes = vehicle_meshes(a);
-    const auto generator = std::make_unique<world::ProceduralPrior>(s);
+    const world::PlanMode mode = a.mode == "blocks" ? world::PlanMode::Blocks : world::PlanMode::Trajectory;
+    std::optional<gpu::Context> ctx;
+    std::unique_ptr<world::WorldGenerator> generator;
+    diffusion::DiffusionGenerator* learned = nullptr;
+    std::optional<ProgressBar> step_bar;
+    if (a.generator == "diffusion") {
+      auto g = make_diffusion_generator(a, s, mode, ctx, diag, step_bar);
+      learned = g.get();
+      generator = std::move(g);
+    } else {
+      generator = std::make_unique<world::ProceduralPrior>(s);
+    }
 
     world::WorldBuildOptions opts;
-    opts.mode = a.mode == "blocks" ? world::PlanMode::Blocks : world::PlanMode::Trajectory;
+    opts.mode = mode;
     opts.plan = a.plan;
     opts.seed = a.seed;
     opts.threads = a.threads;
     opts.insert_static_vehicles = !a.no_vehicles;
     opts.vehicle_meshes = &meshes;
     ProgressBar bar("world build", "chunks");
-    opts.progress = [&](size_t done, size_t total) { bar.update(done, total); };
+    if (!learned) opts.progress = [&](size_t done, size_t total) { bar.update(done, total); };
     const world::WorldBuildResult r = world::build_world(s, *generator, opts);
     for (const std::string& note : r.plan.notes) diag.warn(a.file, "plan", note);
     world::save_world(r.world, a.output);
     print_summary(r, *generator, meshes);
+    if (learned) print_diffusion_summary(*learned, a.file, diag);
     std::printf("wrote %s\n", a.output.c_str());
     if (!a.png.empty()) write_top_png(r.world, a.png);
   });
@@ -141,8 +240,9 @@ void add_world_build_commands(CLI::App& app) {
       ->type_name("MODE")
       ->capture_default_str();
   build->add_option("--generator", a->generator,
-                    "procedural: the built-in procedural world prior (rules on the map, not a learned model)")
-      ->check(CLI::IsMember({"procedural"}))
+                    "procedural: the built-in procedural world prior (rules on the map, not a learned model); "
+                    "diffusion: InfiniCube's map-conditioned latent diffusion UNet + structure VAE (--model, --weights, --vae)")
+      ->check(CLI::IsMember({"procedural", "diffusion"}))
       ->type_name("NAME")
       ->capture_default_str();
   build->add_option("--seed", a->seed, "Generator seed (same seed, same scene: identical world file)")
@@ -172,6 +272,30 @@ void add_world_build_commands(CLI::App& app) {
       ->needs(mesh_opt)
       ->capture_default_str();
   build->add_option("--png", a->png, "Also write a top-down picture of the world")->type_name("top.png");
+  build->add_option("--model", a->model, "diffusion: UNet config JSON (official UNetModel kwargs, e.g. the converter's "
+                                         "unet_config.json) or preset infinicube-diffusion")
+      ->type_name("CONFIG");
+  build->add_option("--weights", a->weights, "diffusion: UNet weights (.safetensors, official names)")->type_name("UNET.safetensors");
+  build->add_option("--vae", a->vae, "diffusion: structure VAE weights (.safetensors)")->type_name("VAE.safetensors");
+  build->add_option("--vae-model", a->vae_model,
+                    "diffusion: VAE config or preset (default: vae_config.json beside --vae, else infinicube-vae)")
+      ->type_name("CONFIG");
+  build->add_option("--steps", a->steps, "diffusion: DDIM steps")->check(CLI::Range(1, 1000))->capture_default_str();
+  build->add_option("--eta", a->eta, "diffusion: DDIM eta (1: the official stochastic sampler, 0: deterministic)")
+      ->check(CLI::Range(0.0, 10.0))
+      ->capture_default_str();
+  build->add_option("--cfg", a->cfg, "diffusion: guidance scale s, v = cond + s (cond - uncond); 1 = one pass (the official "
+                                     "CLI's default), 2 = the official full pipeline's")
+      ->capture_default_str();
+  build->add_option("--precision", a->precision, "diffusion: UNet weights in fp32 or fp16 (activations fp32)")
+      ->check(CLI::IsMember({"fp32", "fp16"}))
+      ->capture_default_str();
+  build->add_option("--scale-factor", a->scale_factor,
+                    "diffusion: latent scale factor (default: the weights' metadata, else 1 with a warning)")
+      ->type_name("S")
+      ->each([a](const std::string&) { a->scale_given = true; });
+  build->add_option("--keep-latents", a->keep_latents, "diffusion: write each chunk's final latent here (chunk_NNNN.npy)")
+      ->type_name("DIR");
   build->footer(
       "Chunks are fused in plan order with existing voxels winning. Static vehicles (the boxes of frame 0 that "
       "never move) are voxelised into the chunks they stand in from the built-in car mesh, --vehicle-mesh or the "

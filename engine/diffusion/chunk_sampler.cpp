@@ -67,6 +67,7 @@ ChunkSample sample_chunk(Denoiser& denoiser, int latent_channels, const nn::CpuT
       std::copy_n(cond.data.begin() + static_cast<int64_t>(static_cast<size_t>(c) * spatial), spatial,
                   input.data.begin() + static_cast<int64_t>((static_cast<size_t>(b * (C + 8) + C + c)) * spatial));
     }
+  if (progress) progress(0, sched.size());
   for (size_t i = 0; i < sched.size(); ++i) {
     const DdimStep st = sched.step(i);
     StepTiming timing;

@@ -64,7 +64,7 @@ struct ChunkSample {
   std::vector<StepTiming> steps;
 };
 
-// cond: [8, X, Y, Z]. progress(i, n) after each step. Throws std::invalid_argument on shapes that do not
+// cond: [8, X, Y, Z]. progress(0, n) before the first step, progress(i, n) after each. Throws std::invalid_argument on shapes that do not
 // fit (cond not 8 channels, known arrays of the wrong length).
 ChunkSample sample_chunk(Denoiser& denoiser, int latent_channels, const nn::CpuTensor& cond, const KnownLatents* known,
                          uint32_t chunk_index, const SamplerOptions& options, gpu::Context* ctx = nullptr,
