@@ -14,6 +14,7 @@
 #include "bench_stats.h"
 
 #include "diffusion/chunk_sampler.h"
+#include "diffusion/unet_denoiser.h"
 #include "gpu/context.h"
 #include "nn/random_weights.h"
 #include "nn/unet_config.h"
@@ -38,26 +39,6 @@ using namespace icube;
 namespace {
 
 using Clock = std::chrono::steady_clock;
-
-const char* kUnet = R"({"unet_kwargs": {"image_size": 64, "num_input_channels": 16, "out_channels": 8,
-  "model_channels": 32, "num_res_blocks": 1, "attention_resolutions": [], "channel_mult": [1, 1, 1, 1], "num_heads": 4,
-  "use_scale_shift_norm": true, "resblock_updown": true, "legacy": true, "middile_force_spatial_transformer": false,
-  "dropout": 0.0}})";
-const char* kVae = R"({"vae_kwargs": {"in_channels": 32, "num_blocks": 3, "f_maps": 8, "cut_ratio": 4,
-  "neck_dense_type": "HAND_CRAFTED", "neck_bound": [32, 32, 32], "num_res_blocks": 1, "use_residual": true,
-  "order": "gcs", "is_add_dec": true, "use_attention": false, "use_checkpoint": false, "pooling_level": [2],
-  "with_semantic_branch": true, "with_normal_branch": false}})";
-
-class UNetDenoiser final : public diffusion::Denoiser {
- public:
-  explicit UNetDenoiser(nn::UNetGpu& net) : net_(net) {}
-  nn::CpuTensor predict(const nn::CpuTensor& x, int t) override {
-    return net_.forward(x, std::vector<int64_t>(static_cast<size_t>(x.shape[0]), t));
-  }
-
- private:
-  nn::UNetGpu& net_;
-};
 
 // Synthetic conditions on an n^3 grid: raw ijk, a road band (edge, line, surface), a box heading.
 nn::CpuTensor synthetic_conditions(int n) {
@@ -198,7 +179,7 @@ int main(int argc, char** argv) {
   int grid = 8, runs = 5, ref_steps = 1000;
   std::vector<int> steps{10, 25, 50, 100};
   std::vector<float> cfgs{1.0f, 2.0f, 5.0f, 10.0f};
-  std::string png;
+  std::string png, unet_model = "infinicube-diffusion-tiny", vae_model = "infinicube-vae-tiny";
   uint64_t seed = 7;
   app.add_option("--grid", grid, "Latent cells per axis (a multiple of 8)")->check(CLI::Range(8, 64))->capture_default_str();
   app.add_option("--runs", runs, "Timed runs per row (after one warm-up)")->check(CLI::Range(1, 100))->capture_default_str();
@@ -206,6 +187,8 @@ int main(int argc, char** argv) {
   app.add_option("--steps", steps, "DDIM step counts")->delimiter(',')->capture_default_str();
   app.add_option("--cfg", cfgs, "Guidance scales (each against its own reference)")->delimiter(',')->capture_default_str();
   app.add_option("--seed", seed, "Sampler seed")->capture_default_str();
+  app.add_option("--model", unet_model, "UNet config or preset (random weights)")->capture_default_str();
+  app.add_option("--vae-model", vae_model, "VAE config or preset (random weights)")->capture_default_str();
   app.add_option("--png", png, "Write the error-against-time plot here")->type_name("PLOT.png");
   CLI11_PARSE(app, argc, argv);
   if (grid % 8 != 0) {
@@ -216,8 +199,10 @@ int main(int argc, char** argv) {
     gpu::Context ctx(gpu::ContextOptions::from_env());
     std::printf("device: %s; LP_NUM_THREADS=%s; latent %d^3 x 8, runs %d\n", ctx.info().name.c_str(),
                 std::getenv("LP_NUM_THREADS") ? std::getenv("LP_NUM_THREADS") : "(unset)", grid, runs);
-    const nn::UNetConfig ucfg = nn::parse_unet_config(kUnet, "bench tiny UNet");
-    const nn::VaeConfig vcfg = nn::parse_vae_config(kVae, "bench tiny VAE");
+    const nn::UNetConfig ucfg = nn::load_unet_config(unet_model);
+    const nn::VaeConfig vcfg = nn::load_vae_config(vae_model);
+    if (vcfg.latent_channels() != 8 || ucfg.in_channels != 16 || ucfg.outputs() != 8)
+      throw std::invalid_argument("the bench's models must take 8 latent + 8 condition channels and predict 8");
     const auto uw = nn::random_weights(nn::UNetReference(ucfg).parameters(), 3);
     auto vw = nn::random_weights(nn::vae_param_specs(vcfg, nn::VaePart::Decoder), 4);
     nn::UNetGpu net32(ctx, ucfg, uw), net16(ctx, ucfg, uw, nn::UNetGpu::Precision::F16Weights);
@@ -225,7 +210,7 @@ int main(int argc, char** argv) {
     const nn::CpuTensor cond = synthetic_conditions(grid);
 
     auto sample = [&](int n_steps, float eta, float cfg, bool fp16) {
-      UNetDenoiser d(fp16 ? net16 : net32);
+      diffusion::UNetDenoiser d(fp16 ? net16 : net32);
       diffusion::SamplerOptions o;
       o.ddim.steps = n_steps;
       o.ddim.eta = eta;

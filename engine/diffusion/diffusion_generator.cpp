@@ -2,6 +2,7 @@
 #include "diffusion/diffusion_generator.h"
 
 #include "diffusion/decoded_chunk.h"
+#include "diffusion/unet_denoiser.h"
 #include "gpu/context.h"
 #include "nn/vae_gpu.h"
 #include "scene/input_error.h"
@@ -22,17 +23,6 @@ namespace {
 using Clock = std::chrono::steady_clock;
 
 double ms_since(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
-
-class UNetDenoiser final : public Denoiser {
- public:
-  explicit UNetDenoiser(nn::UNetGpu& net) : net_(net) {}
-  nn::CpuTensor predict(const nn::CpuTensor& x_in, int t) override {
-    return net_.forward(x_in, std::vector<int64_t>(static_cast<size_t>(x_in.shape[0]), t));
-  }
-
- private:
-  nn::UNetGpu& net_;
-};
 
 }  // namespace
 

@@ -87,8 +87,16 @@ UNetConfig parse_unet_config(const std::string& text, const std::string& source)
   return c;
 }
 
+// The released structure cut down to a smoke-test size: 32 channels, four levels (the middle at 8^3 of a
+// 64^3 latent, so no attention over many tokens), one ResBlock a level, no attention blocks.
+const char* const kTinyDiffusion = R"({"unet_kwargs": {"image_size": 64, "num_input_channels": 16, "out_channels": 8,
+  "model_channels": 32, "num_res_blocks": 1, "attention_resolutions": [], "channel_mult": [1, 1, 1, 1], "num_heads": 4,
+  "use_scale_shift_norm": true, "resblock_updown": true, "legacy": true, "middile_force_spatial_transformer": false,
+  "dropout": 0.0}})";
+
 UNetConfig load_unet_config(const std::string& path_or_preset) {
   if (path_or_preset == "infinicube-diffusion") return infinicube_diffusion_config();
+  if (path_or_preset == "infinicube-diffusion-tiny") return parse_unet_config(kTinyDiffusion, "preset infinicube-diffusion-tiny");
   return parse_unet_config(scene::read_file(path_or_preset), path_or_preset);
 }
 

@@ -42,7 +42,8 @@ struct UNetConfig {
 
 // Parses JSON text; `source` names the file in errors.
 UNetConfig parse_unet_config(const std::string& json_text, const std::string& source);
-// A file path, or a preset name ("infinicube-diffusion").
+// A file path, or a preset name: "infinicube-diffusion" (the released model) or "infinicube-diffusion-tiny"
+// (its structure at 32 channels and 1.56 M parameters: smoke tests and benchmarks of the pipeline).
 UNetConfig load_unet_config(const std::string& path_or_preset);
 UNetConfig infinicube_diffusion_config();
 

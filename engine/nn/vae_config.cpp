@@ -165,8 +165,15 @@ VaeConfig parse_vae_config(const std::string& text, const std::string& source) {
   return c;
 }
 
+// The released structure at f_maps 8 (0.36 M parameters): the same levels, pooling and latent shape.
+const char* const kTinyVae = R"({"vae_kwargs": {"in_channels": 32, "num_blocks": 3, "f_maps": 8, "cut_ratio": 4,
+  "neck_dense_type": "HAND_CRAFTED", "neck_bound": [32, 32, 32], "num_res_blocks": 1, "use_residual": true,
+  "order": "gcs", "is_add_dec": true, "use_attention": false, "use_checkpoint": false, "pooling_level": [2],
+  "with_semantic_branch": true, "with_normal_branch": false}})";
+
 VaeConfig load_vae_config(const std::string& path_or_preset) {
   if (path_or_preset == "infinicube-vae") return infinicube_vae_config();
+  if (path_or_preset == "infinicube-vae-tiny") return parse_vae_config(kTinyVae, "preset infinicube-vae-tiny");
   return parse_vae_config(scene::read_file(path_or_preset), path_or_preset);
 }
 

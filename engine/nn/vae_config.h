@@ -54,7 +54,8 @@ struct VaeConfig {
 };
 
 VaeConfig parse_vae_config(const std::string& json_text, const std::string& source);
-// A file path, or a preset name ("infinicube-vae").
+// A file path, or a preset name: "infinicube-vae" (the released model) or "infinicube-vae-tiny" (its
+// structure at f_maps 8: the same levels and latent, for smoke tests and benchmarks).
 VaeConfig load_vae_config(const std::string& path_or_preset);
 VaeConfig infinicube_vae_config();
 

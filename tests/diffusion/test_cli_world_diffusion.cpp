@@ -1,6 +1,6 @@
 // `icube world build --generator diffusion` end to end with tiny random-weight
-// models of the official structures (a 2-level UNet with 16 -> 8 channels, a
-// 3-level VAE with 8 feature maps): a one-chunk scene (the demo town with its
+// models of the official structures (presets infinicube-diffusion-tiny and
+// infinicube-vae-tiny): a one-chunk scene (the demo town with its
 // ego parked) and one DDIM step write a valid world, the latent kept, the
 // summary printed (a step of this UNet at 64^3 is ~20 s on lavapipe: guidance
 // and outpainting are covered by the sampler's own tests); a scale_factor from the
@@ -27,15 +27,6 @@ using namespace icube;
 
 namespace {
 
-const char* kTinyUnet = R"({"unet_kwargs": {"image_size": 64, "num_input_channels": 16, "out_channels": 8,
-  "model_channels": 32, "num_res_blocks": 1, "attention_resolutions": [], "channel_mult": [1, 1, 1, 1], "num_heads": 4,
-  "use_scale_shift_norm": true, "resblock_updown": true, "legacy": true, "middile_force_spatial_transformer": false,
-  "dropout": 0.0}})";
-const char* kTinyVae = R"({"vae_kwargs": {"in_channels": 32, "num_blocks": 3, "f_maps": 8, "cut_ratio": 4,
-  "neck_dense_type": "HAND_CRAFTED", "neck_bound": [32, 32, 32], "num_res_blocks": 1, "use_residual": true,
-  "order": "gcs", "is_add_dec": true, "use_attention": false, "use_checkpoint": false, "pooling_level": [2],
-  "with_semantic_branch": true, "with_normal_branch": false}})";
-
 // Random weights; the VAE's structure heads biased towards "empty" (logit1 + 0.25), so the finer levels
 // keep a few percent of the voxels instead of half (a street's occupancy, and a short test).
 void write_weights(const std::vector<nn::ParamSpec>& specs, uint32_t seed, const std::string& path,
@@ -56,20 +47,18 @@ TEST_CASE("cli: icube world build --generator diffusion runs a tiny random model
   scene::Scene demo = world::make_demo_scene();
   for (scene::EgoPose& e : demo.ego) e.ego_to_world = demo.ego.front().ego_to_world;  // parked: one chunk
   scene::write_scene_json(demo, dir + "/demo.json");
-  scene::write_file_atomic(dir + "/unet.json", kTinyUnet);
-  scene::write_file_atomic(dir + "/vae.json", kTinyVae);
-  const nn::UNetConfig unet = nn::load_unet_config(dir + "/unet.json");
-  const nn::VaeConfig vae = nn::load_vae_config(dir + "/vae.json");
+  const nn::UNetConfig unet = nn::load_unet_config("infinicube-diffusion-tiny");
+  const nn::VaeConfig vae = nn::load_vae_config("infinicube-vae-tiny");
   // The UNet from the CLI's random-weights (scale_factor in its metadata), the VAE biased as above.
-  const test::CliRun made = test::run_icube("nn random-weights --model '" + dir + "/unet.json' --seed 3 --scale-factor 0.5 -o '" +
+  const test::CliRun made = test::run_icube("nn random-weights --model infinicube-diffusion-tiny --seed 3 --scale-factor 0.5 -o '" +
                                                 dir + "/unet.safetensors'",
                                             tmp.path);
   REQUIRE_MESSAGE(made.code == 0, made.output);
   CHECK(made.output.find("random-weights: 232 tensors") != std::string::npos);
   CHECK(nn::SafetensorsFile(dir + "/unet.safetensors").find(nn::UNetReference(unet).parameters().front().name));
   write_weights(nn::vae_param_specs(vae, nn::VaePart::All), 4, dir + "/vae.safetensors");
-  const std::string models = " --generator diffusion --model '" + dir + "/unet.json' --weights '" + dir +
-                             "/unet.safetensors' --vae '" + dir + "/vae.safetensors' --vae-model '" + dir + "/vae.json' ";
+  const std::string models = " --generator diffusion --model infinicube-diffusion-tiny --weights '" + dir +
+                             "/unet.safetensors' --vae '" + dir + "/vae.safetensors' --vae-model infinicube-vae-tiny ";
   // One chunk: blocks mode would cover the town; trajectory mode on the demo's drive with a single key.
   const std::string out = dir + "/world.icw";
   test::CliRun r = test::run_icube("world build '" + dir + "/demo.json' -o '" + out + "'" + models +
@@ -88,14 +77,14 @@ TEST_CASE("cli: icube world build --generator diffusion runs a tiny random model
 
   // Bad inputs: before any work, one line, no output.
   const std::string bad = dir + "/bad.icw";
-  r = test::run_icube("world build '" + dir + "/demo.json' -o '" + bad + "' --generator diffusion --model '" + dir +
-                          "/unet.json' --weights '" + dir + "/unet.safetensors'",
+  r = test::run_icube("world build '" + dir + "/demo.json' -o '" + bad +
+                          "' --generator diffusion --model infinicube-diffusion-tiny --weights '" + dir + "/unet.safetensors'",
                       tmp.path);
   CHECK(r.code != 0);
   CHECK(r.output.find("--generator diffusion needs --model, --weights (the UNet) and --vae") != std::string::npos);
-  r = test::run_icube("world build '" + dir + "/demo.json' -o '" + bad + "' --generator diffusion --model '" + dir +
-                          "/unet.json' --weights '" + dir + "/vae.safetensors' --vae '" + dir + "/vae.safetensors' --vae-model '" +
-                          dir + "/vae.json'",
+  r = test::run_icube("world build '" + dir + "/demo.json' -o '" + bad +
+                          "' --generator diffusion --model infinicube-diffusion-tiny --weights '" + dir + "/vae.safetensors' --vae '" +
+                          dir + "/vae.safetensors' --vae-model infinicube-vae-tiny",
                       tmp.path);
   CHECK(r.code != 0);
   CHECK(r.output.find("vae.safetensors: tensor") != std::string::npos);  // UNet tensors missing: named
