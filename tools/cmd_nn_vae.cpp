@@ -50,6 +50,7 @@
 #include "world/chunk_plan.h"
 #include "world/chunk_voxels.h"
 #include "world/npy.h"
+#include "world/world_build.h"
 #include "world/world_file.h"
 
 #include <CLI/CLI.hpp>
@@ -190,20 +191,12 @@ void cmd_vae_decode(const VaeDecodeArgs& a) {
     // The chunk as an engine world. In the VAE's frame: engine centres (ijk + 0.5) * vs + origin = fVDB's
     // ijk * vs + fVDB origin. Placed (--at / --scene --chunk): moved into the world by chunk fusion
     // (conventions §9.4: exact copy on a shifted lattice, else subdivided and re-voxelised).
+    // Unplaced, the world's lattice is the chunk's own, so the fusion copies the cells exactly.
     const nn::SparseGrid& g = d.semantic.grid;
     uint64_t undefined = 0;
-    world::ChunkVoxels chunk = diffusion::decoded_chunk(d, pose ? pose->chunk_to_world : glm::dmat4(1.0), &undefined);
-    const glm::dvec3 fvdb_corner(g.origin[0] - g.voxel_size[0] / 2, g.origin[1] - g.voxel_size[1] / 2,
-                                 g.origin[2] - g.voxel_size[2] / 2);
-    world::VoxelGrid out(fvdb_corner, g.voxel_size[0]);
-    world::FusionStats placed;
-    if (pose) {
-      const glm::dvec3 centre(pose->chunk_to_world[3]);
-      out = world::VoxelGrid(glm::floor(centre / world::kFineVoxel + 0.5) * world::kFineVoxel, world::kFineVoxel);
-      placed = world::fuse_chunk(out, chunk);
-    } else {
-      for (const world::ChunkVoxel& cv : chunk.voxels) out.set(cv.ijk, cv.class_id);
-    }
+    const world::ChunkVoxels chunk = diffusion::decoded_chunk(d, pose ? pose->chunk_to_world : glm::dmat4(1.0), &undefined);
+    world::VoxelGrid out(pose ? world::world_lattice_origin(*pose) : glm::dvec3(chunk.lattice_to_world[3]), g.voxel_size[0]);
+    const world::FusionStats placed = world::fuse_chunk(out, chunk);
     std::optional<StagingDir> staging;
     if (!a.dump.empty()) {
       const fs::path dump(a.dump);

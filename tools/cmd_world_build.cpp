@@ -140,8 +140,7 @@ std::unique_ptr<diffusion::DiffusionGenerator> make_diffusion_generator(const Bu
   o.precision = a.precision == "fp16" ? nn::UNetGpu::Precision::F16Weights : nn::UNetGpu::Precision::F32;
   o.keep_latents = a.keep_latents;
   // One bar per chunk over its denoising steps (elapsed time and ETA).
-  o.progress = [&bar, current = std::make_shared<size_t>(SIZE_MAX)](size_t chunk, size_t done, size_t total,
-                                                                    const diffusion::StepTiming&) {
+  o.progress = [&bar, current = std::make_shared<size_t>(SIZE_MAX)](size_t chunk, size_t done, size_t total) {
     if (*current != chunk) {
       *current = chunk;
       bar.emplace("world build: chunk " + std::to_string(chunk), "DDIM steps");
@@ -157,7 +156,6 @@ std::unique_ptr<diffusion::DiffusionGenerator> make_diffusion_generator(const Bu
 
 void print_diffusion_summary(const diffusion::DiffusionGenerator& g, const std::string& file, scene::Diagnostics& diag) {
   double cond = 0, sample = 0, decode = 0;
-  size_t steps_total = 0;
   for (size_t n = 0; n < g.timings().size(); ++n) {
     const diffusion::ChunkTiming& t = g.timings()[n];
     cond += t.conditions_ms;
@@ -167,11 +165,10 @@ void print_diffusion_summary(const diffusion::DiffusionGenerator& g, const std::
                 t.conditions_ms, t.sample_ms / 1000.0, static_cast<unsigned long long>(t.known_cells), t.decode_ms / 1000.0,
                 static_cast<unsigned long long>(t.voxels));
     if (!t.warning.empty()) diag.warn(file, "chunk " + std::to_string(n), t.warning);
-    ++steps_total;
   }
   std::printf("  diffusion: conditions %.2f s, sampling %.1f s, VAE decode %.1f s over %zu chunk(s); device memory peak ~%.0f MiB "
               "(weights + largest activation pool)\n",
-              cond / 1000.0, sample / 1000.0, decode / 1000.0, steps_total,
+              cond / 1000.0, sample / 1000.0, decode / 1000.0, g.timings().size(),
               static_cast<double>(g.peak_device_bytes()) / (1024.0 * 1024.0));
 }
 

@@ -37,11 +37,11 @@ ChunkSample sample_chunk(Denoiser& denoiser, int latent_channels, const nn::CpuT
   if (latent_channels < 1) throw std::invalid_argument("sample_chunk: " + std::to_string(latent_channels) + " latent channels");
   const int64_t C = latent_channels, X = cond.shape[1], Y = cond.shape[2], Z = cond.shape[3];
   const size_t spatial = static_cast<size_t>(X * Y * Z), n = static_cast<size_t>(C) * spatial;
-  if (known && known->any() && (known->mask.size() != spatial || known->values.size() != n))
+  const bool outpaint = known && known->any();
+  if (outpaint && (known->mask.size() != spatial || known->values.size() != n))
     throw std::invalid_argument("sample_chunk: known latents of " + std::to_string(known->values.size()) + " values and " +
                                 std::to_string(known->mask.size()) + " mask cells for a " + std::to_string(C) + " x " +
                                 std::to_string(spatial) + " latent");
-  const bool outpaint = known && known->any();
   const DdimSchedule sched(o.ddim);
   const bool cfg = o.cfg_scale != 1.0f;
   const int64_t B = cfg ? 2 : 1;
@@ -50,15 +50,32 @@ ChunkSample sample_chunk(Denoiser& denoiser, int latent_channels, const nn::CpuT
   std::vector<float> x(n), z(n);
   normal_noise({o.seed, chunk_index, 0, NoisePurpose::InitialLatent}, 0, x.data(), n);
 
-  // The step on the GPU: x, the predictions and the noise uploaded, x_prev read back (the denoiser
-  // returns host tensors; the copies are small beside a UNet call).
+  // The step and the overwrite on the GPU: x, the predictions and the noise uploaded, the result read
+  // back (the denoiser takes and returns host tensors; the copies are small beside a UNet call). Without
+  // a context the CPU references run.
   std::optional<kernels::nn::SamplerStep> gpu_step;
-  std::optional<gpu::Buffer> xb, cb, ub, zb, yb;
+  std::optional<gpu::Buffer> xb, cb, ub, zb, yb, known_b, mask_b;
   if (ctx) {
     gpu_step.emplace(*ctx);
     const uint64_t bytes = n * 4;
     for (auto* b : {&xb, &cb, &ub, &zb, &yb}) b->emplace(*ctx, bytes, gpu::MemoryUsage::DeviceLocal, "sampler latent");
+    if (outpaint) {
+      known_b.emplace(gpu::upload_vector(*ctx, known->values, "sampler known latents"));
+      mask_b.emplace(gpu::upload_vector(*ctx, known->mask, "sampler known mask"));
+    }
   }
+  // x's known cells = a known + b z (z: the level's fresh noise), or the clean known latents without z.
+  auto apply_known = [&](float a, float b, const std::vector<float>* noise) {
+    if (!gpu_step) return overwrite(x, *known, spatial, a, b, noise);
+    gpu::upload(*ctx, *xb, x.data(), n * 4);
+    // Without noise: b = 0 and z = the known latents themselves (finite), so the result is `known` exactly.
+    if (noise) gpu::upload(*ctx, *zb, noise->data(), n * 4);
+    ctx->submit_and_wait([&](gpu::CommandList& cmd) {
+      gpu_step->overwrite_known(cmd, static_cast<uint32_t>(C), spatial, noise ? a : 1.0f, noise ? b : 0.0f, *known_b, *mask_b,
+                                noise ? *zb : *known_b, *xb);
+    });
+    x = gpu::download_vector<float>(*ctx, *xb, n);
+  };
 
   nn::CpuTensor input({B, C + 8, X, Y, Z});
   for (int64_t b = 0; b < B; ++b)
@@ -76,7 +93,7 @@ ChunkSample sample_chunk(Denoiser& denoiser, int latent_channels, const nn::CpuT
       float a = 0, s = 0;
       sched.noise_level(st.t, &a, &s);
       normal_noise({o.seed, chunk_index, static_cast<uint32_t>(st.t), NoisePurpose::KnownLatent}, 0, z.data(), n);
-      overwrite(x, *known, spatial, a, s, &z);
+      apply_known(a, s, &z);
     }
     for (int64_t b = 0; b < B; ++b)
       std::copy(x.begin(), x.end(), input.data.begin() + static_cast<int64_t>(static_cast<size_t>(b * (C + 8)) * spatial));
@@ -114,7 +131,7 @@ ChunkSample sample_chunk(Denoiser& denoiser, int latent_channels, const nn::CpuT
     out.steps.push_back(timing);
     if (progress) progress(i + 1, sched.size());
   }
-  if (outpaint && o.final_overwrite) overwrite(x, *known, spatial, 1.0f, 0.0f, nullptr);
+  if (outpaint && o.final_overwrite) apply_known(1.0f, 0.0f, nullptr);
   out.latent = nn::CpuTensor({1, C, X, Y, Z}, std::move(x));
   return out;
 }

@@ -35,9 +35,10 @@ struct DiffusionGenerator::Impl {
   nn::UNetGpu unet;
   nn::VaeGpu vae;
   world::ConditionVolumeGpu conditions;
-  mutable LatentStore store;
-  mutable std::vector<ChunkTiming> timings;
-  mutable uint64_t peak_activations = 0;
+  // Changed by the const generate(): chunks run one at a time in plan order (reads_world()).
+  LatentStore store;
+  std::vector<ChunkTiming> timings;
+  uint64_t peak_activations = 0;
 
   Impl(gpu::Context& c, const scene::Scene& s, world::PlanMode mode, const nn::UNetConfig& unet_cfg,
        const std::map<std::string, nn::CpuTensor>& unet_w, const nn::VaeConfig& vae_cfg,
@@ -102,7 +103,7 @@ world::ChunkVoxels DiffusionGenerator::generate(const world::ChunkRequest& reque
   const ChunkSample sample =
       sample_chunk(denoiser, m.latent_channels, cond, &known, static_cast<uint32_t>(request.chunk), m.options.sampler, &m.ctx,
                    [&](size_t done, size_t total) {
-                     if (m.options.progress) m.options.progress(chunk_index, done, total, StepTiming{});
+                     if (m.options.progress) m.options.progress(chunk_index, done, total);
                    });
   m.peak_activations = std::max(m.peak_activations, m.unet.last_activation_bytes());
   timing.sample_ms = ms_since(t0);

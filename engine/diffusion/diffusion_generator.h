@@ -35,8 +35,8 @@ struct DiffusionGeneratorOptions {
   double scale_factor = 1.0;                     // the latent boundary (nn/latent_scale.h)
   nn::UNetGpu::Precision precision = nn::UNetGpu::Precision::F32;
   std::string keep_latents;                      // folder: chunk_NNNN.npy [1, C, 64, 64, 64] (diffusion space)
-  // Per chunk and step: (chunk index, steps done, steps total, last step's timing).
-  std::function<void(size_t, size_t, size_t, const StepTiming&)> progress;
+  // Per chunk and step: (chunk index, steps done, steps total); (chunk, 0, total) before its first step.
+  std::function<void(size_t, size_t, size_t)> progress;
 };
 
 struct ChunkTiming {

@@ -23,11 +23,8 @@ using Clock = std::chrono::steady_clock;
 
 double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
-// The first chunk's centre rounded to the world lattice (multiples of the voxel
-// size; halves round up, so a translated scene gets the translated origin).
 glm::dvec3 world_origin_for(const ChunkPlan& plan, double vs) {
-  if (plan.chunks.empty()) return glm::dvec3(0.0);
-  return glm::floor(chunk_centre(plan.chunks.front()) / vs + 0.5) * vs;
+  return plan.chunks.empty() ? glm::dvec3(0.0) : world_lattice_origin(plan.chunks.front(), vs);
 }
 
 struct GeneratedChunk {
@@ -117,6 +114,8 @@ void generate_in_order(const WorldGenerator& gen, const std::vector<ChunkRequest
 }
 
 }  // namespace
+
+glm::dvec3 world_lattice_origin(const ChunkPose& first, double vs) { return glm::floor(chunk_centre(first) / vs + 0.5) * vs; }
 
 bool inside_chunk(const ChunkPose& pose, const glm::dvec3& p, double margin) {
   const glm::dmat3 r(pose.chunk_to_world);

@@ -58,6 +58,10 @@ struct WorldBuildResult {
 WorldBuildResult build_world(const scene::Scene& scene, const WorldGenerator& generator,
                              const WorldBuildOptions& options = {});
 
+// The world grid's origin for a world that starts with chunk `first`: its centre rounded to the
+// lattice of voxel size `vs` (halves round up, so a translated scene gets the translated origin).
+glm::dvec3 world_lattice_origin(const ChunkPose& first, double vs = kFineVoxel);
+
 // The chunk's crop box test: p (world) inside chunk `pose`'s box
 // (|x|, |y| <= 25.6, |z| <= 12.8 in the chunk frame), with `margin` metres of slack.
 bool inside_chunk(const ChunkPose& pose, const glm::dvec3& p, double margin = 0.0);

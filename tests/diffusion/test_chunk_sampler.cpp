@@ -196,6 +196,12 @@ TEST_CASE("chunk sampler: outpainting noises the known cells to each level and e
     }
   }
   CHECK(known_cells > 0);
+  // The same on the GPU (step and overwrite kernels): the known cells exact, the rest as on the CPU.
+  Oracle og = make_oracle(9);
+  const ChunkSample g = sample_chunk(og, kC, cond, &known, 3, opt, &test::gpu_context());
+  for (int64_t e = 0; e < kC * kS; ++e)
+    if (known.mask[static_cast<size_t>(e % kS)]) CHECK(g.latent.data[static_cast<size_t>(e)] == known.values[static_cast<size_t>(e)]);
+  CHECK(max_abs_diff(g.latent.data, s.latent.data) < 1e-5);
   // Wrong sizes: refused.
   KnownLatents bad = known;
   bad.values.pop_back();
