@@ -20,6 +20,7 @@
 // 0 ... N-1 as written; buffers_meta.json keeps each one's trajectory index.
 // The field-by-field layout and the official reader of each: docs/guidance-buffers.md.
 // Engine: engine/render/buffers/ (guidance_sequence.h, stage2_writer.h).
+#include "camera_path.h"
 #include "cli_common.h"
 #include "command_registry.h"
 #include "progress.h"
@@ -58,12 +59,9 @@ namespace {
 namespace fs = std::filesystem;
 
 struct BuffersArgs {
-  std::string world, scene, record, trajectory, camera, preset, frames, clip, output;
+  CameraPathArgs path;
+  std::string world, clip, output;
   uint64_t seed = 0;
-  double route_m = 0.0;  // > 0: drive this far along the lanes
-  scene::RouteOptions route;
-  int64_t route_start_lane = 0;
-  bool route_start_given = false;
   bool pixel_centres = false, normals = false, no_video = false;
   std::string object_info = "moving";
   std::string video_preset = "veryslow";
@@ -80,61 +78,12 @@ void cmd_buffers(const BuffersArgs& a) {
   run_command([&](scene::Diagnostics& diag) {
     using Clock = std::chrono::steady_clock;
     const auto t_start = Clock::now();
-    if (!a.camera.empty() && !a.preset.empty()) throw std::invalid_argument("give --camera or --camera-preset, not both");
-    std::optional<render::PinholeIntrinsics> cli_K;
-    if (!a.camera.empty()) cli_K = render::parse_camera(a.camera);
-    std::optional<scene::Camera> preset;
-    if (!a.preset.empty()) preset = render::camera_preset(a.preset);
-    std::optional<render::FrameRange> range;
-    if (!a.frames.empty()) range = render::parse_frame_range(a.frames);
-
     const world::VoxelGrid world = world::load_world(a.world);
-    std::optional<scene::Scene> sc;
-    if (!a.scene.empty()) {
-      scene::LoadOptions lo;
-      lo.waymo_selector = a.record;
-      sc = scene::load_scene(a.scene, lo, &diag);
-      if (scene::tracks_unclassified(*sc)) scene::classify_tracks(*sc);
-    }
+    CameraPath cp = resolve_camera_path(a.path, diag);
+    const std::optional<scene::Scene>& sc = cp.scene;
     const scene::Scene* scene_ptr = sc ? &*sc : nullptr;
-
-    // Trajectory and camera.
-    std::vector<render::Trajectory> passes;
-    std::optional<render::PinholeIntrinsics> file_K;
-    if (a.route_m > 0.0 && !a.trajectory.empty()) throw std::invalid_argument("give --route or --trajectory, not both");
-    if (a.route_m > 0.0) {
-      if (!sc) throw std::invalid_argument("--route needs --scene (its lanes)");
-      scene::RouteOptions ro = a.route;
-      ro.length_m = a.route_m;
-      if (a.route_start_given) ro.start_lane = a.route_start_lane;
-      scene::Camera cam = !sc->cameras.empty() ? sc->cameras[0] : scene::waymo_front_camera();
-      if (preset) cam = *preset;
-      scene::RouteReport rep;
-      passes.push_back(render::route_trajectory(*sc, cam, ro, &rep));
-      for (const std::string& n : rep.notes) diag.warn(a.scene, "route", n);
-      std::fprintf(stderr, "route: %.1f m over %zu lane(s), %zu poses%s\n", rep.length_m, rep.lanes.size(), rep.poses,
-                   rep.dead_end ? " (dead end)" : "");
-      if (passes[0].size() == 0) throw scene::InputError(a.scene, "route", "the route has no pose");
-    } else if (!a.trajectory.empty()) {
-      render::TrajectoryFile tf = render::load_trajectory(a.trajectory, sc ? sc->timestamps.size() : 0);
-      passes = std::move(tf.passes);
-      file_K = tf.camera;
-    } else {
-      if (!sc) throw std::invalid_argument("give --scene (its ego track is the trajectory) or --trajectory FILE");
-      if (sc->ego.empty()) throw scene::InputError(a.scene, "ego", "the scene has no ego trajectory; give --trajectory FILE");
-      scene::Camera cam = !sc->cameras.empty() ? sc->cameras[0] : scene::waymo_front_camera();
-      if (preset) cam = *preset;
-      passes.push_back(render::ego_trajectory(*sc, cam));
-      if (passes[0].size() == 0) throw scene::InputError(a.scene, "ego", "no valid ego pose");
-    }
-    render::PinholeIntrinsics K;
-    if (cli_K) K = *cli_K;
-    else if (preset) K = render::intrinsics_of(*preset);
-    else if (file_K) K = *file_K;
-    else if (sc && !sc->cameras.empty()) K = render::intrinsics_of(sc->cameras[0]);
-    else K = render::intrinsics_of(scene::waymo_front_camera());
-    if (range)
-      for (auto& p : passes) p = render::select_frames(p, *range);
+    std::vector<render::Trajectory>& passes = cp.passes;
+    const render::PinholeIntrinsics K = cp.K;
     const std::string clip = sanitize_clip(
         !a.clip.empty() ? a.clip
                         : (sc && !sc->provenance.scenario_id.empty() ? sc->provenance.scenario_id
@@ -152,8 +101,7 @@ void cmd_buffers(const BuffersArgs& a) {
     // Output staging.
     StagingDir staging(a.output, clip);
 
-    size_t total_frames = 0;
-    for (const auto& p : passes) total_frames += p.size();
+    const size_t total_frames = cp.total_frames();
     ProgressBar bar("buffers", "frames");
     size_t done_before = 0;
     uint64_t rays = 0;
@@ -227,35 +175,7 @@ void add_buffers_commands(CLI::App& app) {
   CLI::App* cmd = app.add_subcommand(
       "buffers", "Stage 2: render guidance buffers (semantic, instance, depth, coordinate) along a trajectory");
   cmd->add_option("world", a->world, "World file (.icw)")->required()->type_name("WORLD");
-  cmd->add_option("--scene", a->scene, "Scene: ego trajectory, camera, static and dynamic cars")->type_name("SCENE");
-  cmd->add_option("--record", a->record, "Waymo TFRecord only: which record, by index or scenario id")->type_name("SEL");
-  cmd->add_option("--trajectory", a->trajectory,
-                  "Camera poses: .npy [N,4,4] or [P,N,4,4] OpenCV camera-to-world in the scene's world frame, or "
-                  "icube-trajectory JSON")
-      ->type_name("FILE");
-  cmd->add_option("--route", a->route_m,
-                  "Trajectory: a seeded drive of this many metres along the scene's lanes (instead of its ego track)")
-      ->type_name("METRES")
-      ->check(CLI::PositiveNumber);
-  cmd->add_option("--route-seed", a->route.seed, "Seed of --route's start lane and fork choices")
-      ->type_name("N")
-      ->capture_default_str();
-  cmd->add_option("--route-speed", a->route.speed_mps, "Speed of --route in m/s (poses at 10 Hz)")
-      ->type_name("MPS")
-      ->capture_default_str()
-      ->check(CLI::PositiveNumber);
-  cmd->add_option_function<int64_t>(
-         "--route-start-lane",
-         [a](const int64_t& id) {
-           a->route_start_lane = id;
-           a->route_start_given = true;
-         },
-         "Lane id --route starts on (default: chosen by the seed)")
-      ->type_name("ID");
-  cmd->add_option("--camera", a->camera, "Pinhole intrinsics in pixels")->type_name("fx,fy,cx,cy,w,h");
-  cmd->add_option("--camera-preset", a->preset, "waymo-front-480p: Waymo FRONT rescaled to 832x480")
-      ->type_name("NAME");
-  cmd->add_option("--frames", a->frames, "Frames [A, B) of the trajectory, every S-th with A:B:S (A:, :B, ::S and A also work)")->type_name("A:B[:S]");
+  a->path.add_options(cmd);
   cmd->add_option("--seed", a->seed, "Seed of the instance colours and the coordinate-range sampling")
       ->type_name("N")
       ->capture_default_str();
