@@ -43,4 +43,19 @@ Image8 read_png(const std::string& path, int channels) {
   return img;
 }
 
+std::vector<uint16_t> decode_png_gray16(std::string_view bytes, const std::string& name, int* width, int* height) {
+  int w = 0, h = 0, n = 0;
+  uint16_t* data = stbi_load_16_from_memory(reinterpret_cast<const stbi_uc*>(bytes.data()), static_cast<int>(bytes.size()),
+                                            &w, &h, &n, 1);
+  if (!data) {
+    const char* why = stbi_failure_reason();
+    throw std::runtime_error(name + ": cannot read PNG (" + (why ? why : "unknown error") + ")");
+  }
+  std::vector<uint16_t> out(data, data + static_cast<size_t>(w) * static_cast<size_t>(h));
+  stbi_image_free(data);
+  *width = w;
+  *height = h;
+  return out;
+}
+
 }  // namespace icube::scene

@@ -4,6 +4,7 @@
 
 #include <cstdint>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace icube::scene {
@@ -15,5 +16,8 @@ struct Image8 {
 
 // Decodes `path` to `channels` channels (1-4). Throws std::runtime_error "PATH: reason".
 Image8 read_png(const std::string& path, int channels);
+
+// Decodes PNG bytes (8- or 16-bit) to one 16-bit channel; `name` labels errors ("NAME: reason").
+std::vector<uint16_t> decode_png_gray16(std::string_view bytes, const std::string& name, int* width, int* height);
 
 }  // namespace icube::scene

@@ -1,0 +1,40 @@
+// Importing appearance frames made elsewhere (a video model run on the
+// guidance buffers this engine wrote) into the frames folder
+// (frames_layout.h), for Stage 3.
+// Input: a folder of PNG frames (every *.png, sorted by name) or a video
+// file (mp4; decoded with libav, video/mp4_reader.h). The frames are matched
+// to the buffers' frames by index: their count must equal buffers_meta.json's
+// "frames"; each frame's size must be the buffers' (intrinsics w, h) or have
+// exactly the same aspect ratio (w_in * h == h_in * w), in which case it is
+// area-resampled to the buffers' size; anything else is refused with a
+// message naming the file and both sizes, before anything is written.
+// sky_mask/ comes from the buffers' semantic colours (the palette's sky entry
+// where no instance covers it), instance/ from instance_buffer_480p_front.tar;
+// frames_meta.json copies the buffers' frame indices and camera.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace icube::render {
+
+struct FramesImportOptions {
+  std::string prompt;  // recorded only
+};
+
+struct FramesImportReport {
+  size_t frames = 0;
+  uint32_t width = 0, height = 0;
+  bool rescaled = false;
+  std::vector<std::string> notes;
+};
+
+// Writes into out_dir (which must exist and be empty). Throws scene::InputError on bad input.
+FramesImportReport import_frames(const std::string& input, const std::string& buffers_dir, const std::string& out_dir,
+                                 const FramesImportOptions& o);
+
+// Area resampling of an RGB8 image (for the import's same-aspect rescale).
+std::vector<uint8_t> resample_rgb8(const std::vector<uint8_t>& src, uint32_t sw, uint32_t sh, uint32_t dw, uint32_t dh);
+
+}  // namespace icube::render
