@@ -57,7 +57,7 @@ struct FramesSheetArgs {
   CameraPathArgs path;
   std::string world, output;
   std::vector<std::string> prompts;
-  int frame = -1;
+  int frame = -1, thumb_width = 416, columns = 3;
   uint32_t seed = 0;
 };
 
@@ -190,7 +190,7 @@ void cmd_frames_sheet(const FramesSheetArgs& a) {
     }
     const std::string title = fs::path(a.world).filename().string() + ", frame " + std::to_string(t.frame_index[f]) +
                               ": the procedural appearance renderer under " + std::to_string(prompts.size()) + " prompts";
-    render::write_contact_sheet(a.output, render::prompt_sheet(tiles, title));
+    render::write_contact_sheet(a.output, render::prompt_sheet(tiles, title, a.columns, a.thumb_width));
     std::printf("sheet: %zu prompts, frame %d, %ux%u -> %s\n", prompts.size(), t.frame_index[f], cp.K.width, cp.K.height,
                 a.output.c_str());
   });
@@ -249,6 +249,8 @@ void add_frames_commands(CLI::App& app) {
                     "A prompt per tile (repeat; default: sunny noon, overcast, rainy, foggy, dusk, snowy night)")
       ->type_name("TEXT");
   sheet->add_option("--seed", s->seed, "Seed of the procedural detail")->capture_default_str();
+  sheet->add_option("--thumb-width", s->thumb_width, "Tile width in pixels")->capture_default_str()->check(CLI::Range(16, 4096));
+  sheet->add_option("--columns", s->columns, "Tiles per row")->capture_default_str()->check(CLI::Range(1, 16));
   sheet->add_option("-o,--output", s->output, "Sheet PNG")->required()->type_name("SHEET.png");
   sheet->callback([s] { cmd_frames_sheet(*s); });
 

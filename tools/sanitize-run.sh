@@ -3,7 +3,7 @@
 # build-sanitize/ (viewer and benchmarks off, shaders with debug info: the
 # option set CI builds once) and runs icube-tests under them on lavapipe.
 #
-#   tools/sanitize-run.sh                 # the whole suite (as CI runs it)
+#   tools/sanitize-run.sh                 # the whole suite but the "slow-gpu" suite (as CI runs it)
 #   tools/sanitize-run.sh --cpu-only      # the CPU-side tests: scene/ and world/ readers, plans, fits
 #   tools/sanitize-run.sh -- -tc='*npy*'  # any doctest arguments after --
 #   ICUBE_SANITIZE=thread tools/sanitize-run.sh -- -tc='world build*'   # ThreadSanitizer instead
@@ -57,4 +57,6 @@ if [ $cpu_only = 1 ]; then
   args=(--source-file='*/tests/scene/*,*/tests/world/test_triangle_mesh.cpp,*/tests/world/test_mesh_voxelize.cpp,*/tests/world/test_voxel_grid.cpp,*/tests/world/test_world_io.cpp,*/tests/world/test_world_npy.cpp,*/tests/world/test_chunk_plan.cpp,*/tests/world/test_road_surface.cpp,*/tests/world/test_world_robustness.cpp,*/tests/world/test_vehicle_meshes.cpp,*/tests/world/test_gltf_multinode.cpp' "${args[@]}")
 fi
 echo "== icube-tests under $sanitizers ($dir)"
-"$dir/icube-tests" "${args[@]}"
+# The test suite "slow-gpu" (end-to-end runs of the tiny diffusion model and the VAE on 64^3 chunks:
+# minutes of lavapipe work whose host code other cases cover) runs in the plain suite only.
+"$dir/icube-tests" --test-suite-exclude=slow-gpu "${args[@]}"

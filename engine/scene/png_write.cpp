@@ -17,6 +17,8 @@
 #define STB_IMAGE_WRITE_STATIC
 #define STB_IMAGE_WRITE_IMPLEMENTATION
 #include <stb/stb_image_write.h>
+
+#include <zlib.h>
 #pragma GCC diagnostic pop
 
 #include <array>
@@ -92,37 +94,19 @@ void filter_row(int type, const uint8_t* row, const uint8_t* prior, size_t n, si
   }
 }
 
-}  // namespace
-
-std::string encode_png(const uint8_t* pixels, int width, int height, int channels) {
-  if (channels < 1 || channels > 4)
-    throw std::invalid_argument("png: " + std::to_string(channels) + " channels (1 to 4 supported)");
-  check_size(width, height, channels);
-  std::string out;
-  if (!stbi_write_png_to_func(append_to_string, &out, width, height, channels, pixels, width * channels))
-    throw std::runtime_error("png: stb_image_write failed to encode a " + std::to_string(width) + " x " +
-                             std::to_string(height) + " image");
-  return out;
-}
-
-std::string encode_png_gray16(const uint16_t* samples, int width, int height) {
-  check_size(width, height, 2);
-  const size_t w = static_cast<size_t>(width), h = static_cast<size_t>(height), stride = w * 2;
-  // Big-endian samples, then one filter byte + filtered row each, choosing the
-  // filter with the smallest sum of |signed residuals| (the usual heuristic).
-  std::vector<uint8_t> be(stride * h);
-  for (size_t i = 0; i < w * h; ++i) {
-    be[2 * i] = static_cast<uint8_t>(samples[i] >> 8);
-    be[2 * i + 1] = static_cast<uint8_t>(samples[i] & 0xFFu);
-  }
+// PNG from rows of `stride` bytes with `bpp` bytes per pixel: each row filtered with the filter
+// that gives the smallest sum of |signed residuals| (the usual heuristic; Fast: Paeth), then zlib.
+std::string encode_rows(const uint8_t* rows, size_t stride, size_t h, size_t bpp, int width, int height,
+                        uint8_t bit_depth, uint8_t colour_type, PngSpeed speed) {
   std::vector<uint8_t> raw((stride + 1) * h), trial(stride), best(stride);
   for (size_t y = 0; y < h; ++y) {
-    const uint8_t* row = &be[y * stride];
-    const uint8_t* prior = y ? &be[(y - 1) * stride] : nullptr;
+    const uint8_t* row = rows + y * stride;
+    const uint8_t* prior = y ? rows + (y - 1) * stride : nullptr;
     uint64_t best_cost = std::numeric_limits<uint64_t>::max();
     int best_type = 0;
-    for (int type = 0; type <= 4; ++type) {
-      filter_row(type, row, prior, stride, 2, trial.data());
+    // Fast: Paeth alone (the best single filter for photographs; zero on flat masks).
+    for (int type = speed == PngSpeed::Fast ? 4 : 0; type <= 4; ++type) {
+      filter_row(type, row, prior, stride, bpp, trial.data());
       uint64_t cost = 0;
       for (uint8_t v : trial) cost += static_cast<uint64_t>(v < 128 ? v : 256 - v);
       if (cost < best_cost) best_cost = cost, best_type = type, best.swap(trial);
@@ -130,19 +114,58 @@ std::string encode_png_gray16(const uint16_t* samples, int width, int height) {
     raw[y * (stride + 1)] = static_cast<uint8_t>(best_type);
     std::copy(best.begin(), best.end(), raw.begin() + static_cast<long>(y * (stride + 1) + 1));
   }
-  int zlen = 0;
-  unsigned char* z = stbi_zlib_compress(raw.data(), static_cast<int>(raw.size()), &zlen, 8);
-  if (!z) throw std::runtime_error("png: zlib compression failed");
   std::string out("\x89PNG\r\n\x1a\n", 8);
   std::string ihdr;
   put_be32(ihdr, static_cast<uint32_t>(width));
   put_be32(ihdr, static_cast<uint32_t>(height));
-  ihdr += std::string("\x10\x00\x00\x00\x00", 5);  // bit depth 16, colour type 0 (grey), deflate, no interlace
+  ihdr.push_back(static_cast<char>(bit_depth));
+  ihdr.push_back(static_cast<char>(colour_type));
+  ihdr += std::string("\x00\x00\x00", 3);  // deflate, adaptive filtering, no interlace
   put_chunk(out, "IHDR", reinterpret_cast<const uint8_t*>(ihdr.data()), ihdr.size());
-  put_chunk(out, "IDAT", z, static_cast<size_t>(zlen));
-  std::free(z);
+  if (speed == PngSpeed::Fast) {
+    uLongf zlen = compressBound(static_cast<uLong>(raw.size()));
+    std::vector<uint8_t> z(zlen);
+    if (compress2(z.data(), &zlen, raw.data(), static_cast<uLong>(raw.size()), 1) != Z_OK)
+      throw std::runtime_error("png: zlib compression failed");
+    put_chunk(out, "IDAT", z.data(), static_cast<size_t>(zlen));
+  } else {
+    int zlen = 0;
+    unsigned char* z = stbi_zlib_compress(raw.data(), static_cast<int>(raw.size()), &zlen, 8);
+    if (!z) throw std::runtime_error("png: zlib compression failed");
+    put_chunk(out, "IDAT", z, static_cast<size_t>(zlen));
+    std::free(z);
+  }
   put_chunk(out, "IEND", nullptr, 0);
   return out;
+}
+
+}  // namespace
+
+std::string encode_png(const uint8_t* pixels, int width, int height, int channels, PngSpeed speed) {
+  if (channels < 1 || channels > 4) throw std::invalid_argument("png: channels must be 1..4, got " + std::to_string(channels));
+  check_size(width, height, channels);
+  if (speed == PngSpeed::Fast) {
+    static constexpr uint8_t kColourType[5] = {0, 0, 4, 2, 6};  // grey, grey+alpha, RGB, RGBA
+    const size_t stride = static_cast<size_t>(width) * static_cast<size_t>(channels);
+    return encode_rows(pixels, stride, static_cast<size_t>(height), static_cast<size_t>(channels), width, height, 8,
+                       kColourType[channels], speed);
+  }
+  std::string out;
+  if (!stbi_write_png_to_func(append_to_string, &out, width, height, channels, pixels, width * channels))
+    throw std::runtime_error("png: stb_image_write failed to encode a " + std::to_string(width) + " x " +
+                             std::to_string(height) + " image");
+  return out;
+}
+
+std::string encode_png_gray16(const uint16_t* samples, int width, int height, PngSpeed speed) {
+  check_size(width, height, 2);
+  const size_t w = static_cast<size_t>(width), h = static_cast<size_t>(height), stride = w * 2;
+  std::vector<uint8_t> be(stride * h);  // PNG samples are big-endian
+  for (size_t i = 0; i < w * h; ++i) {
+    be[2 * i] = static_cast<uint8_t>(samples[i] >> 8);
+    be[2 * i + 1] = static_cast<uint8_t>(samples[i] & 0xFFu);
+  }
+  return encode_rows(be.data(), stride, h, 2, width, height, 16, 0, speed);
 }
 
 void write_png(const std::string& path, const uint8_t* pixels, int width, int height, int channels) {

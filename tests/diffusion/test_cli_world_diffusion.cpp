@@ -41,7 +41,7 @@ void write_weights(const std::vector<nn::ParamSpec>& specs, uint32_t seed, const
 
 }  // namespace
 
-TEST_CASE("cli: icube world build --generator diffusion runs a tiny random model end to end") {
+TEST_CASE("cli: icube world build --generator diffusion runs a tiny random model end to end" * doctest::test_suite("slow-gpu")) {
   test::TempDir tmp("cli-diffusion");
   const std::string dir = tmp.path.string();
   scene::Scene demo = world::make_demo_scene();

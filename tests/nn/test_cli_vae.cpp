@@ -131,7 +131,7 @@ TEST_CASE("cli: icube nn vae decode reproduces vae_small level by level; bad inp
   CHECK(test::run_icube("nn vae decode --help", tmp.path).code == 0);
 }
 
-TEST_CASE("cli: icube nn vae encode a real world chunk, decode it again: structure sizes per level") {
+TEST_CASE("cli: icube nn vae encode a real world chunk, decode it again: structure sizes per level" * doctest::test_suite("slow-gpu")) {
   test::TempDir tmp("cli-vae-encode");
   const std::string scene = (tmp.path / "scene.json").string(), world_path = (tmp.path / "world.icw").string();
   scene::write_scene_json(world::make_demo_scene(), scene);

@@ -53,9 +53,9 @@ FramesRenderStats render_frames(gpu::Context& ctx, OverlayWorld& world, const wo
     const int w = static_cast<int>(img.width), h = static_cast<int>(img.height);
     const std::vector<uint8_t> rgb = img.rgb8(), sky = img.sky_mask8();
     const std::vector<uint16_t> inst = img.instance16();
-    scene::write_file_atomic((fs::path(dir) / "rgb" / name).string(), scene::encode_png(rgb.data(), w, h, 3));
-    scene::write_file_atomic((fs::path(dir) / "sky_mask" / name).string(), scene::encode_png(sky.data(), w, h, 1));
-    scene::write_file_atomic((fs::path(dir) / "instance" / name).string(), scene::encode_png_gray16(inst.data(), w, h));
+    scene::write_file_atomic((fs::path(dir) / "rgb" / name).string(), scene::encode_png(rgb.data(), w, h, 3, scene::PngSpeed::Fast));
+    scene::write_file_atomic((fs::path(dir) / "sky_mask" / name).string(), scene::encode_png(sky.data(), w, h, 1, scene::PngSpeed::Fast));
+    scene::write_file_atomic((fs::path(dir) / "instance" / name).string(), scene::encode_png_gray16(inst.data(), w, h, scene::PngSpeed::Fast));
   };
   FramesMeta meta;
   meta.width = K.width;

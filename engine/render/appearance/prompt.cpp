@@ -115,7 +115,7 @@ const char* time_of_day_name(TimeOfDay t) {
 
 const char* weather_name(Weather w) {
   switch (w) {
-    case Weather::Sunny: return "sunny";
+    case Weather::Sunny: return "clear";
     case Weather::PartlyCloudy: return "partly cloudy";
     case Weather::Overcast: return "overcast";
     case Weather::Rainy: return "rainy";
