@@ -93,7 +93,7 @@ void check_decoded(const nn::VaeDecoded& d, int classes) {
 
 }  // namespace
 
-TEST_CASE("stiff chunks: all-zero conditions and no road, guidance 10, through the tiny UNet and VAE") {
+TEST_CASE("stiff chunks: all-zero conditions and no road, guidance 10, through the tiny UNet and VAE" * doctest::test_suite("slow-gpu")) {
   gpu::Context& ctx = test::gpu_context();
   Models m(ctx);
 

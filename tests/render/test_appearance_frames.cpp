@@ -27,14 +27,42 @@ namespace {
 
 const char* kCamera = "--camera 90,90,52,30,104,60";
 
+// The demo scene and its world, built once for every case of this file (doctest re-runs a
+// case per subcase).
 struct DemoWorld {
   test::TempDir dir{"frames"};
   std::string scene, world;
+  bool ok = false;
   DemoWorld() {
     scene = (dir.path / "scene.json").string();
     world = (dir.path / "world.icw").string();
-    REQUIRE(test::run_icube("world demo-scene -o '" + scene + "'", dir.path).code == 0);
-    REQUIRE(test::run_icube("world build '" + scene + "' -o '" + world + "'", dir.path).code == 0);
+    ok = test::run_icube("world demo-scene -o '" + scene + "'", dir.path).code == 0 &&
+         test::run_icube("world build '" + scene + "' -o '" + world + "'", dir.path).code == 0;
+  }
+};
+
+const DemoWorld& demo_world() {
+  static const DemoWorld d;
+  REQUIRE(d.ok);
+  return d;
+}
+
+// The buffers of frames 10:16:3 and our procedural frames of the same view, made once.
+struct DemoClip {
+  fs::path buf, clip, proc;
+  bool ok = false;
+  explicit DemoClip(const DemoWorld& d) {
+    buf = d.dir.path / "buf";
+    clip = buf / "c";
+    proc = d.dir.path / "proc";
+    ok = test::run_icube("buffers '" + d.world + "' --scene '" + d.scene + "' " + kCamera +
+                             " --frames 10:16:3 --no-video --clip c -o '" + buf.string() + "'",
+                         d.dir.path)
+                 .code == 0 &&
+         test::run_icube("frames render '" + d.world + "' --scene '" + d.scene + "' " + kCamera +
+                             " --frames 10:16:3 -o '" + proc.string() + "'",
+                         d.dir.path)
+                 .code == 0;
   }
 };
 
@@ -55,7 +83,7 @@ void write_rgb(const fs::path& p, int w, int h, uint8_t base) {
 }  // namespace
 
 TEST_CASE("cli: icube frames render writes the frames folder, deterministically, numbered as the buffers") {
-  DemoWorld d;
+  const DemoWorld& d = demo_world();
   const fs::path out1 = d.dir.path / "f1", out2 = d.dir.path / "f2";
   const std::string args = "frames render '" + d.world + "' --scene '" + d.scene + "' " + kCamera +
                            " --frames 10:16:3 --prompt 'A driving scene at dusk, shiny unicorns' --seed 4 -o ";
@@ -85,6 +113,8 @@ TEST_CASE("cli: icube frames render writes the frames folder, deterministically,
   CHECK(meta["poses"].size() == 2);
   // Nothing staged is left beside the output.
   for (const auto& e : fs::directory_iterator(d.dir.path)) CHECK(e.path().filename().string().find(".partial") == std::string::npos);
+  fs::remove_all(out1);
+  fs::remove_all(out2);
 }
 
 TEST_CASE("cli: icube frames render --list-prompts, and a bad argument writes nothing") {
@@ -93,7 +123,7 @@ TEST_CASE("cli: icube frames render --list-prompts, and a bad argument writes no
   CHECK(l.code == 0);
   CHECK(l.output.find("nighttime -> time: night") != std::string::npos);
   CHECK(l.output.find("foggy -> weather") != std::string::npos);
-  DemoWorld d;
+  const DemoWorld& d = demo_world();
   const fs::path out = d.dir.path / "bad";
   const test::CliRun r = test::run_icube("frames render '" + d.world + "' --scene '" + d.scene + "' " + kCamera +
                                              " --frames 3:x -o '" + out.string() + "'",
@@ -103,23 +133,21 @@ TEST_CASE("cli: icube frames render --list-prompts, and a bad argument writes no
   CHECK(!fs::exists(out));
   CHECK(test::run_icube("frames render -o '" + out.string() + "'", d.dir.path).code != 0);
   CHECK(!fs::exists(out));
+  // A frame whose ray hits do not fit one storage binding: a clear error, nothing written.
+  const test::CliRun huge = test::run_icube("frames render '" + d.world + "' --scene '" + d.scene +
+                                                "' --camera 8000,8000,4000,3000,8000,6000 --frames 0:1 -o '" + out.string() + "'",
+                                            d.dir.path);
+  CHECK(huge.code != 0);
+  CHECK(huge.output.find("over one storage binding") != std::string::npos);
+  CHECK(!fs::exists(out));
 }
 
 TEST_CASE("frames import: PNG frames and mp4 matched to the buffers; other counts and aspect ratios refused") {
-  DemoWorld d;
-  const fs::path buf = d.dir.path / "buf";
-  const test::CliRun b = test::run_icube("buffers '" + d.world + "' --scene '" + d.scene + "' " + kCamera +
-                                             " --frames 10:16:3 --no-video --clip c -o '" + buf.string() + "'",
-                                         d.dir.path);
-  INFO(b.output);
-  REQUIRE(b.code == 0);
-  const fs::path clip = buf / "c";
-  // Our own procedural frames of the same view, to compare masks.
-  const fs::path proc = d.dir.path / "proc";
-  REQUIRE(test::run_icube("frames render '" + d.world + "' --scene '" + d.scene + "' " + kCamera + " --frames 10:16:3 -o '" +
-                              proc.string() + "'",
-                          d.dir.path)
-              .code == 0);
+  const DemoWorld& d = demo_world();
+  static const DemoClip c(d);
+  REQUIRE(c.ok);
+  const fs::path& clip = c.clip;
+  const fs::path& proc = c.proc;  // our own procedural frames of the same view, to compare masks
 
   SUBCASE("same size and same aspect ratio") {
     for (const int scale : {1, 2}) {

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <stdexcept>
+#include <string>
 
 namespace icube::render {
 
@@ -82,6 +83,12 @@ void AppearanceRendererGpu::record(gpu::CommandList& cmd, const RaycastWorld& w,
   const shader::AppearanceParams p =
       frame_params(lighting, cp, w, o, static_cast<uint32_t>(frame_lights.size()));
   const uint64_t n = uint64_t{cam.K.width} * cam.K.height;
+  const gpu::DeviceInfo& info = ctx_.info();
+  if (n * sizeof(shader::RaycastHit) > info.max_storage_buffer_range || 3 * n > info.max_texel_buffer_elements)
+    throw std::invalid_argument("frames: a " + std::to_string(cam.K.width) + "x" + std::to_string(cam.K.height) +
+                                " frame needs " + std::to_string(n * sizeof(shader::RaycastHit) >> 20) +
+                                " MiB of ray hits, over one storage binding of this device (" +
+                                std::to_string(info.max_storage_buffer_range >> 20) + " MiB); render a smaller size");
   width_ = cam.K.width;
   height_ = cam.K.height;
   gpu::ensure_capacity(ctx_, hits_, n * sizeof(shader::RaycastHit), "appearance-hits");
