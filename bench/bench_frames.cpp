@@ -110,12 +110,7 @@ bool run_world(gpu::Context& ctx, const std::string& label, const world::VoxelGr
   for (const Variant& v : variants) {
     const render::AppearancePrompt p = render::parse_prompt(v.prompt);
     const shader::AppearanceParams lighting = render::lighting_params(p, 0);
-    std::vector<render::WorldLight> lights;
-    if (render::lamps_on(p)) lights = lamps;
-    if (render::headlights_on(p)) {
-      const auto hl = render::headlights(sc, ti);
-      lights.insert(lights.end(), hl.begin(), hl.end());
-    }
+    const std::vector<render::WorldLight> lights = render::frame_lights(p, lamps, &sc, ti);
     render::AppearanceOptions o;
     o.shadows = v.shadows;
     o.ambient_occlusion = v.ao;

@@ -65,7 +65,7 @@ struct FramesImportArgs {
   std::string input, buffers, output, prompt;
 };
 
-void report_prompt(const render::AppearancePrompt& p, const std::string& text, scene::Diagnostics& diag) {
+void report_prompt(const render::AppearancePrompt& p, scene::Diagnostics& diag) {
   std::fprintf(stderr, "prompt: %s\n", p.summary().c_str());
   if (!p.unknown.empty()) {
     std::string u;
@@ -73,7 +73,6 @@ void report_prompt(const render::AppearancePrompt& p, const std::string& text, s
     diag.warn("--prompt", "", "words not understood (see `icube frames render --list-prompts`): " + u);
   }
   for (const std::string& n : p.notes) diag.warn("--prompt", "", n);
-  (void)text;
 }
 
 // Replaces `final_dir` by the finished staging folder.
@@ -103,7 +102,7 @@ void cmd_frames_render(const FramesRenderArgs& a) {
     if (a.output.empty()) throw std::invalid_argument("give -o FRAMES_DIR");
     refuse_overwriting_input(a.world, a.output);
     const render::AppearancePrompt parsed = render::parse_prompt(a.prompt);
-    report_prompt(parsed, a.prompt, diag);
+    report_prompt(parsed, diag);
     const world::VoxelGrid world = world::load_world(a.world);
     CameraPath cp = resolve_camera_path(a.path, diag);
     const world::TriangleMesh mesh = world::builtin_car_mesh();
@@ -174,16 +173,10 @@ void cmd_frames_sheet(const FramesSheetArgs& a) {
     ProgressBar bar("sheet", "prompts");
     for (size_t i = 0; i < prompts.size(); ++i) {
       const render::AppearancePrompt p = render::parse_prompt(prompts[i]);
-      report_prompt(p, prompts[i], diag);
-      std::vector<render::WorldLight> lights;
-      if (render::lamps_on(p)) {
-        if (!lamps_built) lamps = render::street_lamps(stat), lamps_built = true;
-        lights = lamps;
-      }
-      if (cp.scene && render::headlights_on(p)) {
-        const auto hl = render::headlights(*cp.scene, t.time_index[f]);
-        lights.insert(lights.end(), hl.begin(), hl.end());
-      }
+      report_prompt(p, diag);
+      if (render::lamps_on(p) && !lamps_built) lamps = render::street_lamps(stat), lamps_built = true;
+      const std::vector<render::WorldLight> lights =
+          render::frame_lights(p, lamps, cp.scene ? &*cp.scene : nullptr, t.time_index[f]);
       tiles.emplace_back(p.summary(), renderer.render(overlay.world(), cam, render::lighting_params(p, a.seed), lights,
                                                       render::AppearanceOptions{}));
       bar.update(i + 1, prompts.size());

@@ -29,6 +29,17 @@ bool headlights_on(const AppearancePrompt& p) {
   return lamps_on(p) || p.weather == Weather::Rainy || p.weather == Weather::Foggy;
 }
 
+std::vector<WorldLight> frame_lights(const AppearancePrompt& p, const std::vector<WorldLight>& lamps,
+                                     const scene::Scene* scene, int time_index) {
+  std::vector<WorldLight> lights;
+  if (lamps_on(p)) lights = lamps;
+  if (scene && headlights_on(p)) {
+    const std::vector<WorldLight> hl = headlights(*scene, time_index);
+    lights.insert(lights.end(), hl.begin(), hl.end());
+  }
+  return lights;
+}
+
 FramesRenderStats render_frames(gpu::Context& ctx, OverlayWorld& world, const world::VoxelGrid& static_world,
                                 const scene::Scene* scene, const world::TriangleMesh& mesh,
                                 const PinholeIntrinsics& K, const Trajectory& traj, const std::string& prompt,
@@ -67,11 +78,7 @@ FramesRenderStats render_frames(gpu::Context& ctx, OverlayWorld& world, const wo
   for (size_t f = 0; f < traj.size(); ++f) {
     const int ti = traj.time_index[f];
     cars.set_time(ti, car_costs);
-    std::vector<WorldLight> lights = lamps;
-    if (scene && headlights_on(parsed)) {
-      const std::vector<WorldLight> hl = headlights(*scene, ti);
-      lights.insert(lights.end(), hl.begin(), hl.end());
-    }
+    const std::vector<WorldLight> lights = frame_lights(parsed, lamps, scene, ti);
     st.max_lights = std::max(st.max_lights, lights.size());
     Camera cam;
     cam.K = K;

@@ -34,6 +34,10 @@ struct FramesRenderStats {
 
 bool lamps_on(const AppearancePrompt& p);
 bool headlights_on(const AppearancePrompt& p);
+// The lights of one frame: `lamps` (street_lamps of the static world) when lamps_on, plus the
+// headlights of `scene`'s dynamic cars at `time_index` when headlights_on (scene may be null).
+std::vector<WorldLight> frame_lights(const AppearancePrompt& p, const std::vector<WorldLight>& lamps,
+                                     const scene::Scene* scene, int time_index);
 
 // Writes rgb/, sky_mask/, instance/ and frames_meta.json into `dir` (which must exist).
 // `scene` may be null (no dynamic cars, no headlights); `static_world` is the world the overlay holds.
