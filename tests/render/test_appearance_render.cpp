@@ -274,3 +274,39 @@ TEST_CASE("appearance: shadows and ambient occlusion darken, night is darker tha
   INFO("far contrast: clear " << c_clear << ", fog " << c_fog);
   CHECK(c_fog < 0.5 * c_clear);
 }
+
+TEST_CASE("appearance/shadow_rays: the building's shadow on the ground, where the CPU's sun ray is blocked") {
+  gpu::Context& ctx = test::gpu_context();
+  const world::VoxelGrid g = town(glm::dvec3(0.0));
+  const render::RaycastWorld rw = render::upload_raycast_world(ctx, g);
+  render::AppearanceRendererGpu r(ctx);
+  const auto lp = render::lighting_params(render::parse_prompt("sunny afternoon"), 0);
+  const render::Camera cam = camera(91, 57, {-4.0, -2.0, 6.0}, {12.0, 6.0, 0.0});
+  render::AppearanceOptions lit_o, dark_o;
+  lit_o.shadows = false;
+  lit_o.ambient_occlusion = dark_o.ambient_occlusion = false;
+  const render::AppearanceImage with = r.render(rw, cam, lp, {}, dark_o), without = r.render(rw, cam, lp, {}, lit_o);
+  // The CPU decides each ground pixel's sun visibility from the same origin rule as shadow_rays.comp.
+  const std::vector<render::RayResult> hits = render::cast_camera_cpu(g, cam, {});
+  const glm::dvec3 sun(lp.sun_x, lp.sun_y, lp.sun_z);
+  size_t shadowed = 0, agree = 0, ground = 0;
+  for (size_t i = 0; i < hits.size(); ++i) {
+    if (!hits[i].sem_hit || hits[i].normal != 3) continue;  // up-facing faces
+    ++ground;
+    const render::Ray ray = render::camera_ray(cam, static_cast<uint32_t>(i % cam.K.width),
+                                               static_cast<uint32_t>(i / cam.K.width), render::PixelConvention::Integer);
+    render::Ray sr;
+    sr.origin = ray.origin + ray.dir * hits[i].t_sem + glm::dvec3(0.0, 0.0, 0.02 * g.voxel_size());
+    sr.dir = sun;
+    render::RaycastOptions so;
+    so.t_max = 150.0;
+    const bool blocked = render::cast_ray_cpu(g, render::raycast_bounds(g), sr, so).sem_hit;
+    shadowed += blocked;
+    const bool darker = luminance(with.rgba[i]) < luminance(without.rgba[i]) - 1.0;
+    agree += darker == blocked;
+  }
+  INFO(ground << " ground pixels, " << shadowed << " in the CPU's shadow, " << agree << " agree");
+  REQUIRE(ground > 500);
+  CHECK(shadowed > 50);
+  CHECK(agree >= ground * 99 / 100);
+}
