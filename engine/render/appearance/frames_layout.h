@@ -7,7 +7,8 @@
 //   frames_meta.json      {"format": "icube-frames", "version": 1, "source": "procedural" | "import",
 //                          "width", "height", "count", "prompt", "appearance" (parsed prompt), "seed",
 //                          "source_frame_indices", "source_time_indices", "camera" [fx, fy, cx, cy, w, h],
-//                          "poses" (OpenCV camera-to-world 4x4 row-major per frame, our world frame)}
+//                          "poses" (OpenCV camera-to-world 4x4 row-major per frame, our world frame),
+//                          "pixels": "integer" | "centre" (the rays' pixel convention; absent: integer)}
 //
 // NNNNNN = 0 ... count - 1 as the guidance buffers number their frames (the
 // same trajectory and --frames selection give the same numbers).
@@ -33,10 +34,15 @@ struct FramesMeta {
   std::vector<int> source_frame_indices, source_time_indices;
   PinholeIntrinsics K;
   std::vector<glm::dmat4> poses;
+  PixelConvention pixels = PixelConvention::Integer;
   std::vector<std::string> notes;
 };
 
 std::string frame_file_name(size_t index);  // "000012.png"
 std::string frames_meta_json(const FramesMeta& m);
+// Reads DIR/frames_meta.json and checks that every frame's rgb/, sky_mask/ and instance/ PNG
+// exists. Throws scene::InputError "FILE: /json/pointer: what" for a malformed or inconsistent
+// file (poses not one per frame, non-finite or non-rigid poses, a bad camera, a missing PNG).
+FramesMeta read_frames_meta(const std::string& dir);
 
 }  // namespace icube::render

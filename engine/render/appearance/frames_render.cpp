@@ -75,6 +75,7 @@ FramesRenderStats render_frames(gpu::Context& ctx, OverlayWorld& world, const wo
   meta.parsed = parsed;
   meta.seed = o.seed;
   meta.K = K;
+  meta.pixels = o.appearance.pixels;
   for (size_t f = 0; f < traj.size(); ++f) {
     const int ti = traj.time_index[f];
     cars.set_time(ti, car_costs);

@@ -1,0 +1,67 @@
+// Stage 3 over an appearance-frames folder (render/appearance/frames_layout.h):
+// the static Gaussians and the sky lifted from the key frames (static_lift.h,
+// sky_fit.h; the per-pixel first hits from the GPU ray caster on the static
+// world the frames were rendered from), and the held-out evaluation: the
+// Gaussians rendered by the GPU splatting rasterizer with the fitted sky at
+// frames not used for lifting, against those frames, as PSNR over the pixels
+// that are not dynamic objects (instance < 10000; the static Gaussians do not
+// hold the moving cars).
+// Key frames: every `key_every`-th frame from 0; held-out frames: the others,
+// or all frames with key_every 1 (then the figures are training-view figures).
+// Tests: tests/lift/test_static_lift.cpp.
+#pragma once
+
+#include "gpu/context.h"
+#include "lift/static_lift.h"
+#include "render/appearance/frames_layout.h"
+#include "splat/sky.h"
+
+#include <functional>
+#include <string>
+#include <vector>
+
+namespace icube::lift {
+
+struct LiftFramesOptions {
+  LiftOptions lift;
+  size_t key_every = 2;
+  size_t max_eval_frames = 4;  // held-out frames rendered for the figures (evenly spread)
+  std::function<void(const char* stage, size_t done, size_t total)> progress;
+};
+
+struct EvalFrame {
+  size_t frame = 0;
+  double psnr = 0.0;       // dB over the static pixels (instance < 10000)
+  double mse = 0.0;        // mean squared error in [0, 1] units over the same pixels
+  size_t pixels = 0;
+  double render_s = 0.0;   // GPU render of the frame (upload excluded)
+  std::vector<uint8_t> rendered_rgb;  // W·H·3
+};
+
+struct LiftFramesResult {
+  splat::GaussianCloud cloud;
+  splat::SkyImage sky;
+  LiftStats stats;
+  std::vector<size_t> key_frames;
+  size_t samples = 0, sky_samples = 0;
+  double cast_s = 0.0, accumulate_s = 0.0, emit_s = 0.0, eval_s = 0.0;
+  std::vector<EvalFrame> eval;
+  double mean_psnr() const;
+};
+
+// The frames' images as the lifting reads them.
+struct FrameImages {
+  std::vector<uint8_t> rgb, sky;
+  std::vector<uint16_t> instance;
+};
+FrameImages read_frame_images(const std::string& dir, const render::FramesMeta& meta, size_t frame);
+
+render::Camera frame_camera(const render::FramesMeta& meta, size_t frame);
+
+LiftFramesResult lift_frames(gpu::Context& ctx, const world::VoxelGrid& static_world, const std::string& frames_dir,
+                             const render::FramesMeta& meta, const LiftFramesOptions& o);
+
+// PSNR (dB) from a mean squared error in [0, 1] units (99 dB for a zero error).
+double psnr_from_mse(double mse);
+
+}  // namespace icube::lift
