@@ -71,6 +71,8 @@ Context::Context(const ContextOptions& options) : options_(options) {
     devices_ = query_devices(instance_);
     info_ = select_device(devices_, options_.device);
     if (options_.disable_push_descriptors) info_.push_descriptor = false;
+    if (options_.max_storage_binding != 0)
+      info_.max_storage_buffer_range = std::min(info_.max_storage_buffer_range, options_.max_storage_binding);
     create_device();
     null_buffer_ = std::make_unique<Buffer>(*this, 256, MemoryUsage::DeviceLocal, "null-binding");
     submit_and_wait([&](CommandList& cmd) { cmd.fill_buffer(null_buffer_->binding(), 0u); });

@@ -29,6 +29,9 @@ struct ContextOptions {
   bool force_staging = false;  // never map device-local memory, always go through staging (tests)
   bool disable_push_descriptors = false;  // use pooled descriptor sets even where push descriptors exist (tests)
   bool headless = true;        // no surface extensions (the viewer turns this off)
+  // Caps maxStorageBufferRange as kernels see it (0: the device's): the windowed paths for data
+  // over one binding run on devices whose bindings are GiBs (tests; lavapipe's is 128 MiB).
+  uint64_t max_storage_binding = 0;
   std::vector<const char*> extra_instance_extensions;
   std::vector<const char*> extra_device_extensions;  // e.g. VK_KHR_swapchain for the viewer
 

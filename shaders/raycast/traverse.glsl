@@ -55,7 +55,19 @@
 
 const float RAYCAST_BIG = 3.0e38;
 
-float raycast_plane_t(int plane, float o, float dd) { return (float(plane) - o) / dd; }
+// The time of a voxel plane, correctly rounded: Vulkan lets a driver divide as a · rcp(b)
+// (2.5 ulp; NVIDIA's does), which breaks the exact ties of planes crossed at one time (a ray
+// through a voxel edge) that the CPU reference and IEEE-dividing drivers (lavapipe) resolve in
+// x, y, z order. One residual step, r = a − q·b exact in an FMA, rounds the quotient as IEEE
+// division does; on a correctly rounding driver it returns q unchanged. Infinite quotients
+// (a grazing ray's far planes) pass through, as the residual would be NaN.
+float raycast_plane_t(int plane, float o, float dd) {
+  precise const float a = float(plane) - o;
+  precise const float q = a / dd;
+  if (isinf(q)) return q;
+  precise const float r = fma(-q, dd, a);
+  return fma(r, 1.0 / dd, q);
+}
 int raycast_enter_plane(int v, int st) { return st > 0 ? v : v + 1; }
 int raycast_exit_plane(int v, int st) { return st > 0 ? v + 1 : v; }
 

@@ -93,7 +93,9 @@ void main() {
       ncols = p.tiles_x;
     } else if (len > 0) {
       const int C = int(p.columns);
-      const int cl = ((c_lo % C) + C) % C;
+      // c_lo mod C with non-negative operands only: GLSL leaves % of a negative operand
+      // undefined, and NVIDIA's driver returned wrong columns at the wrap with it.
+      const int cl = c_lo >= 0 ? c_lo % C : C - 1 - (-(c_lo + 1)) % C;
       const int ce = cl + len - 1;
       const int t0 = cl / SPLAT_LIDAR_TILE_COLS;
       if (ce < C) {

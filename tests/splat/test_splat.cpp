@@ -52,6 +52,7 @@ bool close(float got, float want, double atol, double rtol) {
 
 struct Compare {
   size_t visible = 0, instances = 0, band = 0, pixels = 0, equal_keys = 0;
+  size_t swapped = 0;  // list entries where the GPU's order differs from the CPU's by a depth tie
   double max_interior = 0.0;
   double band_median = 0.0;  // largest relative median-depth error inside the band
 };
@@ -67,14 +68,18 @@ Compare compare(splat::SplatRendererGpu& gpu, const splat::GaussianCloud& cloud,
   const auto proj = splat::preprocess_cpu(cloud, cam, opts);
   const auto f = splat::make_frame(cam, opts, glm::dvec3(0.0));
   const auto bins = splat::bin_cpu(proj, f.grid_x, f.grid_y, rule);
-  const splat::SplatImage ci = splat::blend_cpu(proj, bins, cam, opts);
 
   REQUIRE(dbg.proj.size() == proj.size());
-  size_t bad = 0;
+  size_t bad = 0, radius_steps = 0;
   for (size_t i = 0; i < proj.size(); ++i) {
     const auto& a = dbg.proj[i];
     const auto& b = proj[i];
-    if ((a.radius > 0) != (b.radius > 0) || a.radius != b.radius) {
+    // The radius is ceil(3σ) of the 2-D covariance: where 3σ lands within float rounding of an
+    // integer (42000 in the degenerate set) a device whose sqrt or FMA rounds differently from the
+    // CPU's double gives the next integer. One step is allowed there, counted and bounded below.
+    const bool ceil_step = a.radius > 0 && b.radius > 0 && std::fabs(double(a.radius) - double(b.radius)) == 1.0;
+    if (ceil_step) ++radius_steps;
+    if ((a.radius > 0) != (b.radius > 0) || (a.radius != b.radius && !ceil_step)) {
       if (bad++ < 5) std::printf("  Gaussian %zu: radius gpu %g cpu %g\n", i, double(a.radius), double(b.radius));
       continue;
     }
@@ -93,6 +98,7 @@ Compare compare(splat::SplatRendererGpu& gpu, const splat::GaussianCloud& cloud,
   }
   INFO("splat/preprocess.comp: radii, means, conics, depths, opacities, colours");
   CHECK(bad == 0);
+  CHECK(radius_steps <= 1 + r.visible / 100);
   r.instances = bins.keys.size();
   // Tile-intersection lists: the (tile, Gaussian) sequence must be identical. The depth
   // word of the key is the float view z, compared within 1e-4 above (CPU: μ − camera in
@@ -108,7 +114,8 @@ Compare compare(splat::SplatRendererGpu& gpu, const splat::GaussianCloud& cloud,
       if (v < seen.size()) ++seen[v];
     size_t bad_counts = 0;
     for (size_t i = 0; i < proj.size(); ++i) {
-      const uint32_t want = splat::tile_count(proj[i], f.grid_x, f.grid_y, rule);
+      // The GPU's own projection: sorted_counts must bin what preprocess produced.
+      const uint32_t want = splat::tile_count(dbg.proj[i], f.grid_x, f.grid_y, rule);
       if (seen[i] != want && bad_counts++ < 5) std::printf("  Gaussian %zu: %u instances, want %u\n", i, seen[i], want);
     }
     INFO("splat/preprocess.comp tile counts + splat/sorted_counts.comp + scan: instances per Gaussian = the tiles "
@@ -120,10 +127,31 @@ Compare compare(splat::SplatRendererGpu& gpu, const splat::GaussianCloud& cloud,
   size_t same_keys = 0;
   for (size_t i = 0; i < std::min(dbg.keys.size(), bins.keys.size()); ++i) same_keys += dbg.keys[i] == bins.keys[i];
   r.equal_keys = same_keys;
-  CHECK(test::equal_report(dbg.values, bins.values, "values"));
+  // The Gaussians per tile in the same order, except that two whose depths tie within the
+  // preprocess tolerance above may swap (the GPU's float depths are rounded differently from
+  // the CPU's; drivers that contract a·b + c into an FMA, as NVIDIA's does, round differently again).
+  size_t order_bad = 0, swapped = 0;
+  for (size_t k = 0; k < std::min(dbg.values.size(), bins.values.size()); ++k) {
+    const uint32_t a = dbg.values[k], b = bins.values[k];
+    if (a == b) continue;
+    ++swapped;
+    const bool tie = a < proj.size() && b < proj.size() && gt[k] == ct[k] &&
+                     close(proj[a].depth, proj[b].depth, 1e-4, 1e-4);
+    if (!tie && order_bad++ < 5)
+      std::printf("  list entry %zu: Gaussian %u (gpu) against %u (cpu), not a depth tie\n", k, a, b);
+  }
+  CHECK(dbg.values.size() == bins.values.size());
+  CHECK(order_bad == 0);
+  r.swapped = swapped;
   INFO("splat/ranges.comp: per-tile ranges");
   CHECK(test::equal_report(dbg.ranges, bins.ranges, "ranges"));
   INFO("splat/blend.comp: RGBA and expected/median depth per pixel");
+  // The CPU blend in the GPU's list order (equal to the CPU's up to the depth ties checked above):
+  // swapping two overlapping Gaussians changes the composite by α₁α₂(c₁ − c₂), which no pixel
+  // tolerance can hold, while the blend kernel itself must match the CPU's blend of the same list.
+  splat::TileBins gpu_order = bins;
+  if (swapped != 0 && order_bad == 0) gpu_order.values = dbg.values;
+  const splat::SplatImage ci = splat::blend_cpu(proj, gpu_order, cam, opts);
 
   r.pixels = size_t{gi.width} * gi.height;
   REQUIRE(gi.rgba.size() == ci.rgba.size());
@@ -170,7 +198,7 @@ Compare compare(splat::SplatRendererGpu& gpu, const splat::GaussianCloud& cloud,
 
 void report(const std::string& what, const Compare& c) {
   MESSAGE(what << ": " << c.visible << " visible, " << c.instances << " tile instances (" << c.equal_keys
-               << " with bit-identical 64-bit keys), boundary band " << c.band
+               << " with bit-identical 64-bit keys, " << c.swapped << " swapped depth ties), boundary band " << c.band
                << " of " << c.pixels << " pixels (" << 100.0 * double(c.band) / double(std::max<size_t>(1, c.pixels))
                << " %, median depth only, max rel. error " << c.band_median << "), max interior diff " << c.max_interior);
 }
