@@ -71,6 +71,7 @@ Buffer::Buffer(Context& ctx, VkDeviceSize size, MemoryUsage usage, const std::st
   bool map = (props & VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT) &&
              !(usage == MemoryUsage::DeviceLocal && ctx.options().force_staging);
   if (map) VK_CHECK(vkMapMemory(ctx.device(), memory_, 0, VK_WHOLE_SIZE, 0, &mapped_));
+  host_cached_ = map && (props & VK_MEMORY_PROPERTY_HOST_CACHED_BIT) != 0;
   if (info.buffer_device_address) {
     VkBufferDeviceAddressInfo ai{VK_STRUCTURE_TYPE_BUFFER_DEVICE_ADDRESS_INFO};
     ai.buffer = buffer_;
@@ -90,6 +91,7 @@ void Buffer::release() {
   buffer_ = VK_NULL_HANDLE;
   memory_ = VK_NULL_HANDLE;
   mapped_ = nullptr;
+  host_cached_ = false;
 }
 
 Buffer::Buffer(Buffer&& o) noexcept { *this = std::move(o); }
@@ -102,6 +104,7 @@ Buffer& Buffer::operator=(Buffer&& o) noexcept {
     memory_ = std::exchange(o.memory_, VK_NULL_HANDLE);
     size_ = std::exchange(o.size_, 0);
     mapped_ = std::exchange(o.mapped_, nullptr);
+    host_cached_ = std::exchange(o.host_cached_, false);
     address_ = std::exchange(o.address_, 0);
     name_ = std::move(o.name_);
   }
@@ -170,7 +173,7 @@ void upload(Context& ctx, const Buffer& dst, const void* src, size_t bytes, VkDe
 void download(Context& ctx, const Buffer& src, void* dst, size_t bytes, VkDeviceSize src_offset) {
   if (src_offset + bytes > src.size())
     throw std::out_of_range("download from '" + src.name() + "' past its end");
-  if (src.mapped()) {
+  if (src.mapped() && src.host_cached()) {
     std::memcpy(dst, static_cast<const char*>(src.mapped()) + src_offset, bytes);
     return;
   }

@@ -62,6 +62,10 @@ class Buffer {
   bool valid() const { return buffer_ != VK_NULL_HANDLE; }
   // Non-null when the memory is host-visible and persistently mapped.
   void* mapped() const { return mapped_; }
+  // The mapping is host-cached: CPU reads are fast. A discrete GPU's host-visible device-local
+  // memory (resizable BAR) is write-combined: writes stream, but each CPU read crosses the bus
+  // uncached (a 3 MiB frame read took ~100 ms on an H200), so download() stages those.
+  bool host_cached() const { return host_cached_; }
   VkDeviceAddress device_address() const { return address_; }
 
   BufferBinding binding() const { return {buffer_, 0, size_}; }
@@ -80,6 +84,7 @@ class Buffer {
   VkDeviceMemory memory_ = VK_NULL_HANDLE;
   VkDeviceSize size_ = 0;
   void* mapped_ = nullptr;
+  bool host_cached_ = false;
   VkDeviceAddress address_ = 0;
   std::string name_;
 };
@@ -99,8 +104,9 @@ std::vector<ElementWindow> storage_windows(const DeviceInfo& info, uint64_t elem
                                            uint64_t multiple_of = 1, uint64_t max_bytes = 0);
 
 // Host <-> device copies. Mapped device-local buffers are written directly
-// (unless ContextOptions::force_staging); others go through staging buffers in
-// chunks, so a 300 MiB upload never needs 300 MiB of staging memory.
+// (unless ContextOptions::force_staging) and read directly when host-cached
+// (integrated GPUs, lavapipe); others go through staging buffers in chunks, so
+// a 300 MiB upload never needs 300 MiB of staging memory.
 void upload(Context& ctx, const Buffer& dst, const void* src, size_t bytes, VkDeviceSize dst_offset = 0);
 void download(Context& ctx, const Buffer& src, void* dst, size_t bytes, VkDeviceSize src_offset = 0);
 
