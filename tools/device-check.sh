@@ -1,0 +1,71 @@
+#!/usr/bin/env bash
+# The checks for a lent GPU machine (the workplace's `device` tool), as one
+# prepared run: the test suite under the validation layer on the real driver
+# (tests), one forward of the released diffusion UNet at the 64^3 chunk latent
+# (unet: issue 18's measurement), the benchmarks' GPU timings (bench) and the
+# demo town through Stages 1-3 with the CLI (lift). Pack first on this machine
+# with tools/device-pack.sh; .gl/ holds Debian's libglvnd .debs (the NVIDIA
+# ICD needs libGLdispatch; see the device tool's README). Then run:
+#   run(command="tools/device-check.sh [unet] [tests] [bench] [lift]", carry=[".dev", ".gl"], timeout_s=560)
+# Every step has its own time limit so the whole run ends inside the lease;
+# logs go to $OUT (the tool brings them back), a summary is printed last.
+set -u
+cd "$(dirname "$0")/.."
+out=${OUT:-/tmp/device-out}
+mkdir -p "$out" /tmp/dev
+t0=$(date +%s)
+tar -C /tmp/dev -xJf .dev/lib.tar.xz && tar -C /tmp/dev -xJf .dev/bin.tar.xz || { echo "unpack failed"; exit 1; }
+# libglvnd (the NVIDIA ICD's libGLX_nvidia needs it), carried as Debian .debs in .gl/.
+for deb in .gl/*.deb; do [[ -f $deb ]] && dpkg -x "$deb" /tmp/dev/gl; done
+export LD_LIBRARY_PATH=/tmp/dev/lib:/tmp/dev/gl/usr/lib/x86_64-linux-gnu VK_LAYER_PATH=/tmp/dev/layers
+nv_icd=/usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json
+[[ -f $nv_icd ]] && export VK_DRIVER_FILES=$nv_icd
+# The test binary looks for assets under the checkout it was built in.
+built_in=/work/main
+if [[ ! -e $built_in/assets ]]; then mkdir -p "$(dirname $built_in)" && ln -sfn "$PWD" "$built_in"; fi
+bin=/tmp/dev/bin
+steps="$*"  # a subset of: unet tests bench lift (default: all)
+summary=()
+step() {  # step NAME LIMIT_S CMD...: runs CMD with a limit, log in $out/NAME.txt
+  local name=$1 limit=$2; shift 2
+  local s; s=$(date +%s)
+  timeout -s KILL "$limit" "$@" >"$out/$name.txt" 2>&1
+  local rc=$? e=$(( $(date +%s) - s ))
+  summary+=("$(printf '%-14s rc %3d  %4d s' "$name" "$rc" "$e")")
+  echo "== $name: rc $rc, $e s (t+$(( $(date +%s) - t0 )) s)"
+  tail -n 25 "$out/$name.txt"
+}
+nvidia-smi --query-gpu=name,driver_version,clocks.sm,memory.used --format=csv 2>&1 | tee "$out/gpu.txt"
+ls /usr/local/nvidia/share/vulkan/icd.d /usr/share/vulkan/icd.d /etc/vulkan/icd.d 2>&1 | head
+step devices 30 env VK_LOADER_DEBUG=error,warn,driver "$bin/icube" devices
+grep -q "H200" "$out/devices.txt" || { echo "no NVIDIA Vulkan device: stopping"; exit 1; }
+want() { [[ $# -eq 0 || " $steps " == *" $1 "* ]]; }
+if want unet; then
+  # Issue 18: one forward of the released UNet (812 M parameters) at 64^3, batch 1, fp32 and fp16 weights.
+  step unet64 160 "$bin/icube-bench-nn" --only none --unet infinicube-diffusion --unet-grid 64 64 64 \
+    --unet-no-cpu --runs 5 --warmup 1
+  step unet64_fp16 80 "$bin/icube-bench-nn" --only none --unet infinicube-diffusion --unet-grid 64 64 64 \
+    --unet-no-cpu --unet-precision fp16 --runs 5 --warmup 1
+fi
+if want tests; then
+  # The whole suite on the real driver, validation layer on (data-set cases skip: no ../shared here).
+  step tests 170 "$bin/icube-tests" --duration=true
+  grep -E "^\[doctest\] (test cases|assertions)|Status:" "$out/tests.txt" | tail -3
+fi
+if want bench; then
+  step bench_splat 45 "$bin/icube-bench-splat" --gaussians 1000000 --sizes 1920x1080 --runs 5 --no-cpu
+  step bench_raycast 45 "$bin/icube-bench-raycast" --case demo --runs 5 --cpu-threads 16
+  step bench_frames 40 "$bin/icube-bench-frames" --runs 5 --warmup 1
+  step bench_lift 90 "$bin/icube-bench-lift" --runs 5 --warmup 1
+fi
+if want lift; then
+  # Stage 1 to 3 on the demo town with the CLI, timed: world, 30 frames, lift.
+  d=/tmp/dev/demo; mkdir -p $d
+  "$bin/icube" world demo-scene -o $d/scene.json >/dev/null 2>&1
+  step demo_world 60 "$bin/icube" world build $d/scene.json -o $d/world.icw
+  step demo_frames 60 "$bin/icube" frames render $d/world.icw --scene $d/scene.json --frames 0:60:2 -o $d/frames
+  step demo_lift 60 "$bin/icube" lift $d/world.icw $d/frames --scene $d/scene.json -o $d/lifted
+  cp $d/lifted/eval.png "$out/" 2>/dev/null
+fi
+echo "== summary (t+$(( $(date +%s) - t0 )) s)"
+printf '%s\n' "${summary[@]}"
