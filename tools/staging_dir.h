@@ -1,10 +1,14 @@
 // A command's output staging folder: PARENT/.NAME.partial-PID, created empty (an
-// earlier one of the same name removed) and removed again when the command fails,
-// unless `keep` is set once its contents have been renamed into place.
+// earlier one of the same name removed, and those of processes that no longer
+// run: left by a run killed from outside) and removed again when the command
+// fails, unless `keep` is set once its contents have been renamed into place.
 #pragma once
 
+#include <signal.h>
 #include <unistd.h>
 
+#include <cerrno>
+#include <cstdlib>
 #include <filesystem>
 #include <string>
 #include <system_error>
@@ -17,6 +21,14 @@ struct StagingDir {
   StagingDir(const std::filesystem::path& parent, const std::string& name)
       : path(parent / ("." + name + ".partial-" + std::to_string(getpid()))) {
     std::filesystem::create_directories(parent);
+    const std::string stale = "." + name + ".partial-";
+    std::error_code ec;
+    for (const auto& e : std::filesystem::directory_iterator(parent, ec)) {
+      const std::string f = e.path().filename().string();
+      if (f.rfind(stale, 0) != 0) continue;
+      const long pid = std::strtol(f.c_str() + stale.size(), nullptr, 10);
+      if (pid > 0 && kill(static_cast<pid_t>(pid), 0) == -1 && errno == ESRCH) std::filesystem::remove_all(e.path(), ec);
+    }
     std::filesystem::remove_all(path);
     std::filesystem::create_directories(path);
   }

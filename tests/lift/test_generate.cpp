@@ -1,0 +1,75 @@
+// `icube generate` end to end on the demo town at a small camera: the package
+// (world, buffers, frames, Gaussians, manifest) with every file's SHA-256 in
+// the manifest, the same bytes from a second run, the Gaussians loadable by the
+// splat scene reader, and bad input refused with nothing written.
+#include <doctest/doctest.h>
+
+#include "cli_test_util.h"
+#include "scene/atomic_file.h"
+#include "scene/sha256.h"
+#include "splat/splat_scene.h"
+
+#include <nlohmann/json.hpp>
+
+#include <filesystem>
+#include <string>
+
+using namespace icube;
+namespace fs = std::filesystem;
+
+TEST_CASE("cli: icube generate writes a complete package, the same bytes twice, and refuses bad input" *
+          doctest::test_suite("slow-gpu")) {
+  test::TempDir dir("generate");
+  const std::string scene = (dir.path / "scene.json").string();
+  REQUIRE(test::run_icube("world demo-scene -o '" + scene + "'", dir.path).code == 0);
+  const std::string args = "generate '" + scene + "' --camera 180,180,104,60,208,120 --frames 20:32:2 --no-video ";
+  const fs::path pkg = dir.path / "pkg", pkg2 = dir.path / "pkg2";
+  const test::CliRun r = test::run_icube(args + "-o '" + pkg.string() + "'", dir.path);
+  INFO(r.output);
+  REQUIRE(r.code == 0);
+  CHECK(r.output.find("stage") != std::string::npos);  // the summary table
+  for (const char* f : {"world.icw", "manifest.json", "buffers/contact_sheet.png", "frames/frames_meta.json",
+                        "gaussians/gaussians_static.ply", "gaussians/sky.png", "gaussians/scene.json",
+                        "gaussians/lift_report.json", "gaussians/eval.png"})
+    CHECK_MESSAGE(fs::is_regular_file(pkg / f), f);
+  const auto m = nlohmann::json::parse(scene::read_file((pkg / "manifest.json").string()));
+  CHECK(m["format"] == "icube-package");
+  CHECK(m["version"] == 1);
+  CHECK(m["frames"] == 6);
+  CHECK(m["stages"].size() == 4);
+  CHECK(m["inputs"]["scene_sha256"] == scene::sha256_file(scene));
+  // Every file but the manifest is listed with its hash, and nothing else is.
+  size_t listed = 0;
+  for (const auto& e : fs::recursive_directory_iterator(pkg)) {
+    if (!e.is_regular_file() || e.path().filename() == "manifest.json") continue;
+    const std::string rel = fs::relative(e.path(), pkg).generic_string();
+    REQUIRE_MESSAGE(m["files"].contains(rel), rel);
+    CHECK(m["files"][rel] == scene::sha256_file(e.path().string()));
+    ++listed;
+  }
+  CHECK(listed == m["files"].size());
+  const splat::SplatScene sc = splat::read_splat_scene((pkg / "gaussians" / "scene.json").string());
+  CHECK(sc.static_set.size() > 1000);
+  // Same inputs and seed: the same package bytes.
+  REQUIRE(test::run_icube(args + "-o '" + pkg2.string() + "'", dir.path).code == 0);
+  CHECK(scene::read_file((pkg / "manifest.json").string()) == scene::read_file((pkg2 / "manifest.json").string()));
+
+  // Bad input: a missing scene, a corrupt --world. One-line errors, no package, no staging left.
+  // A staging folder left by a killed run (a PID that does not run) is removed by the next run.
+  const fs::path none = dir.path / "none", stale = dir.path / ".pkg.partial-999999999";
+  fs::create_directories(stale / "frames");
+  REQUIRE(test::run_icube(args + "-o '" + pkg.string() + "'", dir.path).code == 0);
+  CHECK_FALSE(fs::exists(stale));
+  test::CliRun e = test::run_icube("generate '" + (dir.path / "missing.json").string() + "' -o '" + none.string() + "'",
+                                   dir.path);
+  CHECK(e.code != 0);
+  CHECK(e.output.find("missing.json") != std::string::npos);
+  const std::string bad_world = (dir.path / "bad.icw").string();
+  scene::write_file_atomic(bad_world, "not a world");
+  e = test::run_icube(args + "--world '" + bad_world + "' -o '" + none.string() + "'", dir.path);
+  CHECK(e.code != 0);
+  CHECK(e.output.find("bad.icw") != std::string::npos);
+  CHECK_FALSE(fs::exists(none));
+  for (const auto& f : fs::directory_iterator(dir.path))
+    CHECK_MESSAGE(f.path().filename().string().find(".partial-") == std::string::npos, f.path().string());
+}
