@@ -24,6 +24,7 @@
 
 #include "gpu/context.h"
 #include "lift/lift_frames.h"
+#include "lift/lift_output.h"
 #include "render/appearance/frames_render.h"
 #include "render/appearance/prompt.h"
 #include "render/buffers/contact_sheet.h"
@@ -32,9 +33,7 @@
 #include "render/buffers/overlay_world.h"
 #include "render/buffers/stage2_writer.h"
 #include "scene/atomic_file.h"
-#include "scene/png_write.h"
 #include "scene/sha256.h"
-#include "splat/splat_scene.h"
 #include "world/car_mesh.h"
 #include "world/procedural/procedural_prior.h"
 #include "world/world_build.h"
@@ -91,46 +90,6 @@ std::vector<std::string> package_files(const fs::path& root) {
     if (e.is_regular_file()) out.push_back(fs::relative(e.path(), root).generic_string());
   std::sort(out.begin(), out.end());
   return out;
-}
-
-void write_lift_outputs(const fs::path& dir, const lift::LiftFramesResult& r, const render::FramesMeta& meta,
-                        size_t key_every, int per_cell) {
-  fs::create_directories(dir);
-  splat::write_gaussians_ply((dir / "gaussians_static.ply").string(), r.cloud);
-  scene::write_file_atomic((dir / "sky.png").string(),
-                           scene::encode_png(r.sky.rgba.data(), int(r.sky.width), int(r.sky.height), 4));
-  nlohmann::ordered_json sj;
-  sj["format"] = splat::kSplatSceneFormat;
-  sj["version"] = splat::kSplatSceneVersion;
-  sj["static"] = "gaussians_static.ply";
-  scene::write_file_atomic((dir / "scene.json").string(), sj.dump(1) + "\n");
-  nlohmann::ordered_json rep;
-  rep["format"] = "icube-lift-report";
-  rep["version"] = 1;
-  rep["frames"] = meta.poses.size();
-  rep["key_frames"] = r.key_frames;
-  rep["options"] = {{"key_every", key_every}, {"gaussians_per_cell", per_cell}};
-  rep["samples"] = r.samples;
-  rep["gaussians"] = {{"total", r.cloud.size()}, {"surface", r.stats.surface_gaussians}, {"hidden", r.stats.hidden_gaussians}};
-  nlohmann::ordered_json ev = nlohmann::ordered_json::array();
-  for (const lift::EvalFrame& e : r.eval) ev.push_back({{"frame", e.frame}, {"psnr_db", e.psnr}, {"pixels", e.pixels}});
-  rep["held_out"] = ev;
-  rep["mean_psnr_db"] = r.mean_psnr();
-  scene::write_file_atomic((dir / "lift_report.json").string(), rep.dump(1) + "\n");
-  if (r.eval.empty()) return;
-  // Held-out frames: references above, Gaussians below.
-  const size_t cols = r.eval.size(), W = meta.width, H = meta.height, SW = cols * W;
-  std::vector<uint8_t> img(SW * 2 * H * 3, 0);
-  for (size_t c = 0; c < cols; ++c) {
-    const lift::FrameImages ref = lift::read_frame_images((dir.parent_path() / "frames").string(), meta, r.eval[c].frame);
-    for (size_t y = 0; y < H; ++y)
-      for (size_t x = 0; x < W; ++x)
-        for (size_t k = 0; k < 3; ++k) {
-          img[(y * SW + c * W + x) * 3 + k] = ref.rgb[(y * W + x) * 3 + k];
-          img[((H + y) * SW + c * W + x) * 3 + k] = r.eval[c].rendered_rgb[(y * W + x) * 3 + k];
-        }
-  }
-  scene::write_file_atomic((dir / "eval.png").string(), scene::encode_png(img.data(), int(SW), int(2 * H), 3));
 }
 
 void cmd_generate(const GenerateArgs& a) {
@@ -223,7 +182,7 @@ void cmd_generate(const GenerateArgs& a) {
       if (std::string(stage) == "lift") lift_bar.update(done, total);
     };
     const lift::LiftFramesResult lr = lift::lift_frames(ctx, static_world, (staging.path / "frames").string(), meta, lo);
-    write_lift_outputs(staging.path / "gaussians", lr, meta, a.key_every, a.per_cell);
+    lift::write_lift_outputs((staging.path / "gaussians").string(), (staging.path / "frames").string(), meta, lr, lo);
     char lift_detail[160];
     std::snprintf(lift_detail, sizeof lift_detail, "%zu Gaussians, held-out PSNR %.2f dB over %zu frames",
                   lr.cloud.size(), lr.mean_psnr(), lr.eval.size());

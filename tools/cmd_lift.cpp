@@ -17,16 +17,13 @@
 
 #include "gpu/context.h"
 #include "lift/lift_frames.h"
+#include "lift/lift_output.h"
 #include "render/buffers/frame_scene.h"
-#include "scene/atomic_file.h"
-#include "scene/png_write.h"
 #include "scene/scene_load.h"
-#include "splat/splat_scene.h"
 #include "world/car_mesh.h"
 #include "world/world_file.h"
 
 #include <CLI/CLI.hpp>
-#include <nlohmann/json.hpp>
 
 #include <chrono>
 #include <cstdio>
@@ -48,25 +45,6 @@ struct LiftArgs {
   double hidden_radius = 40.0;
   bool face_gaussians = false, no_hidden = false;
 };
-
-// Held-out frames side by side: references in the top row, renders below, at most 4 columns.
-std::vector<uint8_t> eval_sheet(const std::string& frames_dir, const render::FramesMeta& meta,
-                                const lift::LiftFramesResult& r, int* out_w, int* out_h) {
-  const size_t cols = r.eval.size(), W = meta.width, H = meta.height;
-  *out_w = static_cast<int>(cols * W);
-  *out_h = static_cast<int>(2 * H);
-  std::vector<uint8_t> img(size_t(*out_w) * size_t(*out_h) * 3, 0);
-  for (size_t c = 0; c < cols; ++c) {
-    const lift::FrameImages ref = lift::read_frame_images(frames_dir, meta, r.eval[c].frame);
-    for (size_t y = 0; y < H; ++y)
-      for (size_t x = 0; x < W; ++x)
-        for (int k = 0; k < 3; ++k) {
-          img[((y)*size_t(*out_w) + c * W + x) * 3 + size_t(k)] = ref.rgb[(y * W + x) * 3 + size_t(k)];
-          img[((H + y) * size_t(*out_w) + c * W + x) * 3 + size_t(k)] = r.eval[c].rendered_rgb[(y * W + x) * 3 + size_t(k)];
-        }
-  }
-  return img;
-}
 
 void cmd_lift(const LiftArgs& a) {
   run_command([&](scene::Diagnostics& diag) {
@@ -101,39 +79,7 @@ void cmd_lift(const LiftArgs& a) {
 
     const fs::path final_dir = fs::absolute(a.output);
     StagingDir staging(final_dir.parent_path(), final_dir.filename().string());
-    splat::write_gaussians_ply((staging.path / "gaussians_static.ply").string(), r.cloud);
-    scene::write_file_atomic((staging.path / "sky.png").string(),
-                             scene::encode_png(r.sky.rgba.data(), int(r.sky.width), int(r.sky.height), 4));
-    nlohmann::ordered_json sj;
-    sj["format"] = splat::kSplatSceneFormat;
-    sj["version"] = splat::kSplatSceneVersion;
-    sj["static"] = "gaussians_static.ply";
-    scene::write_file_atomic((staging.path / "scene.json").string(), sj.dump(1) + "\n");
-    nlohmann::ordered_json rep;
-    rep["format"] = "icube-lift-report";
-    rep["version"] = 1;
-    rep["frames"] = meta.poses.size();
-    rep["key_frames"] = r.key_frames;
-    rep["options"] = {{"key_every", a.key_every}, {"gaussians_per_cell", a.per_cell}, {"cell_sigma", a.cell_sigma},
-                      {"hidden_radius", a.hidden_radius},
-                      {"face_gaussians", a.face_gaussians}, {"hidden", !a.no_hidden}};
-    rep["samples"] = r.samples;
-    rep["sky_samples"] = r.sky_samples;
-    rep["gaussians"] = {{"total", r.cloud.size()}, {"surface", r.stats.surface_gaussians},
-                        {"hidden", r.stats.hidden_gaussians}, {"seen_faces", r.stats.seen_faces},
-                        {"seen_cells", r.stats.seen_cells}};
-    rep["seconds"] = {{"cast", r.cast_s}, {"accumulate", r.accumulate_s}, {"emit", r.emit_s}, {"eval", r.eval_s}};
-    nlohmann::ordered_json ev = nlohmann::ordered_json::array();
-    for (const lift::EvalFrame& e : r.eval)
-      ev.push_back({{"frame", e.frame}, {"psnr_db", e.psnr}, {"pixels", e.pixels}, {"render_s", e.render_s}});
-    rep["held_out"] = ev;
-    rep["mean_psnr_db"] = r.mean_psnr();
-    scene::write_file_atomic((staging.path / "lift_report.json").string(), rep.dump(1) + "\n");
-    if (!r.eval.empty()) {
-      int w = 0, h = 0;
-      const std::vector<uint8_t> sheet = eval_sheet(a.frames, meta, r, &w, &h);
-      scene::write_file_atomic((staging.path / "eval.png").string(), scene::encode_png(sheet.data(), w, h, 3));
-    }
+    lift::write_lift_outputs(staging.path.string(), a.frames, meta, r, o);
     if (fs::exists(final_dir)) fs::remove_all(final_dir);
     fs::rename(staging.path, final_dir);
     staging.keep = true;

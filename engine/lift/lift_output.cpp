@@ -1,0 +1,62 @@
+// The lift's output folder; see lift_output.h.
+#include "lift/lift_output.h"
+
+#include "scene/atomic_file.h"
+#include "scene/png_write.h"
+#include "splat/splat_scene.h"
+
+#include <nlohmann/json.hpp>
+
+#include <filesystem>
+
+namespace icube::lift {
+
+void write_lift_outputs(const std::string& dir_name, const std::string& frames_dir, const render::FramesMeta& meta,
+                        const LiftFramesResult& r, const LiftFramesOptions& o) {
+  namespace fs = std::filesystem;
+  const fs::path dir(dir_name);
+  fs::create_directories(dir);
+  splat::write_gaussians_ply((dir / "gaussians_static.ply").string(), r.cloud);
+  scene::write_file_atomic((dir / "sky.png").string(),
+                           scene::encode_png(r.sky.rgba.data(), int(r.sky.width), int(r.sky.height), 4));
+  nlohmann::ordered_json sj;
+  sj["format"] = splat::kSplatSceneFormat;
+  sj["version"] = splat::kSplatSceneVersion;
+  sj["static"] = "gaussians_static.ply";
+  scene::write_file_atomic((dir / "scene.json").string(), sj.dump(1) + "\n");
+
+  nlohmann::ordered_json rep;
+  rep["format"] = kLiftReportFormat;
+  rep["version"] = 1;
+  rep["frames"] = meta.poses.size();
+  rep["key_frames"] = r.key_frames;
+  rep["options"] = {{"key_every", o.key_every},          {"gaussians_per_cell", o.lift.per_cell},
+                    {"cell_sigma", o.lift.cell_sigma},    {"face_gaussians", o.lift.face_gaussians},
+                    {"hidden", o.lift.hidden},            {"hidden_radius", o.lift.hidden_radius}};
+  rep["samples"] = r.samples;
+  rep["sky_samples"] = r.sky_samples;
+  rep["gaussians"] = {{"total", r.cloud.size()},           {"surface", r.stats.surface_gaussians},
+                      {"hidden", r.stats.hidden_gaussians}, {"seen_faces", r.stats.seen_faces},
+                      {"seen_cells", r.stats.seen_cells}};
+  nlohmann::ordered_json ev = nlohmann::ordered_json::array();
+  for (const EvalFrame& e : r.eval) ev.push_back({{"frame", e.frame}, {"psnr_db", e.psnr}, {"pixels", e.pixels}});
+  rep["held_out"] = ev;
+  rep["mean_psnr_db"] = r.mean_psnr();
+  scene::write_file_atomic((dir / "lift_report.json").string(), rep.dump(1) + "\n");
+  if (r.eval.empty()) return;
+
+  const size_t cols = r.eval.size(), W = meta.width, H = meta.height, SW = cols * W;
+  std::vector<uint8_t> img(SW * 2 * H * 3, 0);
+  for (size_t c = 0; c < cols; ++c) {
+    const FrameImages ref = read_frame_images(frames_dir, meta, r.eval[c].frame);
+    for (size_t y = 0; y < H; ++y)
+      for (size_t x = 0; x < W; ++x)
+        for (size_t k = 0; k < 3; ++k) {
+          img[(y * SW + c * W + x) * 3 + k] = ref.rgb[(y * W + x) * 3 + k];
+          img[((H + y) * SW + c * W + x) * 3 + k] = r.eval[c].rendered_rgb[(y * W + x) * 3 + k];
+        }
+  }
+  scene::write_file_atomic((dir / "eval.png").string(), scene::encode_png(img.data(), int(SW), int(2 * H), 3));
+}
+
+}  // namespace icube::lift

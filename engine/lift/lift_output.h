@@ -1,0 +1,20 @@
+// The folder a lift writes (`icube lift -o DIR`, `icube generate`'s
+// gaussians/): gaussians_static.ply (3DGS Inria layout, SH0), sky.png
+// (equirect panorama), scene.json (icube-splat-scene with the static set),
+// lift_report.json (options, counts, timings, held-out PSNR per frame) and
+// eval.png (held-out frames: the references from `frames_dir` above, the
+// Gaussians below). Files are written atomically; the caller stages `dir`.
+#pragma once
+
+#include "lift/lift_frames.h"
+
+#include <string>
+
+namespace icube::lift {
+
+inline constexpr const char* kLiftReportFormat = "icube-lift-report";
+
+void write_lift_outputs(const std::string& dir, const std::string& frames_dir, const render::FramesMeta& meta,
+                        const LiftFramesResult& r, const LiftFramesOptions& o);
+
+}  // namespace icube::lift
