@@ -177,15 +177,20 @@ void cmd_generate(const GenerateArgs& a) {
     lift::LiftFramesOptions lo;
     lo.key_every = a.key_every;
     lo.lift.per_cell = a.per_cell;
+    lo.scene = &sc;
+    lo.car_mesh = &mesh;
     ProgressBar lift_bar("lift", "frames");
     lo.progress = [&](const char* stage, size_t done, size_t total) {
       if (std::string(stage) == "lift") lift_bar.update(done, total);
     };
     const lift::LiftFramesResult lr = lift::lift_frames(ctx, static_world, (staging.path / "frames").string(), meta, lo);
     lift::write_lift_outputs((staging.path / "gaussians").string(), (staging.path / "frames").string(), meta, lr, lo);
-    char lift_detail[160];
-    std::snprintf(lift_detail, sizeof lift_detail, "%zu Gaussians, held-out PSNR %.2f dB over %zu frames",
-                  lr.cloud.size(), lr.mean_psnr(), lr.eval.size());
+    size_t object_gaussians = 0;
+    for (const auto& obj : lr.objects) object_gaussians += obj.gaussians.size();
+    char lift_detail[200];
+    std::snprintf(lift_detail, sizeof lift_detail,
+                  "%zu static Gaussians, %zu dynamic objects (%zu Gaussians), held-out PSNR %.2f dB over %zu frames",
+                  lr.cloud.size(), lr.objects.size(), object_gaussians, lr.mean_psnr(), lr.eval.size());
     stage_done("lift", t0, lift_detail);
 
     // The manifest: inputs, options, stages, and every file's SHA-256 (itself excluded).

@@ -5,9 +5,11 @@
 //              [--face-gaussians] [--no-hidden] [--eval-frames N] -o OUT_DIR
 //
 // OUT_DIR: gaussians_static.ply (3DGS layout, SH0), sky.png (equirect
-// panorama), scene.json (icube-splat-scene: `icube splat render` and the
-// viewer open it), lift_report.json (counts, timings, held-out PSNR per frame)
-// and eval.png (held-out frames: reference above, Gaussians below). Built in a
+// panorama), with --scene object_<id>.ply per dynamic vehicle (object frame),
+// scene.json (icube-splat-scene with the objects' tracks: `icube splat render`
+// and `icube lidar --gaussians` open it), lift_report.json (counts, timings,
+// held-out PSNR per frame) and eval.png (held-out frames: reference above,
+// Gaussians below). Built in a
 // staging folder and renamed into place: an error leaves nothing half-written.
 // Engine: engine/lift/.
 #include "cli_common.h"
@@ -29,6 +31,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <memory>
+#include <optional>
 #include <string>
 
 namespace icube::tools {
@@ -54,12 +57,14 @@ void cmd_lift(const LiftArgs& a) {
     refuse_overwriting_input(a.frames, a.output);
     const render::FramesMeta meta = render::read_frames_meta(a.frames);
     world::VoxelGrid world = world::load_world(a.world);
+    std::optional<scene::Scene> sc;
+    const world::TriangleMesh mesh = world::builtin_car_mesh();
     if (!a.scene.empty()) {
       // The frames were rendered from the world with the scene's vehicles as car meshes.
-      scene::Scene sc = scene::load_scene(a.scene, scene::LoadOptions{}, &diag);
-      if (scene::tracks_unclassified(sc)) scene::classify_tracks(sc);
+      sc = scene::load_scene(a.scene, scene::LoadOptions{}, &diag);
+      if (scene::tracks_unclassified(*sc)) scene::classify_tracks(*sc);
       const int t0 = meta.source_time_indices.empty() ? 0 : std::max(0, meta.source_time_indices[0]);
-      world = render::make_static_world(world, sc, t0, world::builtin_car_mesh());
+      world = render::make_static_world(world, *sc, t0, mesh);
     }
     gpu::Context ctx(gpu::ContextOptions::from_env());
     lift::LiftFramesOptions o;
@@ -70,6 +75,7 @@ void cmd_lift(const LiftArgs& a) {
     o.lift.hidden = !a.no_hidden;
     o.lift.cell_sigma = a.cell_sigma;
     o.lift.hidden_radius = a.hidden_radius;
+    if (sc) o.scene = &*sc, o.car_mesh = &mesh;
     ProgressBar lift_bar("lift", "frames");
     ProgressBar eval_bar("eval", "frames");
     o.progress = [&](const char* stage, size_t done, size_t total) {
@@ -84,12 +90,15 @@ void cmd_lift(const LiftArgs& a) {
     fs::rename(staging.path, final_dir);
     staging.keep = true;
     const double total_s = std::chrono::duration<double>(Clock::now() - t_start).count();
-    std::printf("lift: %zu key frames of %zu, %zu samples -> %zu Gaussians (%zu surface, %zu hidden), sky from %zu "
-                "pixels; held-out PSNR %.2f dB over %zu frames; %.2f s [cast %.2f, accumulate %.2f, emit %.2f, eval "
-                "%.2f] -> %s\n",
+    size_t object_gaussians = 0;
+    for (const auto& obj : r.objects) object_gaussians += obj.gaussians.size();
+    std::printf("lift: %zu key frames of %zu, %zu samples -> %zu Gaussians (%zu surface, %zu hidden), %zu dynamic "
+                "objects (%zu Gaussians from %zu samples), sky from %zu pixels; held-out PSNR %.2f dB over %zu "
+                "frames; %.2f s [cast %.2f, accumulate %.2f, emit %.2f, eval %.2f] -> %s\n",
                 r.key_frames.size(), meta.poses.size(), r.samples, r.cloud.size(), r.stats.surface_gaussians,
-                r.stats.hidden_gaussians, r.sky_samples, r.mean_psnr(), r.eval.size(), total_s, r.cast_s,
-                r.accumulate_s, r.emit_s, r.eval_s, final_dir.string().c_str());
+                r.stats.hidden_gaussians, r.objects.size(), object_gaussians, r.dynamic_samples, r.sky_samples,
+                r.mean_psnr(), r.eval.size(), total_s, r.cast_s, r.accumulate_s, r.emit_s, r.eval_s,
+                final_dir.string().c_str());
   });
 }
 
@@ -101,7 +110,9 @@ void add_lift_command(CLI::App& app) {
   cmd->add_option("frames", a->frames, "Appearance-frames folder (icube frames render / import)")
       ->required()
       ->type_name("FRAMES_DIR");
-  cmd->add_option("--scene", a->scene, "The scene the frames were rendered with (its vehicles as car meshes)")
+  cmd->add_option("--scene", a->scene,
+                  "The scene the frames were rendered with: its vehicles as car meshes, its moving ones lifted into "
+                  "their object frames")
       ->type_name("SCENE");
   cmd->add_option("--key-every", a->key_every, "Lift from every N-th frame; the others are held out for the figures")
       ->capture_default_str()

@@ -2,6 +2,8 @@
 #include "lift/lift_frames.h"
 
 #include "lift/sky_fit.h"
+#include "render/buffers/dynamic_cars.h"
+#include "render/buffers/overlay_world.h"
 #include "render/raycast_gpu.h"
 #include "scene/atomic_file.h"
 #include "scene/input_error.h"
@@ -12,7 +14,9 @@
 #include <chrono>
 #include <cmath>
 #include <filesystem>
+#include <map>
 #include <memory>
+#include <optional>
 
 namespace icube::lift {
 
@@ -72,22 +76,36 @@ LiftFramesResult lift_frames(gpu::Context& ctx, const world::VoxelGrid& static_w
   LiftFramesResult res;
   for (size_t f = 0; f < n; f += o.key_every) res.key_frames.push_back(f);
 
-  const render::RaycastWorld rw = render::upload_raycast_world(ctx, static_world);
+  // The frames' scene: the static world on the GPU once, with the cars of each key frame's time
+  // index patched in when there is a scene (as the frames were rendered).
+  if (o.scene && !o.car_mesh) throw std::invalid_argument("lift_frames: a scene needs the cars' mesh");
+  render::OverlayWorld overlay(ctx, static_world);
+  std::optional<render::DynamicCarOverlay> cars;
+  if (o.scene) cars.emplace(overlay, o.scene, *o.car_mesh);
+  render::DynamicCarCosts car_costs;
   render::RaycasterGpu caster(ctx);
   render::RaycastOptions ro;
   ro.pixels = meta.pixels;
   StaticLiftAccumulator acc(static_world);
+  DynamicLiftAccumulator dyn(o.dynamic);
   SkyFitter sky;
+  auto time_index = [&](size_t f) { return f < meta.source_time_indices.size() ? meta.source_time_indices[f] : -1; };
   for (size_t k = 0; k < res.key_frames.size(); ++k) {
     const size_t f = res.key_frames[k];
     const FrameImages im = read_frame_images(frames_dir, meta, f);
     const render::Camera cam = frame_camera(meta, f);
     auto t0 = Clock::now();
-    const std::vector<shader::RaycastHit> hits = caster.cast_camera(rw, cam, ro);
+    if (cars) cars->set_time(std::max(0, time_index(f)), car_costs);
+    const std::vector<shader::RaycastHit> hits = caster.cast_camera(overlay.world(), cam, ro);
     res.cast_s += seconds_since(t0);
     t0 = Clock::now();
     res.samples += acc.add_frame(cam, meta.pixels, im.rgb, im.sky, im.instance, hits);
     res.sky_samples += sky.add_frame(cam, meta.pixels, im.rgb, im.sky);
+    if (o.scene) {
+      std::map<uint16_t, glm::dmat4> w2o = dynamic_object_poses(*o.scene, std::max(0, time_index(f)));
+      for (auto& [id, m] : w2o) m = glm::inverse(m);
+      res.dynamic_samples += dyn.add_frame(cam, meta.pixels, im.rgb, im.instance, hits, w2o);
+    }
     res.accumulate_s += seconds_since(t0);
     if (o.progress) o.progress("lift", k + 1, res.key_frames.size());
   }
@@ -97,6 +115,22 @@ LiftFramesResult lift_frames(gpu::Context& ctx, const world::VoxelGrid& static_w
     for (const glm::dmat4& c2w : meta.poses) lo.cameras.emplace_back(c2w[3]);
   res.cloud = emit_static_gaussians(static_world, acc, lo, &res.stats);
   res.sky = sky.image();
+  if (o.scene) {
+    // Each object with its pose in every frame of the folder where its track places it.
+    std::map<uint16_t, std::vector<std::pair<size_t, glm::dmat4>>> tracks;
+    for (size_t f = 0; f < n; ++f)
+      for (const auto& [id, m] : dynamic_object_poses(*o.scene, std::max(0, time_index(f)))) tracks[id].emplace_back(f, m);
+    for (auto& [id, cloud] : dyn.emit()) {
+      splat::SplatObject obj;
+      obj.id = id;
+      obj.source = "object_" + std::to_string(id) + ".ply";
+      obj.gaussians = std::move(cloud);
+      obj.poses.assign(n, glm::dmat4(1.0));
+      obj.present.assign(n, 0);
+      for (const auto& [f, m] : tracks[id]) obj.poses[f] = m, obj.present[f] = 1;
+      res.objects.push_back(std::move(obj));
+    }
+  }
   res.emit_s = seconds_since(t0);
 
   // Held-out frames, evenly spread.
@@ -109,7 +143,13 @@ LiftFramesResult lift_frames(gpu::Context& ctx, const world::VoxelGrid& static_w
   if (pick.empty() || res.cloud.size() == 0) return res;
   t0 = Clock::now();
   splat::SplatRendererGpu renderer(ctx);
-  const splat::GpuGaussians g = renderer.upload(res.cloud);
+  splat::SplatScene placed;
+  placed.static_set = res.cloud;
+  placed.objects = res.objects;
+  placed.frame_count = n;
+  // Static scenes upload once; with objects each frame's placement is composed and uploaded.
+  std::optional<splat::GpuGaussians> static_gpu;
+  if (res.objects.empty()) static_gpu.emplace(renderer.upload(res.cloud));
   splat::SplatOptions so;
   so.pixels = meta.pixels;
   so.depth = false;
@@ -119,23 +159,29 @@ LiftFramesResult lift_frames(gpu::Context& ctx, const world::VoxelGrid& static_w
     const FrameImages im = read_frame_images(frames_dir, meta, f);
     EvalFrame e;
     e.frame = f;
+    std::optional<splat::GpuGaussians> frame_gpu;
+    if (!static_gpu) frame_gpu.emplace(renderer.upload(splat::compose_frame(placed, f)));
+    const splat::GpuGaussians& g = static_gpu ? *static_gpu : *frame_gpu;
     const auto tr = Clock::now();
     const splat::SplatImage img = renderer.render(g, frame_camera(meta, f), so);
     e.render_s = seconds_since(tr);
     const size_t px = size_t(meta.width) * meta.height;
     e.rendered_rgb.resize(px * 3);
-    double se = 0.0;
-    for (size_t p = 0; p < px; ++p)
+    double se = 0.0, se_dyn = 0.0;
+    for (size_t p = 0; p < px; ++p) {
+      const bool dynamic = im.instance[p] >= kDynamicInstanceMin;
       for (int c = 0; c < 3; ++c) {
         const double v = std::clamp(double(img.rgba[4 * p + size_t(c)]), 0.0, 1.0);
         e.rendered_rgb[3 * p + size_t(c)] = static_cast<uint8_t>(std::lround(v * 255.0));
-        if (im.instance[p] >= kDynamicInstanceMin) continue;
         const double d = v - double(im.rgb[3 * p + size_t(c)]) / 255.0;
-        se += d * d;
-        if (c == 0) ++e.pixels;
+        (dynamic ? se_dyn : se) += d * d;
       }
+      ++(dynamic ? e.dynamic_pixels : e.pixels);
+    }
     e.mse = e.pixels > 0 ? se / (3.0 * double(e.pixels)) : 0.0;
     e.psnr = psnr_from_mse(e.mse);
+    if (!res.objects.empty() && e.dynamic_pixels > 0)
+      e.psnr_dynamic = psnr_from_mse(se_dyn / (3.0 * double(e.dynamic_pixels)));
     res.eval.push_back(std::move(e));
     if (o.progress) o.progress("eval", i + 1, pick.size());
   }

@@ -4,16 +4,18 @@
 // world the frames were rendered from), and the held-out evaluation: the
 // Gaussians rendered by the GPU splatting rasterizer with the fitted sky at
 // frames not used for lifting, against those frames, as PSNR over the pixels
-// that are not dynamic objects (instance < 10000; the static Gaussians do not
-// hold the moving cars).
+// that are not dynamic objects (instance < 10000) and, with a scene, over the
+// dynamic objects' pixels with the objects placed at the frame's poses.
 // Key frames: every `key_every`-th frame from 0; held-out frames: the others,
 // or all frames with key_every 1 (then the figures are training-view figures).
 // Tests: tests/lift/test_static_lift.cpp.
 #pragma once
 
 #include "gpu/context.h"
+#include "lift/dynamic_lift.h"
 #include "lift/static_lift.h"
 #include "render/appearance/frames_layout.h"
+#include "world/triangle_mesh.h"
 #include "splat/sky.h"
 
 #include <functional>
@@ -24,6 +26,12 @@ namespace icube::lift {
 
 struct LiftFramesOptions {
   LiftOptions lift;
+  // The scene the frames were rendered with: its dynamic vehicles are cast at each key frame's
+  // time index (the static world + the frame's cars, as the frames were rendered) and lifted
+  // into their object frames (dynamic_lift.h). Null: static only. car_mesh: the cars' mesh.
+  const scene::Scene* scene = nullptr;
+  const world::TriangleMesh* car_mesh = nullptr;
+  DynamicLiftOptions dynamic;
   size_t key_every = 2;
   size_t max_eval_frames = 4;  // held-out frames rendered for the figures (evenly spread)
   std::function<void(const char* stage, size_t done, size_t total)> progress;
@@ -34,16 +42,19 @@ struct EvalFrame {
   double psnr = 0.0;       // dB over the static pixels (instance < 10000)
   double mse = 0.0;        // mean squared error in [0, 1] units over the same pixels
   size_t pixels = 0;
+  double psnr_dynamic = 0.0;  // dB over the dynamic objects' pixels (0 when there are none)
+  size_t dynamic_pixels = 0;
   double render_s = 0.0;   // GPU render of the frame (upload excluded)
   std::vector<uint8_t> rendered_rgb;  // W·H·3
 };
 
 struct LiftFramesResult {
-  splat::GaussianCloud cloud;
+  splat::GaussianCloud cloud;                // the static set (world frame)
+  std::vector<splat::SplatObject> objects;   // dynamic objects (object frames), poses per frame of the folder
   splat::SkyImage sky;
   LiftStats stats;
   std::vector<size_t> key_frames;
-  size_t samples = 0, sky_samples = 0;
+  size_t samples = 0, sky_samples = 0, dynamic_samples = 0;
   double cast_s = 0.0, accumulate_s = 0.0, emit_s = 0.0, eval_s = 0.0;
   std::vector<EvalFrame> eval;
   double mean_psnr() const;

@@ -23,6 +23,24 @@ void write_lift_outputs(const std::string& dir_name, const std::string& frames_d
   sj["format"] = splat::kSplatSceneFormat;
   sj["version"] = splat::kSplatSceneVersion;
   sj["static"] = "gaussians_static.ply";
+  if (!r.objects.empty()) {
+    // Each dynamic object's Gaussians in its object frame, and its pose in every frame that has it.
+    sj["frames"] = meta.poses.size();
+    nlohmann::ordered_json objs = nlohmann::ordered_json::array();
+    for (const splat::SplatObject& obj : r.objects) {
+      splat::write_gaussians_ply((dir / obj.source).string(), obj.gaussians);
+      nlohmann::ordered_json track = nlohmann::ordered_json::array();
+      for (size_t f = 0; f < obj.present.size(); ++f) {
+        if (!obj.present[f]) continue;
+        nlohmann::ordered_json rows = nlohmann::ordered_json::array();
+        for (int rr = 0; rr < 4; ++rr)
+          rows.push_back({obj.poses[f][0][rr], obj.poses[f][1][rr], obj.poses[f][2][rr], obj.poses[f][3][rr]});
+        track.push_back({{"frame", f}, {"object_to_world", rows}});
+      }
+      objs.push_back({{"id", obj.id}, {"gaussians", obj.source}, {"track", track}});
+    }
+    sj["objects"] = objs;
+  }
   scene::write_file_atomic((dir / "scene.json").string(), sj.dump(1) + "\n");
 
   nlohmann::ordered_json rep;
@@ -38,8 +56,18 @@ void write_lift_outputs(const std::string& dir_name, const std::string& frames_d
   rep["gaussians"] = {{"total", r.cloud.size()},           {"surface", r.stats.surface_gaussians},
                       {"hidden", r.stats.hidden_gaussians}, {"seen_faces", r.stats.seen_faces},
                       {"seen_cells", r.stats.seen_cells}};
+  nlohmann::ordered_json objs = nlohmann::ordered_json::array();
+  for (const splat::SplatObject& obj : r.objects)
+    objs.push_back({{"id", obj.id}, {"gaussians", obj.gaussians.size()}, {"file", obj.source}});
+  rep["dynamic_samples"] = r.dynamic_samples;
+  rep["objects"] = objs;
   nlohmann::ordered_json ev = nlohmann::ordered_json::array();
-  for (const EvalFrame& e : r.eval) ev.push_back({{"frame", e.frame}, {"psnr_db", e.psnr}, {"pixels", e.pixels}});
+  for (const EvalFrame& e : r.eval) {
+    nlohmann::ordered_json x = {{"frame", e.frame}, {"psnr_db", e.psnr}, {"pixels", e.pixels}};
+    if (e.dynamic_pixels > 0 && !r.objects.empty())
+      x["dynamic"] = {{"psnr_db", e.psnr_dynamic}, {"pixels", e.dynamic_pixels}};
+    ev.push_back(x);
+  }
   rep["held_out"] = ev;
   rep["mean_psnr_db"] = r.mean_psnr();
   scene::write_file_atomic((dir / "lift_report.json").string(), rep.dump(1) + "\n");

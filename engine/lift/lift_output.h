@@ -3,7 +3,9 @@
 // (equirect panorama), scene.json (icube-splat-scene with the static set),
 // lift_report.json (options, counts, timings, held-out PSNR per frame) and
 // eval.png (held-out frames: the references from `frames_dir` above, the
-// Gaussians below). Files are written atomically; the caller stages `dir`.
+// Gaussians below); with dynamic objects also object_<id>.ply per object (in
+// its object frame) and their tracks in scene.json ("frames", "objects").
+// Files are written atomically; the caller stages `dir`.
 #pragma once
 
 #include "lift/lift_frames.h"

@@ -73,7 +73,7 @@ size_t StaticLiftAccumulator::add_frame(const render::Camera& cam, render::Pixel
       const size_t i = v * W + u;
       const shader::RaycastHit& h = hits[i];
       if (sky[i] != 0 || instance[i] >= kDynamicInstanceMin || (h.flags & RAYCAST_FLAG_SEM) == 0u ||
-          h.normal == RAYCAST_NORMAL_NONE)
+          h.normal == RAYCAST_NORMAL_NONE || h.sem_instance >= kDynamicInstanceMin)
         continue;
       const glm::dvec3 d = glm::normalize(m * glm::dvec3(double(u) + off, double(v) + off, 1.0));
       ColorSample s;

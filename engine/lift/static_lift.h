@@ -4,8 +4,9 @@
 // Per frame, each pixel's first-hit voxel and entry time come from the ray
 // caster (the GPU's cast_camera, the buffers' rule). A pixel is a colour
 // sample of that voxel's entry face when it is not sky (sky mask), not a
-// dynamic object (instance >= kDynamicInstanceMin: the official release forgets
-// this mask and bleeds car colours onto the road) and has a semantic hit. The
+// dynamic object (instance >= kDynamicInstanceMin in the frame or in the hit
+// voxel: the official release forgets this mask and bleeds car colours onto
+// the road) and has a semantic hit. The
 // hit point x = c + t·d lies on the voxel's entry face (normal ±axis); the
 // face is split into 2 x 2 cells of 0.1 m (the official 0.1 m sub-voxels, seen
 // from that face), each of 2 x 2 quarters of 0.05 m, and every sample adds its
