@@ -12,12 +12,11 @@
 // Gaussians (huge/tiny scales, opacity 0 and 1, straddling the near plane,
 // screen edges); CPU reference against hand-computed values; exact tile
 // culling drops only tiles no pixel needs (bit-identical images, fewer
-// instances); all four SplatGpuVariant pipelines; sky models
-// (z-up gradient, equirect image incl. its seam, PNG loading) GPU vs CPU and
-// against hand-computed directions; both tile-binning paths (the counting sort
+// instances); all four SplatGpuVariant pipelines; both tile-binning paths (the counting sort
 // of tile_binning_gpu.h with 1, odd and many chunks, and the radix path) give
 // the CPU's lists and ranges, incl. an empty scene and one tile getting every
-// instance. The stage API: test_splat_stages.cpp.
+// instance. The comparison: splat_compare.h; sky models: test_splat_sky.cpp;
+// the stage API: test_splat_stages.cpp.
 #include <doctest/doctest.h>
 
 #include "gpu_test_context.h"
@@ -25,6 +24,7 @@
 #include "splat/rasterizer_cpu.h"
 #include "splat/rasterizer_gpu.h"
 #include "splat/sky.h"
+#include "splat_compare.h"
 #include "test_splat_util.h"
 
 #include <algorithm>
@@ -39,171 +39,8 @@
 using namespace icube;
 using splat::SplatOptions;
 
-namespace {
+using namespace icube::test;
 
-// One renderer per test case (it must not outlive the shared context).
-struct Renderer {
-  splat::SplatRendererGpu r{test::gpu_context()};
-};
-
-bool close(float got, float want, double atol, double rtol) {
-  return std::fabs(double(got) - double(want)) <= atol + rtol * std::fabs(double(want));
-}
-
-struct Compare {
-  size_t visible = 0, instances = 0, band = 0, pixels = 0, equal_keys = 0;
-  size_t swapped = 0;  // list entries where the GPU's order differs from the CPU's by a depth tie
-  double max_interior = 0.0;
-  double band_median = 0.0;  // largest relative median-depth error inside the band
-};
-
-// GPU vs CPU for one scene and camera; returns counts for reporting.
-Compare compare(splat::SplatRendererGpu& gpu, const splat::GaussianCloud& cloud, const render::Camera& cam,
-                const SplatOptions& opts, double band_fraction_max = 0.002,
-                splat::TileRule rule = splat::TileRule::Ellipse) {
-  Compare r;
-  const splat::GpuGaussians g = gpu.upload(cloud);
-  splat::SplatDebug dbg;
-  const splat::SplatImage gi = gpu.render(g, cam, opts, nullptr, &dbg);
-  const auto proj = splat::preprocess_cpu(cloud, cam, opts);
-  const auto f = splat::make_frame(cam, opts, glm::dvec3(0.0));
-  const auto bins = splat::bin_cpu(proj, f.grid_x, f.grid_y, rule);
-
-  REQUIRE(dbg.proj.size() == proj.size());
-  size_t bad = 0, radius_steps = 0;
-  for (size_t i = 0; i < proj.size(); ++i) {
-    const auto& a = dbg.proj[i];
-    const auto& b = proj[i];
-    // The radius is ceil(3σ) of the 2-D covariance: where 3σ lands within float rounding of an
-    // integer (42000 in the degenerate set) a device whose sqrt or FMA rounds differently from the
-    // CPU's double gives the next integer. One step is allowed there, counted and bounded below.
-    const bool ceil_step = a.radius > 0 && b.radius > 0 && std::fabs(double(a.radius) - double(b.radius)) == 1.0;
-    if (ceil_step) ++radius_steps;
-    if ((a.radius > 0) != (b.radius > 0) || (a.radius != b.radius && !ceil_step)) {
-      if (bad++ < 5) std::printf("  Gaussian %zu: radius gpu %g cpu %g\n", i, double(a.radius), double(b.radius));
-      continue;
-    }
-    if (b.radius <= 0) continue;
-    ++r.visible;
-    const bool ok = close(a.mean_x, b.mean_x, 1e-4, 1e-4) && close(a.mean_y, b.mean_y, 1e-4, 1e-4) &&
-                    close(a.depth, b.depth, 1e-4, 1e-4) && close(a.conic_x, b.conic_x, 1e-4, 1e-4) &&
-                    close(a.conic_y, b.conic_y, 1e-4, 1e-4) && close(a.conic_z, b.conic_z, 1e-4, 1e-4) &&
-                    close(a.opacity, b.opacity, 1e-5, 1e-4) && close(a.r, b.r, 1e-4, 1e-4) &&
-                    close(a.g, b.g, 1e-4, 1e-4) && close(a.b, b.b, 1e-4, 1e-4);
-    if (!ok && bad++ < 5)
-      std::printf("  Gaussian %zu: mean (%g %g | %g %g) depth %g|%g conic (%g %g %g | %g %g %g)\n", i,
-                  double(a.mean_x), double(a.mean_y), double(b.mean_x), double(b.mean_y), double(a.depth),
-                  double(b.depth), double(a.conic_x), double(a.conic_y), double(a.conic_z), double(b.conic_x),
-                  double(b.conic_y), double(b.conic_z));
-  }
-  INFO("splat/preprocess.comp: radii, means, conics, depths, opacities, colours");
-  CHECK(bad == 0);
-  CHECK(radius_steps <= 1 + r.visible / 100);
-  r.instances = bins.keys.size();
-  // Tile-intersection lists: the (tile, Gaussian) sequence must be identical. The depth
-  // word of the key is the float view z, compared within 1e-4 above (CPU: μ − camera in
-  // double; GPU: float positions relative to the scene origin), so equal keys are not required.
-  std::vector<uint32_t> gt(dbg.keys.size()), ct(bins.keys.size());
-  for (size_t i = 0; i < gt.size(); ++i) gt[i] = static_cast<uint32_t>(dbg.keys[i] >> 32);
-  for (size_t i = 0; i < ct.size(); ++i) ct[i] = static_cast<uint32_t>(bins.keys[i] >> 32);
-  // splat/sorted_counts.comp: each Gaussian's tiles touched, in depth order, scanned into the
-  // duplicate offsets: every visible Gaussian appears exactly tile_count() times (exact tile culling).
-  {
-    std::vector<uint32_t> seen(proj.size(), 0);
-    for (uint32_t v : dbg.values)
-      if (v < seen.size()) ++seen[v];
-    size_t bad_counts = 0;
-    for (size_t i = 0; i < proj.size(); ++i) {
-      // The GPU's own projection: sorted_counts must bin what preprocess produced.
-      const uint32_t want = splat::tile_count(dbg.proj[i], f.grid_x, f.grid_y, rule);
-      if (seen[i] != want && bad_counts++ < 5) std::printf("  Gaussian %zu: %u instances, want %u\n", i, seen[i], want);
-    }
-    INFO("splat/preprocess.comp tile counts + splat/sorted_counts.comp + scan: instances per Gaussian = the tiles "
-         "its α-cut ellipse reaches (tile_count)");
-    CHECK(bad_counts == 0);
-  }
-  INFO("splat/duplicate.comp + stable tile-id radix sort: the sorted (tile, Gaussian) list");
-  CHECK(test::equal_report(gt, ct, "key tile ids"));
-  size_t same_keys = 0;
-  for (size_t i = 0; i < std::min(dbg.keys.size(), bins.keys.size()); ++i) same_keys += dbg.keys[i] == bins.keys[i];
-  r.equal_keys = same_keys;
-  // The Gaussians per tile in the same order, except that two whose depths tie within the
-  // preprocess tolerance above may swap (the GPU's float depths are rounded differently from
-  // the CPU's; drivers that contract a·b + c into an FMA, as NVIDIA's does, round differently again).
-  size_t order_bad = 0, swapped = 0;
-  for (size_t k = 0; k < std::min(dbg.values.size(), bins.values.size()); ++k) {
-    const uint32_t a = dbg.values[k], b = bins.values[k];
-    if (a == b) continue;
-    ++swapped;
-    const bool tie = a < proj.size() && b < proj.size() && gt[k] == ct[k] &&
-                     close(proj[a].depth, proj[b].depth, 1e-4, 1e-4);
-    if (!tie && order_bad++ < 5)
-      std::printf("  list entry %zu: Gaussian %u (gpu) against %u (cpu), not a depth tie\n", k, a, b);
-  }
-  CHECK(dbg.values.size() == bins.values.size());
-  CHECK(order_bad == 0);
-  r.swapped = swapped;
-  INFO("splat/ranges.comp: per-tile ranges");
-  CHECK(test::equal_report(dbg.ranges, bins.ranges, "ranges"));
-  INFO("splat/blend.comp: RGBA and expected/median depth per pixel");
-  // The CPU blend in the GPU's list order (equal to the CPU's up to the depth ties checked above):
-  // swapping two overlapping Gaussians changes the composite by α₁α₂(c₁ − c₂), which no pixel
-  // tolerance can hold, while the blend kernel itself must match the CPU's blend of the same list.
-  splat::TileBins gpu_order = bins;
-  if (swapped != 0 && order_bad == 0) gpu_order.values = dbg.values;
-  const splat::SplatImage ci = splat::blend_cpu(proj, gpu_order, cam, opts);
-
-  r.pixels = size_t{gi.width} * gi.height;
-  REQUIRE(gi.rgba.size() == ci.rgba.size());
-  // RGBA and expected depth: every pixel within 1e-3 (depths relative to the depth scale).
-  // Median depth: the depth of the Gaussian that takes T to <= 0.5 is a discontinuous function
-  // of the blend, so where lavapipe's exp2 and the CPU's exp differ in the last bits at T = 0.5
-  // (opacity-1 Gaussians, degenerate scenes) it may be another Gaussian's depth: those pixels
-  // form the boundary band, bounded in size (band_fraction_max) and in value: the GPU's median
-  // is still 0 (T stays above 0.5) or the depth of a Gaussian binned to the pixel's tile.
-  size_t bad_pixels = 0, bad_band = 0;
-  for (size_t p = 0; p < r.pixels; ++p) {
-    double dc = 0.0;
-    for (int c = 0; c < 4; ++c) dc = std::max(dc, std::fabs(double(gi.rgba[4 * p + c]) - double(ci.rgba[4 * p + c])));
-    const double we = double(ci.depth[2 * p]), wm = double(ci.depth[2 * p + 1]);
-    const double de = std::fabs(double(gi.depth[2 * p]) - we) / std::max(1.0, std::fabs(we));
-    const double dm = std::fabs(double(gi.depth[2 * p + 1]) - wm) / std::max(1.0, std::fabs(wm));
-    if (!(dc <= 1e-3) || !(de <= 1e-3)) {
-      if (bad_pixels++ < 5)
-        std::printf("  pixel %zu: |rgba| %.3g, |expected depth| %.3g over 1e-3\n", p, dc, de);
-      continue;
-    }
-    r.max_interior = std::max({r.max_interior, dc, de});
-    if (dm <= 1e-3) {
-      r.max_interior = std::max(r.max_interior, dm);
-      continue;
-    }
-    ++r.band;
-    r.band_median = std::max(r.band_median, std::isfinite(dm) ? dm : 1e30);
-    const double got = double(gi.depth[2 * p + 1]);
-    const uint32_t tile = static_cast<uint32_t>((p / gi.width) / SPLAT_TILE * f.grid_x + (p % gi.width) / SPLAT_TILE);
-    bool found = got == 0.0;
-    for (uint32_t k = bins.ranges[2 * tile]; k < bins.ranges[2 * tile + 1] && !found; ++k)
-      found = std::fabs(double(proj[bins.values[k]].depth) - got) <= 1e-4 * std::max(1.0, std::fabs(got));
-    if (!found && bad_band++ < 5)
-      std::printf("  pixel %zu: median depth %.9g is no depth of a Gaussian binned to its tile\n", p, got);
-  }
-  INFO("RGBA and expected depth within 1e-3 everywhere");
-  CHECK(bad_pixels == 0);
-  INFO("median depth: band pixels take another binned Gaussian's depth, and the band is small");
-  CHECK(bad_band == 0);
-  CHECK(double(r.band) <= band_fraction_max * double(r.pixels));
-  return r;
-}
-
-void report(const std::string& what, const Compare& c) {
-  MESSAGE(what << ": " << c.visible << " visible, " << c.instances << " tile instances (" << c.equal_keys
-               << " with bit-identical 64-bit keys, " << c.swapped << " swapped depth ties), boundary band " << c.band
-               << " of " << c.pixels << " pixels (" << 100.0 * double(c.band) / double(std::max<size_t>(1, c.pixels))
-               << " %, median depth only, max rel. error " << c.band_median << "), max interior diff " << c.max_interior);
-}
-
-}  // namespace
 
 TEST_CASE("splat cpu: one isotropic Gaussian matches hand-computed values") {
   splat::GaussianCloud c;
@@ -709,110 +546,5 @@ TEST_CASE("splat gpu: empty scene and Gaussians all culled give the background (
       const float dc[3] = {1, 1, 1};
       c.add({0.0, -10.0, 0.0}, glm::vec3(0.1f), glm::vec4(1, 0, 0, 0), 0.9f, dc);  // behind the camera
     }
-  }
-}
-
-namespace {
-// 64 × 32 equirect test image: smooth in longitude and latitude plus a few sharp texels.
-std::shared_ptr<splat::SkyImage> test_sky_image() {
-  auto img = std::make_shared<splat::SkyImage>();
-  img->width = 64;
-  img->height = 32;
-  img->rgba.resize(64 * 32 * 4);
-  for (uint32_t y = 0; y < 32; ++y)
-    for (uint32_t x = 0; x < 64; ++x) {
-      uint8_t* t = &img->rgba[(y * 64 + x) * 4];
-      t[0] = static_cast<uint8_t>(x * 4);
-      t[1] = static_cast<uint8_t>(y * 8);
-      t[2] = static_cast<uint8_t>((x * 37 + y * 11) % 256);
-      t[3] = 255;
-    }
-  return img;
-}
-}  // namespace
-
-TEST_CASE("splat sky: gradient and equirect, GPU vs CPU reference, and hand-checked directions") {
-  Renderer R;
-  const auto cloud = test::random_cloud(11, 300, 2, {0.0, 0.0, 0.0}, 1.0);
-  // Looking along +x from the origin side, horizontal: the principal ray is (1, 0, 0).
-  const uint32_t W = 97, H = 61;
-  auto cam = test::look_at_camera({-6.0, 0.0, 0.0}, {0.0, 0.0, 0.0}, W, H, 40.0);
-  cam.K.cx = 48.0;
-  cam.K.cy = 30.0;
-  const auto image = test_sky_image();
-  SplatOptions o;
-  o.pixels = render::PixelConvention::Integer;
-  o.background = {0.9f, 0.1f, 0.1f};
-
-  SUBCASE("gradient") {
-    splat::SkyGradient g;
-    g.zenith = {0.0f, 0.0f, 1.0f};
-    g.horizon = {1.0f, 1.0f, 1.0f};
-    g.ground = {0.0f, 1.0f, 0.0f};
-    o.sky = splat::sky_gradient(g);
-    report("sky gradient", compare(R.r, cloud, cam, o));
-    // Hand check (no Gaussians): the principal ray is horizontal -> horizon; top row looks up.
-    splat::GaussianCloud empty;
-    const auto img = R.r.render(R.r.upload(empty), cam, o);
-    const size_t centre = size_t{30} * W + 48;
-    CHECK(img.rgba[4 * centre + 0] == doctest::Approx(1.0).epsilon(1e-5));
-    CHECK(img.rgba[4 * centre + 1] == doctest::Approx(1.0).epsilon(1e-5));
-    const glm::dvec3 d0 = render::camera_ray(cam, 48, 0, render::PixelConvention::Integer).dir;
-    REQUIRE(d0.z > 0.3);  // z-up world: the top row looks up
-    CHECK(img.rgba[4 * 48 + 0] == doctest::Approx(1.0 - d0.z).epsilon(1e-4));
-    CHECK(img.rgba[4 * 48 + 2] == doctest::Approx(1.0).epsilon(1e-5));
-    const size_t bottom = size_t{H - 1} * W + 48;
-    const glm::dvec3 d1 = render::camera_ray(cam, 48, H - 1, render::PixelConvention::Integer).dir;
-    CHECK(img.rgba[4 * bottom + 0] == doctest::Approx(1.0 + d1.z).epsilon(1e-4));  // d1.z < 0: towards ground
-    CHECK(img.rgba[4 * bottom + 1] == doctest::Approx(1.0).epsilon(1e-5));
-    // The sky is weighted by the final transmittance: T = 1 - alpha.
-    const auto cimg = splat::render_cpu(cloud, cam, o);
-    size_t covered = 0;
-    for (size_t p = 0; p < size_t{W} * H; ++p) covered += cimg.rgba[4 * p + 3] > 0.5f;
-    CHECK(covered > 0);
-  }
-  SUBCASE("equirect") {
-    o.sky = splat::sky_equirect(image);
-    report("sky equirect", compare(R.r, cloud, cam, o));
-    splat::GaussianCloud empty;
-    const auto img = R.r.render(R.r.upload(empty), cam, o);
-    // +x, horizontal: s = 0.5·W, t = 0.5·H -> the mean of texels (31..32, 15..16).
-    const size_t centre = size_t{30} * W + 48;
-    auto tex = [&](int x, int y, int c) { return image->rgba[(size_t(y) * 64 + size_t(x)) * 4 + size_t(c)] / 255.0; };
-    for (int c = 0; c < 3; ++c) {
-      const double want = 0.25 * (tex(31, 15, c) + tex(32, 15, c) + tex(31, 16, c) + tex(32, 16, c));
-      CHECK(img.rgba[4 * centre + size_t(c)] == doctest::Approx(want).epsilon(2e-3));
-    }
-    // Looking along +y (λ = +π/2): s = 0.25·W, so the red channel (4·x / 255) is ~4·15.5/255.
-    auto cam_y = test::look_at_camera({0.0, -6.0, 0.0}, {0.0, 0.0, 0.0}, W, H, 40.0);
-    cam_y.K.cx = 48.0;
-    cam_y.K.cy = 30.0;
-    const auto img_y = R.r.render(R.r.upload(empty), cam_y, o);
-    CHECK(img_y.rgba[4 * centre] == doctest::Approx(4.0 * 15.5 / 255.0).epsilon(2e-3));
-    // Image seam (λ = ±π, looking along −x): wraps between columns 63 and 0.
-    auto cam_mx = test::look_at_camera({6.0, 0.0, 0.0}, {0.0, 0.0, 0.0}, W, H, 40.0);
-    cam_mx.K.cx = 48.0;
-    cam_mx.K.cy = 30.0;
-    report("sky equirect seam", compare(R.r, cloud, cam_mx, o));
-  }
-  SUBCASE("PNG round trip and the CLI spec") {
-    const std::string path = (std::filesystem::temp_directory_path() / "icube_test_sky.png").string();
-    std::vector<uint8_t> rgb(64 * 32 * 3);
-    for (size_t i = 0; i < 64 * 32; ++i)
-      for (int c = 0; c < 3; ++c) rgb[3 * i + size_t(c)] = image->rgba[4 * i + size_t(c)];
-    scene::write_png(path, rgb.data(), 64, 32, 3);
-    const splat::SkyModel s = splat::parse_sky(path);
-    REQUIRE(s.kind == splat::SkyKind::Equirect);
-    CHECK(s.image->width == 64);
-    CHECK(s.image->height == 32);
-    CHECK(test::equal_report(s.image->rgba, image->rgba, "decoded sky texels"));
-    std::filesystem::remove(path);
-    CHECK(splat::parse_sky("gradient").kind == splat::SkyKind::Gradient);
-    CHECK(splat::parse_sky("background").kind == splat::SkyKind::Background);
-    CHECK_THROWS_WITH_AS(splat::parse_sky("/nonexistent/sky.png"),
-                         doctest::Contains("/nonexistent/sky.png"), std::runtime_error);
-    splat::SkyModel bad;
-    bad.kind = splat::SkyKind::Equirect;
-    CHECK_THROWS_AS(splat::validate_sky(bad), std::invalid_argument);
   }
 }
