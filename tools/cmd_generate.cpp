@@ -184,7 +184,7 @@ void cmd_generate(const GenerateArgs& a) {
       if (std::string(stage) == "lift") lift_bar.update(done, total);
     };
     const lift::LiftFramesResult lr = lift::lift_frames(ctx, static_world, (staging.path / "frames").string(), meta, lo);
-    lift::write_lift_outputs((staging.path / "gaussians").string(), (staging.path / "frames").string(), meta, lr, lo);
+    lift::write_lift_outputs((staging.path / "gaussians").string(), meta, lr, lo);
     size_t object_gaussians = 0;
     for (const auto& obj : lr.objects) object_gaussians += obj.gaussians.size();
     char lift_detail[200];

@@ -85,7 +85,7 @@ void cmd_lift(const LiftArgs& a) {
 
     const fs::path final_dir = fs::absolute(a.output);
     StagingDir staging(final_dir.parent_path(), final_dir.filename().string());
-    lift::write_lift_outputs(staging.path.string(), a.frames, meta, r, o);
+    lift::write_lift_outputs(staging.path.string(), meta, r, o);
     if (fs::exists(final_dir)) fs::remove_all(final_dir);
     fs::rename(staging.path, final_dir);
     staging.keep = true;

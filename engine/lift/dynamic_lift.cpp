@@ -36,9 +36,6 @@ size_t DynamicLiftAccumulator::add_frame(const render::Camera& cam, render::Pixe
   const size_t W = cam.K.width, H = cam.K.height, n = W * H;
   if (rgb.size() != 3 * n || instance.size() != n || hits.size() != n)
     throw std::invalid_argument("DynamicLiftAccumulator::add_frame: image sizes disagree with the camera");
-  const glm::dmat3 m = render::camera_ray_matrix(cam);
-  const glm::dvec3 c = render::camera_position(cam);
-  const double off = render::pixel_offset(pixels);
   const size_t before = samples_;
   for (size_t v = 0; v < H; ++v)
     for (size_t u = 0; u < W; ++u) {
@@ -47,8 +44,8 @@ size_t DynamicLiftAccumulator::add_frame(const render::Camera& cam, render::Pixe
       if (id < kDynamicInstanceMin || (hits[i].flags & RAYCAST_FLAG_SEM) == 0u || hits[i].sem_instance != id) continue;
       const auto it = world_to_object.find(id);
       if (it == world_to_object.end()) continue;
-      const glm::dvec3 d = glm::normalize(m * glm::dvec3(double(u) + off, double(v) + off, 1.0));
-      add(id, c + double(hits[i].t_sem) * d, it->second, rgb[3 * i], rgb[3 * i + 1], rgb[3 * i + 2]);
+      const render::Ray ray = render::camera_ray(cam, uint32_t(u), uint32_t(v), pixels);
+      add(id, ray.origin + double(hits[i].t_sem) * ray.dir, it->second, rgb[3 * i], rgb[3 * i + 1], rgb[3 * i + 2]);
     }
   return samples_ - before;
 }

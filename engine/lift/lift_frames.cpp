@@ -182,6 +182,7 @@ LiftFramesResult lift_frames(gpu::Context& ctx, const world::VoxelGrid& static_w
     e.psnr = psnr_from_mse(e.mse);
     if (!res.objects.empty() && e.dynamic_pixels > 0)
       e.psnr_dynamic = psnr_from_mse(se_dyn / (3.0 * double(e.dynamic_pixels)));
+    e.reference_rgb = im.rgb;
     res.eval.push_back(std::move(e));
     if (o.progress) o.progress("eval", i + 1, pick.size());
   }

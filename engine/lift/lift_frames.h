@@ -45,7 +45,8 @@ struct EvalFrame {
   double psnr_dynamic = 0.0;  // dB over the dynamic objects' pixels (0 when there are none)
   size_t dynamic_pixels = 0;
   double render_s = 0.0;   // GPU render of the frame (upload excluded)
-  std::vector<uint8_t> rendered_rgb;  // W·H·3
+  std::vector<uint8_t> rendered_rgb;   // W·H·3
+  std::vector<uint8_t> reference_rgb;  // W·H·3, the frame it was compared with
 };
 
 struct LiftFramesResult {

@@ -11,7 +11,7 @@
 
 namespace icube::lift {
 
-void write_lift_outputs(const std::string& dir_name, const std::string& frames_dir, const render::FramesMeta& meta,
+void write_lift_outputs(const std::string& dir_name, const render::FramesMeta& meta,
                         const LiftFramesResult& r, const LiftFramesOptions& o) {
   namespace fs = std::filesystem;
   const fs::path dir(dir_name);
@@ -76,11 +76,11 @@ void write_lift_outputs(const std::string& dir_name, const std::string& frames_d
   const size_t cols = r.eval.size(), W = meta.width, H = meta.height, SW = cols * W;
   std::vector<uint8_t> img(SW * 2 * H * 3, 0);
   for (size_t c = 0; c < cols; ++c) {
-    const FrameImages ref = read_frame_images(frames_dir, meta, r.eval[c].frame);
+    const std::vector<uint8_t>& ref = r.eval[c].reference_rgb;
     for (size_t y = 0; y < H; ++y)
       for (size_t x = 0; x < W; ++x)
         for (size_t k = 0; k < 3; ++k) {
-          img[(y * SW + c * W + x) * 3 + k] = ref.rgb[(y * W + x) * 3 + k];
+          img[(y * SW + c * W + x) * 3 + k] = ref[(y * W + x) * 3 + k];
           img[((H + y) * SW + c * W + x) * 3 + k] = r.eval[c].rendered_rgb[(y * W + x) * 3 + k];
         }
   }

@@ -2,7 +2,7 @@
 // gaussians/): gaussians_static.ply (3DGS Inria layout, SH0), sky.png
 // (equirect panorama), scene.json (icube-splat-scene with the static set),
 // lift_report.json (options, counts, timings, held-out PSNR per frame) and
-// eval.png (held-out frames: the references from `frames_dir` above, the
+// eval.png (held-out frames: the references above, the
 // Gaussians below); with dynamic objects also object_<id>.ply per object (in
 // its object frame) and their tracks in scene.json ("frames", "objects").
 // Files are written atomically; the caller stages `dir`.
@@ -16,7 +16,7 @@ namespace icube::lift {
 
 inline constexpr const char* kLiftReportFormat = "icube-lift-report";
 
-void write_lift_outputs(const std::string& dir, const std::string& frames_dir, const render::FramesMeta& meta,
+void write_lift_outputs(const std::string& dir, const render::FramesMeta& meta,
                         const LiftFramesResult& r, const LiftFramesOptions& o);
 
 }  // namespace icube::lift

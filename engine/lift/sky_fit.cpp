@@ -28,15 +28,12 @@ size_t SkyFitter::add_frame(const render::Camera& cam, render::PixelConvention p
   const size_t W = cam.K.width, H = cam.K.height;
   if (rgb.size() != W * H * 3 || sky.size() != W * H)
     throw std::invalid_argument("SkyFitter::add_frame: image sizes disagree with the camera");
-  const glm::dmat3 m = render::camera_ray_matrix(cam);
-  const double off = render::pixel_offset(pixels);
   const size_t before = samples_;
   for (size_t v = 0; v < H; ++v)
     for (size_t u = 0; u < W; ++u) {
       const size_t i = v * W + u;
       if (sky[i] == 0) continue;
-      add(glm::normalize(m * glm::dvec3(double(u) + off, double(v) + off, 1.0)), rgb[3 * i], rgb[3 * i + 1],
-          rgb[3 * i + 2]);
+      add(render::camera_ray(cam, uint32_t(u), uint32_t(v), pixels).dir, rgb[3 * i], rgb[3 * i + 1], rgb[3 * i + 2]);
     }
   return samples_ - before;
 }

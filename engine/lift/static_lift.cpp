@@ -64,9 +64,6 @@ size_t StaticLiftAccumulator::add_frame(const render::Camera& cam, render::Pixel
   const size_t W = cam.K.width, H = cam.K.height, n = W * H;
   if (rgb.size() != 3 * n || sky.size() != n || instance.size() != n || hits.size() != n)
     throw std::invalid_argument("StaticLiftAccumulator::add_frame: image sizes disagree with the camera");
-  const glm::dmat3 m = render::camera_ray_matrix(cam);
-  const glm::dvec3 c = render::camera_position(cam);
-  const double off = render::pixel_offset(pixels);
   const size_t before = samples_;
   for (size_t v = 0; v < H; ++v)
     for (size_t u = 0; u < W; ++u) {
@@ -75,11 +72,11 @@ size_t StaticLiftAccumulator::add_frame(const render::Camera& cam, render::Pixel
       if (sky[i] != 0 || instance[i] >= kDynamicInstanceMin || (h.flags & RAYCAST_FLAG_SEM) == 0u ||
           h.normal == RAYCAST_NORMAL_NONE || h.sem_instance >= kDynamicInstanceMin)
         continue;
-      const glm::dvec3 d = glm::normalize(m * glm::dvec3(double(u) + off, double(v) + off, 1.0));
+      const render::Ray ray = render::camera_ray(cam, uint32_t(u), uint32_t(v), pixels);
       ColorSample s;
       s.ijk = glm::ivec3(h.ijk_x, h.ijk_y, h.ijk_z);
       s.normal = h.normal;
-      s.point = c + double(h.t_sem) * d;
+      s.point = ray.origin + double(h.t_sem) * ray.dir;
       s.r = rgb[3 * i], s.g = rgb[3 * i + 1], s.b = rgb[3 * i + 2];
       add(s);
     }
