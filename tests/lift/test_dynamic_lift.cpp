@@ -5,6 +5,7 @@
 #include <doctest/doctest.h>
 
 #include "cli_test_util.h"
+#include "lift_demo_frames.h"
 #include "lift/dynamic_lift.h"
 #include "lift/lift_frames.h"
 #include "scene/atomic_file.h"
@@ -49,15 +50,10 @@ TEST_CASE("lift dynamic: one object point seen at two poses is one Gaussian in t
 
 TEST_CASE("cli: icube lift --scene lifts the demo town's moving cars into object frames with tracks" *
           doctest::test_suite("slow-gpu")) {
-  test::TempDir dir("lift-dyn");
-  const std::string scene = (dir.path / "scene.json").string(), world = (dir.path / "world.icw").string();
-  const fs::path frames = dir.path / "frames", out = dir.path / "lifted";
-  REQUIRE(test::run_icube("world demo-scene -o '" + scene + "'", dir.path).code == 0);
-  REQUIRE(test::run_icube("world build '" + scene + "' -o '" + world + "'", dir.path).code == 0);
-  REQUIRE(test::run_icube("frames render '" + world + "' --scene '" + scene +
-                              "' --camera 180,180,104,60,208,120 --frames 20:36:2 -o '" + frames.string() + "'",
-                          dir.path)
-              .code == 0);
+  const test::LiftDemoFrames& demo = test::lift_demo_frames();
+  const test::TempDir& dir = demo.dir;
+  const std::string &scene = demo.scene, &world = demo.world;
+  const fs::path &frames = demo.frames, out = dir.path / "lifted-dynamic";
   const test::CliRun r = test::run_icube(
       "lift '" + world + "' '" + frames.string() + "' --scene '" + scene + "' -o '" + out.string() + "'", dir.path);
   INFO(r.output);

@@ -6,6 +6,7 @@
 #include <doctest/doctest.h>
 
 #include "cli_test_util.h"
+#include "lift_demo_frames.h"
 #include "lift/lift_frames.h"
 #include "lift/sky_fit.h"
 #include "lift/static_lift.h"
@@ -203,15 +204,10 @@ TEST_CASE("lift: the sky panorama: directions land in their equirect texels, hol
 
 TEST_CASE("cli: icube lift on the demo town: outputs, held-out PSNR, identical bytes twice, bad input refused" *
           doctest::test_suite("slow-gpu")) {
-  test::TempDir dir("lift");
-  const std::string scene = (dir.path / "scene.json").string(), world = (dir.path / "world.icw").string();
-  const fs::path frames = dir.path / "frames";
-  REQUIRE(test::run_icube("world demo-scene -o '" + scene + "'", dir.path).code == 0);
-  REQUIRE(test::run_icube("world build '" + scene + "' -o '" + world + "'", dir.path).code == 0);
-  REQUIRE(test::run_icube("frames render '" + world + "' --scene '" + scene +
-                              "' --camera 180,180,104,60,208,120 --frames 20:36:2 -o '" + frames.string() + "'",
-                          dir.path)
-              .code == 0);
+  const test::LiftDemoFrames& demo = test::lift_demo_frames();
+  const test::TempDir& dir = demo.dir;
+  const std::string &scene = demo.scene, &world = demo.world;
+  const fs::path& frames = demo.frames;
   const fs::path out = dir.path / "lifted", out2 = dir.path / "lifted2";
   const std::string args = "lift '" + world + "' '" + frames.string() + "' --scene '" + scene + "' --key-every 2 ";
   const test::CliRun r = test::run_icube(args + "-o '" + out.string() + "'", dir.path);
