@@ -6,6 +6,7 @@
 
 #include "cli_test_util.h"
 #include "scene/atomic_file.h"
+#include "scene/package_check.h"
 #include "scene/sha256.h"
 #include "splat/splat_scene.h"
 
@@ -55,8 +56,8 @@ TEST_CASE("cli: icube generate writes a complete package, the same bytes twice, 
   CHECK(scene::read_file((pkg / "manifest.json").string()) == scene::read_file((pkg2 / "manifest.json").string()));
 
   // Bad input: a missing scene, a corrupt --world. One-line errors, no package, no staging left.
-  // A staging folder left by a killed run (a PID that does not run) is removed by the next run.
-  const fs::path none = dir.path / "none", stale = dir.path / ".pkg.partial-999999999";
+  // A staging folder left by a killed run (no process holds its lock) is removed by a run without --resume.
+  const fs::path none = dir.path / "none", stale = dir.path / ".pkg.partial";
   fs::create_directories(stale / "frames");
   REQUIRE(test::run_icube(args + "-o '" + pkg.string() + "'", dir.path).code == 0);
   CHECK_FALSE(fs::exists(stale));
@@ -71,5 +72,10 @@ TEST_CASE("cli: icube generate writes a complete package, the same bytes twice, 
   CHECK(e.output.find("bad.icw") != std::string::npos);
   CHECK_FALSE(fs::exists(none));
   for (const auto& f : fs::directory_iterator(dir.path))
-    CHECK_MESSAGE(f.path().filename().string().find(".partial-") == std::string::npos, f.path().string());
+    CHECK_MESSAGE(f.path().filename().string().find(".partial") == std::string::npos, f.path().string());
+  CHECK_FALSE(fs::exists(dir.path / ".pkg.lock"));
+  // The package's manifest verifies; a changed byte does not.
+  CHECK(scene::check_package(pkg.string()).complete);
+  scene::write_file_atomic((pkg / "gaussians" / "sky.png").string(), "changed");
+  CHECK(scene::check_package(pkg.string()).problem.find("sky.png: SHA-256 differs") != std::string::npos);
 }

@@ -1,0 +1,57 @@
+// One run of the main job (`icube generate SCENE -o PACKAGE`): scene → Stage 1
+// voxel world → Stage 2 guidance buffers and appearance frames → Stage 3
+// Gaussians and sky, as one package (docs/generate.md) built in a resumable
+// staging folder (package_staging.h) and renamed into place. Used by the
+// single-scene command and by batches (generate_batch.h).
+#pragma once
+
+#include "camera_path.h"
+
+#include "render/appearance/prompt.h"
+#include "scene/input_error.h"
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+namespace icube::tools {
+
+struct GenerateArgs {
+  CameraPathArgs path;
+  std::string world, output, prompt = render::kDefaultAppearancePrompt;
+  uint32_t seed = 0;
+  size_t key_every = 2;
+  int per_cell = 1;
+  bool no_video = false;
+  // Skip the package when it is complete and made from the same inputs and
+  // options; else continue a killed run's staging folder after its last finished stage.
+  bool resume = false;
+};
+
+struct GenerateStage {
+  std::string name, detail;
+  double seconds = 0.0, peak_rss_mib = 0.0;
+  bool resumed = false;  // finished by an earlier run
+};
+
+struct GenerateResult {
+  std::filesystem::path package;
+  std::vector<GenerateStage> stages;
+  double seconds = 0.0;
+  size_t resumed_stages = 0;
+  bool skipped = false;  // --resume found the package complete
+};
+
+// The stages in order.
+inline const std::vector<std::string>& generate_stage_names() {
+  static const std::vector<std::string> names = {"world", "buffers", "frames", "lift"};
+  return names;
+}
+
+// Throws (one line naming the file) on bad input; the package is then absent.
+GenerateResult generate_package(const GenerateArgs& a, scene::Diagnostics& diag);
+
+// The summary table: seconds and peak RSS per stage, "resumed" for stages an earlier run finished.
+void print_generate_summary(const GenerateResult& r, const std::string& scene);
+
+}  // namespace icube::tools
