@@ -83,6 +83,7 @@ GenerateResult generate_package(const GenerateArgs& a, scene::Diagnostics& diag)
   nlohmann::ordered_json inputs = {{"scene", a.path.scene}, {"scene_sha256", scene::sha256_file(a.path.scene)}};
   inputs["world"] = a.world.empty() ? nlohmann::ordered_json("procedural") : nlohmann::ordered_json(a.world);
   if (!a.world.empty()) inputs["world_sha256"] = scene::sha256_file(a.world);
+  if (!a.path.record.empty()) inputs["record"] = a.path.record;
   if (!a.path.trajectory.empty()) {
     inputs["trajectory"] = a.path.trajectory;
     inputs["trajectory_sha256"] = scene::sha256_file(a.path.trajectory);

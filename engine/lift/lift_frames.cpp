@@ -29,8 +29,6 @@ double seconds_since(Clock::time_point t) { return std::chrono::duration<double>
 
 }  // namespace
 
-double psnr_from_mse(double mse) { return mse > 0.0 ? -10.0 * std::log10(mse) : 99.0; }
-
 double LiftFramesResult::mean_psnr() const {
   if (eval.empty()) return 0.0;
   double s = 0.0;
@@ -142,48 +140,13 @@ LiftFramesResult lift_frames(gpu::Context& ctx, const world::VoxelGrid& static_w
   for (size_t i = 0; i < m; ++i) pick.push_back(held[(2 * i + 1) * held.size() / (2 * m)]);
   if (pick.empty() || res.cloud.size() == 0) return res;
   t0 = Clock::now();
-  splat::SplatRendererGpu renderer(ctx);
   splat::SplatScene placed;
   placed.static_set = res.cloud;
   placed.objects = res.objects;
   placed.frame_count = n;
-  // Static scenes upload once; with objects each frame's placement is composed and uploaded.
-  std::optional<splat::GpuGaussians> static_gpu;
-  if (res.objects.empty()) static_gpu.emplace(renderer.upload(res.cloud));
-  splat::SplatOptions so;
-  so.pixels = meta.pixels;
-  so.depth = false;
-  so.sky = splat::sky_equirect(std::make_shared<const splat::SkyImage>(res.sky));
+  HeldOutRenderer renderer(ctx, placed, res.sky, meta.pixels);
   for (size_t i = 0; i < pick.size(); ++i) {
-    const size_t f = pick[i];
-    const FrameImages im = read_frame_images(frames_dir, meta, f);
-    EvalFrame e;
-    e.frame = f;
-    std::optional<splat::GpuGaussians> frame_gpu;
-    if (!static_gpu) frame_gpu.emplace(renderer.upload(splat::compose_frame(placed, f)));
-    const splat::GpuGaussians& g = static_gpu ? *static_gpu : *frame_gpu;
-    const auto tr = Clock::now();
-    const splat::SplatImage img = renderer.render(g, frame_camera(meta, f), so);
-    e.render_s = seconds_since(tr);
-    const size_t px = size_t(meta.width) * meta.height;
-    e.rendered_rgb.resize(px * 3);
-    double se = 0.0, se_dyn = 0.0;
-    for (size_t p = 0; p < px; ++p) {
-      const bool dynamic = im.instance[p] >= kDynamicInstanceMin;
-      for (int c = 0; c < 3; ++c) {
-        const double v = std::clamp(double(img.rgba[4 * p + size_t(c)]), 0.0, 1.0);
-        e.rendered_rgb[3 * p + size_t(c)] = static_cast<uint8_t>(std::lround(v * 255.0));
-        const double d = v - double(im.rgb[3 * p + size_t(c)]) / 255.0;
-        (dynamic ? se_dyn : se) += d * d;
-      }
-      ++(dynamic ? e.dynamic_pixels : e.pixels);
-    }
-    e.mse = e.pixels > 0 ? se / (3.0 * double(e.pixels)) : 0.0;
-    e.psnr = psnr_from_mse(e.mse);
-    if (!res.objects.empty() && e.dynamic_pixels > 0)
-      e.psnr_dynamic = psnr_from_mse(se_dyn / (3.0 * double(e.dynamic_pixels)));
-    e.reference_rgb = im.rgb;
-    res.eval.push_back(std::move(e));
+    res.eval.push_back(renderer.evaluate(frames_dir, meta, pick[i]));
     if (o.progress) o.progress("eval", i + 1, pick.size());
   }
   res.eval_s = seconds_since(t0);

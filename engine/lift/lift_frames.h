@@ -13,6 +13,7 @@
 
 #include "gpu/context.h"
 #include "lift/dynamic_lift.h"
+#include "lift/heldout_render.h"
 #include "lift/static_lift.h"
 #include "render/appearance/frames_layout.h"
 #include "world/triangle_mesh.h"
@@ -35,18 +36,6 @@ struct LiftFramesOptions {
   size_t key_every = 2;
   size_t max_eval_frames = 4;  // held-out frames rendered for the figures (evenly spread)
   std::function<void(const char* stage, size_t done, size_t total)> progress;
-};
-
-struct EvalFrame {
-  size_t frame = 0;
-  double psnr = 0.0;       // dB over the static pixels (instance < 10000)
-  double mse = 0.0;        // mean squared error in [0, 1] units over the same pixels
-  size_t pixels = 0;
-  double psnr_dynamic = 0.0;  // dB over the dynamic objects' pixels (0 when there are none)
-  size_t dynamic_pixels = 0;
-  double render_s = 0.0;   // GPU render of the frame (upload excluded)
-  std::vector<uint8_t> rendered_rgb;   // W·H·3
-  std::vector<uint8_t> reference_rgb;  // W·H·3, the frame it was compared with
 };
 
 struct LiftFramesResult {
@@ -72,8 +61,5 @@ render::Camera frame_camera(const render::FramesMeta& meta, size_t frame);
 
 LiftFramesResult lift_frames(gpu::Context& ctx, const world::VoxelGrid& static_world, const std::string& frames_dir,
                              const render::FramesMeta& meta, const LiftFramesOptions& o);
-
-// PSNR (dB) from a mean squared error in [0, 1] units (99 dB for a zero error).
-double psnr_from_mse(double mse);
 
 }  // namespace icube::lift

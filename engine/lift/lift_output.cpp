@@ -63,7 +63,7 @@ void write_lift_outputs(const std::string& dir_name, const render::FramesMeta& m
   rep["objects"] = objs;
   nlohmann::ordered_json ev = nlohmann::ordered_json::array();
   for (const EvalFrame& e : r.eval) {
-    nlohmann::ordered_json x = {{"frame", e.frame}, {"psnr_db", e.psnr}, {"pixels", e.pixels}};
+    nlohmann::ordered_json x = {{"frame", e.frame}, {"psnr_db", e.psnr}, {"ssim", e.ssim}, {"pixels", e.pixels}};
     if (e.dynamic_pixels > 0 && !r.objects.empty())
       x["dynamic"] = {{"psnr_db", e.psnr_dynamic}, {"pixels", e.dynamic_pixels}};
     ev.push_back(x);

@@ -4,6 +4,7 @@
 #include "splat/tile_radix_binning_gpu.h"
 
 #include <algorithm>
+#include <array>
 #include <bit>
 #include <chrono>
 #include <cmath>
@@ -96,11 +97,16 @@ LidarGaussiansGpu::~LidarGaussiansGpu() = default;
 GpuLidarGaussians LidarGaussiansGpu::upload(const GaussianCloud& cloud, const std::vector<float>& intensity) {
   cloud.validate();
   if (cloud.size() > UINT32_MAX / 8) throw std::invalid_argument("lidar gaussians: too many Gaussians");
-  const uint64_t bytes = cloud.size() * sizeof(shader::SplatLidarGaussian);
-  if (bytes > ctx_.info().max_storage_buffer_range)
-    throw std::invalid_argument("lidar gaussians: " + std::to_string(cloud.size()) +
-                                " Gaussians exceed one storage binding");
   GpuLidarGaussians g;
+  g.windows = gpu::storage_windows(ctx_.info(), cloud.size(), sizeof(shader::SplatLidarGaussian));
+  const uint64_t rect_bytes = cloud.size() * 16;  // the per-Gaussian tile rectangles of a sweep
+  if (g.windows.size() > SPLAT_LIDAR_WINDOWS || rect_bytes > ctx_.info().max_storage_buffer_range)
+    throw std::invalid_argument(
+        "lidar gaussians: " + std::to_string(cloud.size()) + " Gaussians exceed this device's limit of " +
+        std::to_string(std::min<uint64_t>(
+            SPLAT_LIDAR_WINDOWS * (ctx_.info().max_storage_buffer_range / sizeof(shader::SplatLidarGaussian)),
+            ctx_.info().max_storage_buffer_range / 16)) +
+        " (" + std::to_string(SPLAT_LIDAR_WINDOWS) + " storage windows); cull the set to the sensor's range first");
   g.count = static_cast<uint32_t>(cloud.size());
   if (!cloud.positions.empty()) {
     glm::dvec3 lo = cloud.positions[0], hi = lo;
@@ -141,6 +147,14 @@ std::vector<shader::SplatLidarHit> LidarGaussiansGpu::cast(const GpuLidarGaussia
   p.ox = static_cast<float>(o.x);
   p.oy = static_cast<float>(o.y);
   p.oz = static_cast<float>(o.z);
+  p.window_n = g.windows.empty() ? 1u : static_cast<uint32_t>(g.windows[0].count);
+  // The record windows (null bindings past the last).
+  std::array<gpu::BufferBinding, SPLAT_LIDAR_WINDOWS> gw;
+  for (size_t w = 0; w < gw.size(); ++w)
+    gw[w] = w < g.windows.size()
+                ? g.gaussians.binding(g.windows[w].first * sizeof(shader::SplatLidarGaussian),
+                                      g.windows[w].count * sizeof(shader::SplatLidarGaussian))
+                : gpu::null_binding();
 
   gpu::ensure_capacity(ctx_, f.rects, n * 16, "lidar-gs-rects");
   gpu::ensure_capacity(ctx_, f.bound, n * 4, "lidar-gs-bound");
@@ -156,8 +170,8 @@ std::vector<shader::SplatLidarHit> LidarGaussiansGpu::cast(const GpuLidarGaussia
       f.t1->reset(cmd);
       const int ti = f.t1->begin(cmd, "bin");
       cmd.dispatch(bin_, {n}, p,
-                   {g.gaussians.binding(0, n * sizeof(shader::SplatLidarGaussian)),
-                    elev_gpu_.binding(0, uint64_t{model_.beams()} * 4), f.rects.binding(0, n * 16),
+                   {gw[0], gw[1], gw[2], gw[3], elev_gpu_.binding(0, uint64_t{model_.beams()} * 4),
+                    f.rects.binding(0, n * 16),
                     touched.binding(0, n * 4), f.bound.binding(0, n * 4)});
       cmd.barrier(gpu::deps::kComputeToCompute);  // the scan reads touched[]
       f.binning.record_scan(cmd, n, f.total.binding(0, 4));
@@ -187,11 +201,9 @@ std::vector<shader::SplatLidarHit> LidarGaussiansGpu::cast(const GpuLidarGaussia
     f.t2->end(cmd, ts);
     cmd.barrier(gpu::deps::kComputeToCompute);  // the cast reads the ranges
     const int tc = f.t2->begin(cmd, "cast");
-    const uint64_t gbytes = std::max<uint64_t>(1, n) * sizeof(shader::SplatLidarGaussian);
     cmd.dispatch(cast_, {uint64_t{tiles} * SPLAT_LIDAR_TILE_RAYS}, p,
                  {f.ranges.binding(0, uint64_t{tiles} * 8), keys.binding(0, std::max<uint64_t>(inst, 1) * 8),
-                  values.binding(0, std::max<uint64_t>(inst, 1) * 4),
-                  n > 0 ? g.gaussians.binding(0, gbytes) : gpu::null_binding(),
+                  values.binding(0, std::max<uint64_t>(inst, 1) * 4), gw[0], gw[1], gw[2], gw[3],
                   dirs_gpu_.binding(0, rays * 16), hits_.binding(0, rays * sizeof(shader::SplatLidarHit))});
     f.t2->end(cmd, tc);
   });

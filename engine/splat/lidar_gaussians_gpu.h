@@ -27,9 +27,10 @@
 // metres near the bounding-box centre, double on the host), the sensor origin
 // is split against it per sweep, so a scene 100 km from the origin casts the
 // same; whitening matrices come from the double computation of the reference.
-// Limits: Gaussians, their records and the tile instances each fit one
-// storage binding (lavapipe 128 MiB: 2 M Gaussians, 16 M instances); larger
-// sweeps fail with a clear message.
+// Limits: the Gaussian records are bound as up to SPLAT_LIDAR_WINDOWS (4)
+// storage windows (lavapipe 128 MiB each: 8.3 M Gaussians; the per-Gaussian
+// rectangles, 16 bytes, reach the same bound), the tile instances one binding
+// (lavapipe: 16 M); larger sweeps fail with a clear message.
 // Tests: tests/splat/test_lidar_gaussians.cpp; benchmark: bench/bench_lidar_gaussians.cpp.
 #pragma once
 
@@ -47,6 +48,7 @@ struct GpuLidarGaussians {
   gpu::Buffer gaussians;  // SplatLidarGaussian per Gaussian
   uint32_t count = 0;
   glm::dvec3 origin{0.0};
+  std::vector<gpu::ElementWindow> windows;  // of records, at most SPLAT_LIDAR_WINDOWS
 };
 
 // The records the GPU gets (positions relative to `origin`; r_cut with the binning margin).

@@ -25,6 +25,10 @@
 #define SPLAT_LIDAR_K 8
 #define SPLAT_LIDAR_MAX_PASSES 64u
 
+// Gaussian records are bound as up to SPLAT_LIDAR_WINDOWS storage windows of window_n records each
+// (the last may hold fewer), so a set larger than one binding (lavapipe: 128 MiB = 2 M records) casts.
+#define SPLAT_LIDAR_WINDOWS 4
+
 #define SPLAT_LIDAR_FLAG_OVERFLOW 1u  // more than K pending contributors: the ray took several passes (exact)
 #define SPLAT_LIDAR_FLAG_STOPPED 2u   // transmittance reached the 1e-4 stop rule
 #define SPLAT_LIDAR_FLAG_MEDIAN 4u    // T fell to <= 0.5: t_median is set
@@ -64,6 +68,7 @@ struct SplatLidarParams {
   float s10, s11, s12;
   float s20, s21, s22;
   float ox, oy, oz;  // sensor origin relative to the scene origin
+  uint window_n;     // Gaussian records per storage window (splat/lidar_gaussians.glsl)
 };
 
 ICUBE_SHADER_NAMESPACE_END
@@ -76,9 +81,10 @@ ICUBE_CHECK_LAYOUT(SplatLidarGaussian, r_cut, 44);
 ICUBE_CHECK_LAYOUT(SplatLidarGaussian, w20, 48);
 ICUBE_CHECK_SIZE(SplatLidarHit, 32);
 ICUBE_CHECK_LAYOUT(SplatLidarHit, count, 16);
-ICUBE_CHECK_SIZE(SplatLidarParams, 80);
+ICUBE_CHECK_SIZE(SplatLidarParams, 84);
 ICUBE_CHECK_LAYOUT(SplatLidarParams, start_azimuth, 28);
 ICUBE_CHECK_LAYOUT(SplatLidarParams, s00, 32);
 ICUBE_CHECK_LAYOUT(SplatLidarParams, ox, 68);
+ICUBE_CHECK_LAYOUT(SplatLidarParams, window_n, 80);
 
 #endif

@@ -27,11 +27,12 @@
 
 layout(local_size_x_id = 0) in;
 layout(push_constant) uniform Push { SplatLidarParams p; };
-layout(std430, binding = 0) readonly buffer Gaussians { vec4 g[]; };
-layout(std430, binding = 1) readonly buffer Elevations { float elev[]; };  // radians, ring order
-layout(std430, binding = 2) writeonly buffer Rects { uvec4 rects[]; };
-layout(std430, binding = 3) writeonly buffer Touched { uint touched[]; };
-layout(std430, binding = 4) writeonly buffer Bound { float bound[]; };
+#define LIDAR_GAUSSIAN_BINDING 0  // bindings 0-3: the Gaussian windows
+#include "splat/lidar_gaussians.glsl"
+layout(std430, binding = 4) readonly buffer Elevations { float elev[]; };  // radians, ring order
+layout(std430, binding = 5) writeonly buffer Rects { uvec4 rects[]; };
+layout(std430, binding = 6) writeonly buffer Touched { uint touched[]; };
+layout(std430, binding = 7) writeonly buffer Bound { float bound[]; };
 
 const float kPi = 3.14159265358979;
 const float kMargin = 2e-4;  // radians
@@ -50,8 +51,8 @@ uint rings_above(float x, bool inclusive) {
 void main() {
   const uint i = ICUBE_THREAD_LINEAR();
   if (i >= p.n) return;
-  const vec4 g0 = g[4u * i];
-  const float r = g[4u * i + 2u].w;
+  const vec4 g0 = gaussian_vec4(i, 0u);
+  const float r = gaussian_vec4(i, 2u).w;
   uvec4 rect = uvec4(0u);
   uint count = 0u;
   float key = 0.0;

@@ -37,9 +37,10 @@ layout(push_constant) uniform Push { SplatLidarParams p; };
 layout(std430, binding = 0) readonly buffer Ranges { uvec2 ranges[]; };
 layout(std430, binding = 1) readonly buffer Keys { uvec2 keys[]; };
 layout(std430, binding = 2) readonly buffer Values { uint values[]; };
-layout(std430, binding = 3) readonly buffer Gaussians { vec4 g[]; };
-layout(std430, binding = 4) readonly buffer Dirs { vec4 dirs[]; };  // sensor frame, ray order
-layout(std430, binding = 5) writeonly buffer Hits { SplatLidarHit hits[]; };
+#define LIDAR_GAUSSIAN_BINDING 3  // bindings 3-6: the Gaussian windows
+#include "splat/lidar_gaussians.glsl"
+layout(std430, binding = 7) readonly buffer Dirs { vec4 dirs[]; };  // sensor frame, ray order
+layout(std430, binding = 8) writeonly buffer Hits { SplatLidarHit hits[]; };
 
 float T = 1.0, wt = 0.0, wi = 0.0, median = 0.0;
 uint count = 0u, flags = 0u;
@@ -120,13 +121,13 @@ void main() {
         break;
       }
       const uint gi = values[k];
-      const vec4 g0 = g[4u * gi];
-      const vec4 g2 = g[4u * gi + 2u];
+      const vec4 g0 = gaussian_vec4(gi, 0u);
+      const vec4 g2 = gaussian_vec4(gi, 2u);
       const vec3 m = g0.xyz - o;
       const vec3 x = cross(m, d);
       if (dot(x, x) > g2.w * g2.w) continue;  // the ray line misses the cut sphere
-      const vec4 g1 = g[4u * gi + 1u];
-      const vec4 g3 = g[4u * gi + 3u];
+      const vec4 g1 = gaussian_vec4(gi, 1u);
+      const vec4 g3 = gaussian_vec4(gi, 3u);
       const vec3 mw = vec3(dot(g1.xyz, m), dot(g2.xyz, m), dot(g3.xyz, m));
       const vec3 dw = vec3(dot(g1.xyz, d), dot(g2.xyz, d), dot(g3.xyz, d));
       const float a = dot(dw, dw);

@@ -436,6 +436,38 @@ TEST_CASE("lidar gaussians gpu vs cpu: random scenes (odd sizes, rotated sensor)
   }
 }
 
+TEST_CASE("lidar gaussians gpu vs cpu: a set larger than one storage binding, cast through record windows") {
+  // Bindings capped at 512 KiB: 8,192 records per window, so 20,000 Gaussians span three windows
+  // (a Gaussian in every window is a contributor somewhere). Five windows' worth is refused by name.
+  gpu::ContextOptions opts = gpu::ContextOptions::from_env();
+  opts.max_storage_binding = 512u << 10;
+  auto capped = test::make_validated_context(opts);
+  const render::LidarModel m = small_model(8, -20.0, 6.0, 160);
+  splat::LidarGaussiansGpu caster(*capped, m);
+  splat::GaussianCloud c = test::random_cloud(7, 20000, 1, glm::dvec3(1.0, 2.0, 0.0), 25.0, -2.0, 0.5);
+  const auto inten = splat::lidar_gaussian_intensity(c);
+  const splat::GpuLidarGaussians g = caster.upload(c, inten);
+  REQUIRE(g.windows.size() == 3);
+  CHECK(g.windows[0].count == 8192);
+  const glm::dmat4 pose = pose_at(glm::dvec3(0.5, 1.0, 0.25), 33.0, -4.0);
+  const auto gpu = caster.cast(g, pose);
+  const auto cpu = splat::cast_lidar_gaussians_cpu(c, inten, m, pose, 2);
+  const HitCompare hc = compare_hits(gpu, cpu, m, "three windows");
+  CHECK(hc.returns_cpu > hc.rays / 4);
+  CHECK(hc.flag_diff <= hc.rays / kRaysPerAllowedDiff);
+  CHECK(hc.range_diff <= hc.rays / kRaysPerAllowedDiff);
+  // Each window's Gaussians contribute: the composite changes when the last window's are made transparent.
+  splat::GaussianCloud faded = c;
+  for (size_t i = 16384; i < faded.size(); ++i) faded.opacities[i] = 0.0f;
+  const auto gpu_faded = caster.cast(caster.upload(faded, inten), pose);
+  size_t changed = 0;
+  for (size_t r = 0; r < gpu.size(); ++r) changed += gpu[r].count != gpu_faded[r].count;
+  CHECK(changed > gpu.size() / 20);
+  const splat::GaussianCloud too_many = test::random_cloud(8, 5 * 8192 + 1, 1, glm::dvec3(0.0), 25.0, -2.0, 0.5);
+  CHECK_THROWS_WITH(caster.upload(too_many, splat::lidar_gaussian_intensity(too_many)),
+                    doctest::Contains("Gaussians exceed this device's limit"));
+}
+
 TEST_CASE("lidar gaussians gpu, stage by stage (splat_lidar_bin + splat_lidar_duplicate + sort, splat_ranges, "
           "splat_lidar_cast): every contributor is in its ray's tile list, in bound order") {
   const render::LidarModel m = small_model(21, -22.0, 9.0, 333);  // odd sizes: partial edge tiles

@@ -1,0 +1,59 @@
+#include "lift/heldout_render.h"
+
+#include "lift/dynamic_lift.h"
+#include "lift/image_metrics.h"
+#include "lift/lift_frames.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+namespace icube::lift {
+
+double psnr_from_mse(double mse) { return mse > 0.0 ? -10.0 * std::log10(mse) : 99.0; }
+
+HeldOutRenderer::HeldOutRenderer(gpu::Context& ctx, const splat::SplatScene& scene, const splat::SkyImage& sky,
+                                 render::PixelConvention pixels)
+    : renderer_(ctx), scene_(scene) {
+  options_.pixels = pixels;
+  options_.depth = false;
+  options_.sky = splat::sky_equirect(std::make_shared<const splat::SkyImage>(sky));
+  // Static scenes upload once; with objects each frame's placement is composed and uploaded.
+  if (scene_.objects.empty()) static_gpu_.emplace(renderer_.upload(scene_.static_set));
+}
+
+EvalFrame HeldOutRenderer::evaluate(const std::string& frames_dir, const render::FramesMeta& meta, size_t frame) {
+  const FrameImages im = read_frame_images(frames_dir, meta, frame);
+  EvalFrame e;
+  e.frame = frame;
+  std::optional<splat::GpuGaussians> frame_gpu;
+  if (!static_gpu_) frame_gpu.emplace(renderer_.upload(splat::compose_frame(scene_, frame)));
+  const splat::GpuGaussians& g = static_gpu_ ? *static_gpu_ : *frame_gpu;
+  const auto t0 = std::chrono::steady_clock::now();
+  const splat::SplatImage img = renderer_.render(g, frame_camera(meta, frame), options_);
+  e.render_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  const size_t px = size_t(meta.width) * meta.height;
+  e.rendered_rgb.resize(px * 3);
+  std::vector<uint8_t> static_mask(px);
+  double se = 0.0, se_dyn = 0.0;
+  for (size_t p = 0; p < px; ++p) {
+    const bool dynamic = im.instance[p] >= kDynamicInstanceMin;
+    static_mask[p] = dynamic ? 0 : 1;
+    for (int c = 0; c < 3; ++c) {
+      const double v = std::clamp(double(img.rgba[4 * p + size_t(c)]), 0.0, 1.0);
+      e.rendered_rgb[3 * p + size_t(c)] = static_cast<uint8_t>(std::lround(v * 255.0));
+      const double d = v - double(im.rgb[3 * p + size_t(c)]) / 255.0;
+      (dynamic ? se_dyn : se) += d * d;
+    }
+    ++(dynamic ? e.dynamic_pixels : e.pixels);
+  }
+  e.mse = e.pixels > 0 ? se / (3.0 * double(e.pixels)) : 0.0;
+  e.psnr = psnr_from_mse(e.mse);
+  if (!scene_.objects.empty() && e.dynamic_pixels > 0)
+    e.psnr_dynamic = psnr_from_mse(se_dyn / (3.0 * double(e.dynamic_pixels)));
+  e.ssim = ssim_rgb8(e.rendered_rgb, im.rgb, meta.width, meta.height, static_mask);
+  e.reference_rgb = im.rgb;
+  return e;
+}
+
+}  // namespace icube::lift
