@@ -299,7 +299,7 @@ PackageEval evaluate_package(gpu::Context& ctx, const std::string& package, cons
   std::vector<double> d_edges, d_lines, d_marks;
   const MapGroundIndex ground(sc.map);
   const uint32_t W = meta.width, H = meta.height;
-  const size_t overlay_frame = n / 2;
+  size_t overlay_samples = 0;  // the overlay shows the frame with the most visible map samples
   for (size_t f = 0; f < n; ++f) {
     const std::string name = render::frame_file_name(f);
     const fs::path sem_path = clip / "semantic_buffer" / name;
@@ -327,7 +327,7 @@ PackageEval evaluate_package(gpu::Context& ctx, const std::string& package, cons
           if (q.in) {
             const double dist = double(to_marking[size_t(q.v) * W + size_t(q.u)]);
             out.push_back(std::isinf(dist) ? double(W + H) : dist);
-            if (f == overlay_frame) drawn.emplace_back(q, dist <= o.map_tolerance_px);
+            drawn.emplace_back(q, dist <= o.map_tolerance_px);
           }
         }
       }
@@ -343,16 +343,23 @@ PackageEval evaluate_package(gpu::Context& ctx, const std::string& package, cons
         const glm::dvec3 dc = render::camera_ray_dir_cam(meta.K, u, v, meta.pixels);
         const glm::dvec3 pw = glm::dvec3(cam.c2w * glm::dvec4(dc * (double(depth[p]) / dc.z), 1.0));
         d_marks.push_back(ground.distance(glm::dvec2(pw)));
-        if (f == overlay_frame && d_marks.back() > o.paint_tolerance_m) far_paint.push_back(p);
+        if (d_marks.back() > o.paint_tolerance_m) far_paint.push_back(p);
       }
-    if (f == overlay_frame) {
+    if (drawn.size() > overlay_samples) {
+      // Paint beyond the paint tolerance magenta; map samples as 3x3 dots, green within the
+      // image tolerance of paint, red beyond.
+      overlay_samples = drawn.size();
       ev.map_overlay = sem.pixels;
       ev.map_overlay_frame = f;
       for (size_t p : far_paint) ev.map_overlay[3 * p] = 255, ev.map_overlay[3 * p + 1] = 0, ev.map_overlay[3 * p + 2] = 255;
-      for (const auto& [q, ok] : drawn) {
-        uint8_t* px = &ev.map_overlay[(size_t(q.v) * W + size_t(q.u)) * 3];
-        px[0] = ok ? 0 : 230, px[1] = ok ? 160 : 0, px[2] = ok ? 0 : 0;
-      }
+      for (const auto& [q, ok] : drawn)
+        for (int dy = -1; dy <= 1; ++dy)
+          for (int dx = -1; dx <= 1; ++dx) {
+            const int x = q.u + dx, y = q.v + dy;
+            if (x < 0 || y < 0 || x >= int(W) || y >= int(H)) continue;
+            uint8_t* px = &ev.map_overlay[(size_t(y) * W + size_t(x)) * 3];
+            px[0] = ok ? 0 : 230, px[1] = ok ? 160 : 0, px[2] = 0;
+          }
     }
     if (o.progress) o.progress("map", f + 1, n);
   }
