@@ -1,0 +1,199 @@
+// icube-bench-lod: level of detail of a package's static Gaussians
+// (splat/gaussian_lod.h) — chunk culling by frustum and distance and the
+// coarse merged level — against image quality and frame time, side by side
+// in one run. Per setting and per frame (frames not used for lifting, spread
+// evenly): the selection (CPU), compose + upload (the objects placed at the
+// frame), the GPU render; min and median over the runs; PSNR and SSIM over
+// the static pixels against the appearance frame, and the PSNR against the
+// whole set's render (the LOD error alone). Correctness check in the same
+// run: frustum culling alone must render the whole set's image (>= 60 dB).
+//
+//   LP_NUM_THREADS=2 build/icube-bench-lod --package build/demo/package [--frames 4] [--runs 5] [--warmup 1]
+//
+// The package comes from `tools/quickstart demo` (or `icube generate`).
+#include "bench_stats.h"
+
+#include "gpu/context.h"
+#include "lift/image_metrics.h"
+#include "lift/lift_frames.h"
+#include "render/appearance/frames_layout.h"
+#include "scene/atomic_file.h"
+#include "splat/gaussian_lod.h"
+#include "splat/rasterizer_gpu.h"
+#include "splat/splat_scene.h"
+
+#include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <set>
+#include <string>
+#include <vector>
+
+using namespace icube;
+namespace fs = std::filesystem;
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double ms_since(Clock::time_point t) { return std::chrono::duration<double, std::milli>(Clock::now() - t).count(); }
+
+struct Setting {
+  std::string name;
+  bool chunked = true;
+  splat::LodOptions lod;
+};
+
+std::vector<uint8_t> to_rgb8(const splat::SplatImage& img, size_t px) {
+  std::vector<uint8_t> out(px * 3);
+  for (size_t p = 0; p < px; ++p)
+    for (size_t c = 0; c < 3; ++c)
+      out[3 * p + c] = uint8_t(std::lround(std::clamp(double(img.rgba[4 * p + c]), 0.0, 1.0) * 255.0));
+  return out;
+}
+
+double psnr_masked(const std::vector<uint8_t>& a, const std::vector<uint8_t>& b, const std::vector<uint8_t>& mask) {
+  double se = 0.0;
+  size_t n = 0;
+  for (size_t p = 0; p < mask.size(); ++p) {
+    if (!mask[p]) continue;
+    for (size_t c = 0; c < 3; ++c) {
+      const double d = (double(a[3 * p + c]) - double(b[3 * p + c])) / 255.0;
+      se += d * d;
+    }
+    ++n;
+  }
+  return lift::psnr_from_mse(n ? se / (3.0 * double(n)) : 0.0);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"icube-bench-lod: level of detail of a package's Gaussians against quality and frame time"};
+  std::string package;
+  int runs = 5, warmup = 1;
+  size_t frames = 4;
+  app.add_option("--package", package, "Package folder (tools/quickstart demo writes build/demo/package)")->required();
+  app.add_option("--frames", frames, "Held-out frames rendered per setting")->capture_default_str();
+  app.add_option("--runs", runs, "Timed renders per frame")->capture_default_str()->check(CLI::PositiveNumber);
+  app.add_option("--warmup", warmup, "Untimed renders first")->capture_default_str();
+  CLI11_PARSE(app, argc, argv);
+  try {
+    const fs::path pkg(package);
+    if (!fs::is_regular_file(pkg / "manifest.json")) {
+      std::fprintf(stderr, "icube-bench-lod: %s is not a package (run tools/quickstart demo first)\n", package.c_str());
+      return 2;
+    }
+    gpu::Context ctx(gpu::ContextOptions::from_env());
+    std::printf("icube-bench-lod: device %s, LP_NUM_THREADS=%s\n", ctx.info().name.c_str(),
+                std::getenv("LP_NUM_THREADS") ? std::getenv("LP_NUM_THREADS") : "(unset)");
+    const std::string frames_dir = (pkg / "frames").string();
+    const render::FramesMeta meta = render::read_frames_meta(frames_dir);
+    const splat::SplatScene scene = splat::read_splat_scene((pkg / "gaussians" / "scene.json").string());
+    const auto report = nlohmann::json::parse(scene::read_file((pkg / "gaussians" / "lift_report.json").string()));
+    std::set<size_t> keys;
+    for (const auto& k : report["key_frames"]) keys.insert(k.get<size_t>());
+    std::vector<size_t> held, pick;
+    for (size_t f = 0; f < meta.poses.size(); ++f)
+      if (!keys.count(f)) held.push_back(f);
+    const size_t m = std::min(frames, held.size());
+    for (size_t i = 0; i < m; ++i) pick.push_back(held[(2 * i + 1) * held.size() / (2 * m)]);
+
+    auto t0 = Clock::now();
+    const splat::ChunkedGaussians chunks = splat::build_gaussian_chunks(scene.static_set);
+    const double build_ms = ms_since(t0);
+    std::printf("%s: %zu static Gaussians, %zu objects; %zu chunks of %.1f m, coarse level %zu Gaussians (merge cell "
+                "%.1f m), built in %.0f ms; %zu frames %ux%u\n\n",
+                package.c_str(), scene.static_set.size(), scene.objects.size(), chunks.chunks.size(),
+                chunks.options.chunk_size, chunks.coarse.size(), chunks.options.merge_cell, build_ms, pick.size(),
+                meta.width, meta.height);
+
+    std::vector<Setting> settings;
+    auto add = [&](const std::string& name, bool chunked, bool frustum, double max_d, double coarse_d) {
+      Setting s{name, chunked, {}};
+      s.lod.frustum = frustum;
+      s.lod.max_distance = max_d;
+      s.lod.coarse_distance = coarse_d;
+      settings.push_back(s);
+    };
+    add("whole set", false, false, 0, 0);
+    add("frustum", true, true, 0, 0);
+    add("frustum, <= 120 m", true, true, 120, 0);
+    add("frustum, <= 80 m", true, true, 80, 0);
+    add("frustum, coarse beyond 40 m", true, true, 0, 40);
+    add("frustum, <= 80 m, coarse beyond 25 m", true, true, 80, 25);
+    add("frustum, <= 60 m, coarse beyond 15 m", true, true, 60, 15);
+
+    splat::SplatRendererGpu renderer(ctx);
+    splat::SplatOptions so;
+    so.pixels = meta.pixels;
+    so.depth = false;
+    so.sky = splat::sky_equirect(
+        std::make_shared<const splat::SkyImage>(splat::read_sky_png((pkg / "gaussians" / "sky.png").string())));
+    const size_t px = size_t(meta.width) * meta.height;
+    std::vector<std::vector<uint8_t>> reference_whole(pick.size());
+    std::printf("%-38s %10s %8s %10s %10s %10s %10s %8s %7s %9s\n", "setting", "Gaussians", "chunks", "select ms",
+                "upload ms", "render min", "render med", "PSNR dB", "SSIM", "vs whole");
+    bool ok = true;
+    for (const Setting& s : settings) {
+      std::vector<double> sel_ms, up_ms, render_ms;
+      double psnr = 0.0, ssim = 0.0, vs_whole = 0.0, gaussians = 0.0, chunks_drawn = 0.0;
+      for (size_t i = 0; i < pick.size(); ++i) {
+        const size_t f = pick[i];
+        const render::Camera cam = lift::frame_camera(meta, f);
+        t0 = Clock::now();
+        splat::SplatScene part;
+        part.objects = scene.objects;
+        part.frame_count = scene.frame_count;
+        if (s.chunked) {
+          splat::LodSelection sel = splat::select_gaussians(chunks, cam, s.lod);
+          chunks_drawn += double(sel.chunks_fine + sel.chunks_coarse);
+          part.static_set = std::move(sel.cloud);
+        } else {
+          part.static_set = scene.static_set;
+          chunks_drawn += double(chunks.chunks.size());
+        }
+        sel_ms.push_back(ms_since(t0));
+        t0 = Clock::now();
+        const splat::GaussianCloud cloud = splat::compose_frame(part, f);
+        const splat::GpuGaussians g = renderer.upload(cloud);
+        up_ms.push_back(ms_since(t0));
+        gaussians += double(cloud.size());
+        splat::SplatImage img;
+        for (int r = 0; r < warmup + runs; ++r) {
+          t0 = Clock::now();
+          img = renderer.render(g, cam, so);
+          if (r >= warmup) render_ms.push_back(ms_since(t0));
+        }
+        const std::vector<uint8_t> rgb = to_rgb8(img, px);
+        const lift::FrameImages ref = lift::read_frame_images(frames_dir, meta, f);
+        std::vector<uint8_t> mask(px);
+        for (size_t p = 0; p < px; ++p) mask[p] = ref.instance[p] < lift::kDynamicInstanceMin;
+        psnr += psnr_masked(rgb, ref.rgb, mask);
+        ssim += lift::ssim_rgb8(rgb, ref.rgb, meta.width, meta.height, mask);
+        if (!s.chunked) reference_whole[i] = rgb;
+        std::vector<uint8_t> all(px, 1);
+        vs_whole += psnr_masked(rgb, reference_whole[i], all);
+      }
+      const double k = double(std::max<size_t>(1, pick.size()));
+      const bench::Summary rs = bench::summarize(render_ms), ss = bench::summarize(sel_ms),
+                           us = bench::summarize(up_ms);
+      const bool check = s.chunked && !s.lod.max_distance && !s.lod.coarse_distance ? vs_whole / k >= 60.0 : true;
+      ok = ok && check;
+      std::printf("%-38s %10.0f %8.0f %10.1f %10.1f %10.1f %10.1f %8.2f %7.4f %9.2f%s\n", s.name.c_str(), gaussians / k,
+                  chunks_drawn / k, ss.median_ms, us.median_ms, rs.min_ms, rs.median_ms, psnr / k, ssim / k,
+                  vs_whole / k, check ? "" : " FAIL");
+    }
+    std::printf("\n(Gaussians, chunks: mean per frame; select, upload: median per frame; render: over %d runs x %zu "
+                "frames; PSNR/SSIM over static pixels vs the appearance frames; vs whole: PSNR against the whole set's "
+                "render, 99 = identical)\n",
+                runs, pick.size());
+    return ok ? 0 : 1;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "icube-bench-lod: %s\n", e.what());
+    return 1;
+  }
+}
