@@ -5,7 +5,7 @@
 //
 //   icube generate SCENE -o PACKAGE [--world WORLD.icw] [--prompt TEXT] [--seed N] [--resume]
 //                  [--frames A:B[:S]] [--camera ... | --camera-preset NAME | --trajectory F | --route M]
-//                  [--key-every N] [--gaussians-per-cell 1|4] [--no-video]
+//                  [--key-every N] [--gaussians-per-cell 1|4] [--no-video] [--no-preview]
 //   icube generate --batch SCENES.txt [--shard I/N] -o OUT_ROOT [the options above]
 #include "command_registry.h"
 #include "generate_batch.h"
@@ -68,7 +68,8 @@ void add_generate_command(CLI::App& app) {
   cmd->add_option("--gaussians-per-cell", a->per_cell, "Gaussians per seen 0.1 m face cell (1, or 4: official density)")
       ->capture_default_str()
       ->check(CLI::IsMember({1, 4}));
-  cmd->add_flag("--no-video", a->no_video, "No mp4s in the guidance buffers");
+  cmd->add_flag("--no-video", a->no_video, "No mp4s (guidance buffers, the preview's fly-through)");
+  cmd->add_flag("--no-preview", a->no_preview, "No preview/ (the Gaussians rendered along the trajectory)");
   cmd->add_flag("--resume", a->resume,
                 "Continue a killed run after its last finished stage; nothing to do when the package is complete");
   cmd->add_option("--batch", c->batch,

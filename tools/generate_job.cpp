@@ -5,6 +5,7 @@
 #include "progress.h"
 
 #include "gpu/context.h"
+#include "lift/flythrough.h"
 #include "lift/lift_frames.h"
 #include "lift/lift_output.h"
 #include "render/appearance/frames_render.h"
@@ -92,7 +93,7 @@ GenerateResult generate_package(const GenerateArgs& a, scene::Diagnostics& diag)
       {"prompt", a.prompt},       {"seed", a.seed},
       {"frames", a.path.frames},  {"camera", {cp.K.fx, cp.K.fy, cp.K.cx, cp.K.cy, cp.K.width, cp.K.height}},
       {"route_m", a.path.route_m}, {"key_every", a.key_every},
-      {"gaussians_per_cell", a.per_cell}, {"videos", !a.no_video}};
+      {"gaussians_per_cell", a.per_cell}, {"videos", !a.no_video}, {"preview", !a.no_preview}};
   const std::string fingerprint = scene::sha256_hex(inputs.dump() + "\n" + options.dump());
 
   GenerateResult result;
@@ -211,6 +212,25 @@ GenerateResult generate_package(const GenerateArgs& a, scene::Diagnostics& diag)
     std::snprintf(detail, sizeof detail,
                   "%zu static Gaussians, %zu dynamic objects (%zu Gaussians), held-out PSNR %.2f dB over %zu frames",
                   lr.cloud.size(), lr.objects.size(), object_gaussians, lr.mean_psnr(), lr.eval.size());
+    return std::string(detail);
+  });
+
+  // The preview: the Gaussians along the trajectory (mp4 with videos) and a sheet against the frames.
+  stage("preview", [&] {
+    fs::remove_all(root / "preview");
+    if (a.no_preview) return std::string("skipped (--no-preview)");
+    const render::FramesMeta meta = render::read_frames_meta((root / "frames").string());
+    const splat::SplatScene gs = splat::read_splat_scene((root / "gaussians" / "scene.json").string());
+    const splat::SkyImage sky = splat::read_sky_png((root / "gaussians" / "sky.png").string());
+    lift::FlythroughOptions fo;
+    fo.video = !a.no_video;
+    ProgressBar bar("preview", "frames");
+    fo.progress = [&](size_t done, size_t total) { bar.update(done, total); };
+    const lift::FlythroughResult fr = lift::write_flythrough(ctx, gs, sky, meta, (root / "frames").string(),
+                                                             (root / "preview").string(), fo);
+    char detail[160];
+    std::snprintf(detail, sizeof detail, "%zu frames of the Gaussians (%.0f drawn per frame)%s", fr.frames,
+                  fr.mean_gaussians, fo.video ? ", flythrough.mp4" : "");
     return std::string(detail);
   });
 

@@ -23,6 +23,7 @@ struct GenerateArgs {
   size_t key_every = 2;
   int per_cell = 1;
   bool no_video = false;
+  bool no_preview = false;  // no preview/ (the Gaussians' fly-through)
   // Skip the package when it is complete and made from the same inputs and
   // options; else continue a killed run's staging folder after its last finished stage.
   bool resume = false;
@@ -44,7 +45,7 @@ struct GenerateResult {
 
 // The stages in order.
 inline const std::vector<std::string>& generate_stage_names() {
-  static const std::vector<std::string> names = {"world", "buffers", "frames", "lift"};
+  static const std::vector<std::string> names = {"world", "buffers", "frames", "lift", "preview"};
   return names;
 }
 

@@ -31,13 +31,13 @@ TEST_CASE("cli: icube generate writes a complete package, the same bytes twice, 
   CHECK(r.output.find("stage") != std::string::npos);  // the summary table
   for (const char* f : {"world.icw", "manifest.json", "buffers/contact_sheet.png", "frames/frames_meta.json",
                         "gaussians/gaussians_static.ply", "gaussians/sky.png", "gaussians/scene.json",
-                        "gaussians/lift_report.json", "gaussians/eval.png"})
+                        "gaussians/lift_report.json", "gaussians/eval.png", "preview/flythrough.png"})
     CHECK_MESSAGE(fs::is_regular_file(pkg / f), f);
   const auto m = nlohmann::json::parse(scene::read_file((pkg / "manifest.json").string()));
   CHECK(m["format"] == "icube-package");
   CHECK(m["version"] == 1);
   CHECK(m["frames"] == 6);
-  CHECK(m["stages"].size() == 4);
+  CHECK(m["stages"].size() == 5);
   CHECK(m["inputs"]["scene_sha256"] == scene::sha256_file(scene));
   // Every file but the manifest is listed with its hash, and nothing else is.
   size_t listed = 0;

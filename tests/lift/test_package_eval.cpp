@@ -9,6 +9,7 @@
 #include "lift/package_eval.h"
 #include "scene/atomic_file.h"
 #include "scene/scene_load.h"
+#include "video/mp4_reader.h"
 
 #include <nlohmann/json.hpp>
 
@@ -25,11 +26,17 @@ TEST_CASE("eval: a generated package's novel views, map alignment and LiDAR agre
   REQUIRE(test::run_icube("world demo-scene -o '" + scene_path + "'", dir.path).code == 0);
   const fs::path pkg = dir.path / "pkg";
   test::CliRun r = test::run_icube("generate '" + scene_path +
-                                       "' --camera 180,180,104,60,208,120 --frames 0:24 --no-video -o '" +
+                                       "' --camera 180,180,104,60,208,120 --frames 0:24 -o '" +
                                        pkg.string() + "'",
                                    dir.path);
   INFO(r.output);
   REQUIRE(r.code == 0);
+
+  // The preview: the Gaussians along the 24 frames as an mp4 (videos on here) and a sheet.
+  const video::DecodedVideo fly = video::read_video((pkg / "preview" / "flythrough.mp4").string(), 0);
+  CHECK(fly.frames.size() == 24);
+  CHECK(fly.width == 208);
+  CHECK(fs::is_regular_file(pkg / "preview" / "flythrough.png"));
 
   scene::Scene sc = scene::load_scene(scene_path, scene::LoadOptions{}, nullptr);
   lift::PackageEvalOptions o;
