@@ -158,7 +158,7 @@ int main(int argc, char** argv) {
         }
         sel_ms.push_back(ms_since(t0));
         t0 = Clock::now();
-        const splat::GaussianCloud cloud = splat::compose_frame(part, f);
+        const splat::GaussianCloud cloud = splat::compose_frame(part, lift::splat_frame_of(meta, f));
         const splat::GpuGaussians g = renderer.upload(cloud);
         up_ms.push_back(ms_since(t0));
         gaussians += double(cloud.size());

@@ -121,6 +121,8 @@ void cmd_eval(const EvalArgs& a) {
     drow("road edges -> paint (image)", e.map.road_edges, "px", o.map_tolerance_px);
     drow("lane lines -> paint (image)", e.map.lane_lines, "px", o.map_tolerance_px);
     drow("paint -> map (ground)", e.map.marking_to_map, "m", o.paint_tolerance_m);
+    std::printf("(map heights moved %+.2f m onto the world's ground, the median over %zu samples; spread p90 %.2f m)\n",
+                e.map.ground_offset_median_signed, e.map.ground_offset.samples, e.map.ground_offset.p90);
     std::printf("\nLiDAR agreement (%s, %zu sweeps; Gaussians vs voxels)\n", a.lidar_preset.c_str(), e.lidar.frames);
     if (!e.lidar.note.empty()) std::printf("  none: %s\n", e.lidar.note.c_str());
     else {

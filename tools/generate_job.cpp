@@ -181,12 +181,19 @@ GenerateResult generate_package(const GenerateArgs& a, scene::Diagnostics& diag)
   stage("frames", [&] {
     const fs::path fdir = root / "frames";
     fs::remove_all(fdir);
+    fs::remove(root / "trajectory.json");
     fs::create_directories(fdir);
     ProgressBar bar("frames", "frames");
     render::FramesRenderOptions fo;
     fo.seed = a.seed;
     fo.progress = [&](size_t done, size_t total) { bar.update(done, total); };
     render::render_frames(ctx, shared_overlay(), static_world, &sc, mesh, cp.K, traj, a.prompt, fo, fdir.string());
+    // The camera path in our world frame, pose i = package frame i, with the frames' scene times when they
+    // have them (the frames of gaussians/scene.json then: icube splat render --trajectory places the cars).
+    bool timed = !traj.time_index.empty();
+    for (int t : traj.time_index) timed = timed && t >= 0;
+    scene::write_file_atomic((root / "trajectory.json").string(),
+                             render::trajectory_json(traj.c2w, cp.K, timed ? &traj.time_index : nullptr));
     return parsed.summary();
   });
   overlay.reset();  // the lift casts against its own copies of the world

@@ -98,20 +98,7 @@ void save_passes_npy(const std::string& path, const std::vector<Pass>& passes) {
 }
 
 void save_pass_json(const std::string& path, const Pass& pass, const std::optional<render::PinholeIntrinsics>& camera) {
-  nlohmann::json j;
-  j["format"] = "icube-trajectory";
-  j["version"] = 1;
-  nlohmann::json poses = nlohmann::json::array();
-  for (const glm::dmat4& m : pass) {
-    nlohmann::json rows = nlohmann::json::array();
-    for (int r = 0; r < 4; ++r) rows.push_back({m[0][r], m[1][r], m[2][r], m[3][r]});
-    poses.push_back(rows);
-  }
-  j["poses"] = poses;
-  if (camera)
-    j["camera"] = {{"fx", camera->fx}, {"fy", camera->fy}, {"cx", camera->cx},
-                   {"cy", camera->cy}, {"width", camera->width}, {"height", camera->height}};
-  scene::write_file_atomic(path, j.dump(1) + "\n");
+  scene::write_file_atomic(path, render::trajectory_json(pass, camera));
 }
 
 std::string pass_json_path(const std::string& npy_path, size_t pass) {

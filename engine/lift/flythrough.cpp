@@ -44,7 +44,7 @@ FlythroughResult write_flythrough(gpu::Context& ctx, const splat::SplatScene& sc
     part.objects = scene.objects;
     part.frame_count = scene.frame_count;
     part.static_set = splat::select_gaussians(chunks, cam, o.lod).cloud;
-    const splat::GaussianCloud cloud = splat::compose_frame(part, f);
+    const splat::GaussianCloud cloud = splat::compose_frame(part, splat_frame_of(meta, f));
     drawn += double(cloud.size());
     const splat::SplatImage img = renderer.render(renderer.upload(cloud), cam, so);
     std::vector<uint8_t> rgb(px * 3);

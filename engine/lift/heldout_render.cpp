@@ -27,7 +27,7 @@ EvalFrame HeldOutRenderer::evaluate(const std::string& frames_dir, const render:
   EvalFrame e;
   e.frame = frame;
   std::optional<splat::GpuGaussians> frame_gpu;
-  if (!static_gpu_) frame_gpu.emplace(renderer_.upload(splat::compose_frame(scene_, frame)));
+  if (!static_gpu_) frame_gpu.emplace(renderer_.upload(splat::compose_frame(scene_, splat_frame_of(meta, frame))));
   const splat::GpuGaussians& g = static_gpu_ ? *static_gpu_ : *frame_gpu;
   const auto t0 = std::chrono::steady_clock::now();
   const splat::SplatImage img = renderer_.render(g, frame_camera(meta, frame), options_);

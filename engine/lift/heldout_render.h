@@ -37,7 +37,7 @@ struct EvalFrame {
 
 class HeldOutRenderer {
  public:
-  // `scene` and `sky` are copied; scene.frame_count must cover the frames rendered when it has objects.
+  // `scene` and `sky` are copied; a folder frame f shows the objects at splat_frame_of(meta, f) (lift_frames.h).
   HeldOutRenderer(gpu::Context& ctx, const splat::SplatScene& scene, const splat::SkyImage& sky,
                   render::PixelConvention pixels);
   EvalFrame evaluate(const std::string& frames_dir, const render::FramesMeta& meta, size_t frame);

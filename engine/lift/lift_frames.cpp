@@ -43,6 +43,17 @@ render::Camera frame_camera(const render::FramesMeta& meta, size_t frame) {
   return cam;
 }
 
+bool splat_frames_are_times(const render::FramesMeta& meta) {
+  if (meta.source_time_indices.size() != meta.poses.size() || meta.poses.empty()) return false;
+  for (int t : meta.source_time_indices)
+    if (t < 0) return false;
+  return true;
+}
+
+size_t splat_frame_of(const render::FramesMeta& meta, size_t frame) {
+  return splat_frames_are_times(meta) ? size_t(meta.source_time_indices.at(frame)) : frame;
+}
+
 FrameImages read_frame_images(const std::string& dir, const render::FramesMeta& meta, size_t frame) {
   const std::string name = render::frame_file_name(frame);
   FrameImages im;
@@ -113,18 +124,28 @@ LiftFramesResult lift_frames(gpu::Context& ctx, const world::VoxelGrid& static_w
     for (const glm::dmat4& c2w : meta.poses) lo.cameras.emplace_back(c2w[3]);
   res.cloud = emit_static_gaussians(static_world, acc, lo, &res.stats);
   res.sky = sky.image();
+  // Splat-scene frames: every scene state (by time index) or the folder's frames (splat_frames_are_times).
+  const bool by_time = splat_frames_are_times(meta);
+  size_t splat_frames = n;
+  if (by_time && o.scene) {
+    splat_frames = o.scene->timestamps.size();
+    for (int t : meta.source_time_indices) splat_frames = std::max(splat_frames, size_t(t) + 1);
+  }
+  res.splat_frames = splat_frames;
   if (o.scene) {
-    // Each object with its pose in every frame of the folder where its track places it.
+    // Each object with its pose in every splat-scene frame where its track places it.
     std::map<uint16_t, std::vector<std::pair<size_t, glm::dmat4>>> tracks;
-    for (size_t f = 0; f < n; ++f)
-      for (const auto& [id, m] : dynamic_object_poses(*o.scene, std::max(0, time_index(f)))) tracks[id].emplace_back(f, m);
+    for (size_t f = 0; f < splat_frames; ++f) {
+      const int t = by_time ? int(f) : std::max(0, time_index(f));
+      for (const auto& [id, m] : dynamic_object_poses(*o.scene, t)) tracks[id].emplace_back(f, m);
+    }
     for (auto& [id, cloud] : dyn.emit()) {
       splat::SplatObject obj;
       obj.id = id;
       obj.source = "object_" + std::to_string(id) + ".ply";
       obj.gaussians = std::move(cloud);
-      obj.poses.assign(n, glm::dmat4(1.0));
-      obj.present.assign(n, 0);
+      obj.poses.assign(splat_frames, glm::dmat4(1.0));
+      obj.present.assign(splat_frames, 0);
       for (const auto& [f, m] : tracks[id]) obj.poses[f] = m, obj.present[f] = 1;
       res.objects.push_back(std::move(obj));
     }
@@ -143,7 +164,7 @@ LiftFramesResult lift_frames(gpu::Context& ctx, const world::VoxelGrid& static_w
   splat::SplatScene placed;
   placed.static_set = res.cloud;
   placed.objects = res.objects;
-  placed.frame_count = n;
+  placed.frame_count = splat_frames;
   HeldOutRenderer renderer(ctx, placed, res.sky, meta.pixels);
   for (size_t i = 0; i < pick.size(); ++i) {
     res.eval.push_back(renderer.evaluate(frames_dir, meta, pick[i]));

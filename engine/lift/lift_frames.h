@@ -40,7 +40,8 @@ struct LiftFramesOptions {
 
 struct LiftFramesResult {
   splat::GaussianCloud cloud;                // the static set (world frame)
-  std::vector<splat::SplatObject> objects;   // dynamic objects (object frames), poses per frame of the folder
+  std::vector<splat::SplatObject> objects;   // dynamic objects (object frames), poses per splat-scene frame
+  size_t splat_frames = 0;                   // frames of the splat scene (splat_frames_are_times)
   splat::SkyImage sky;
   LiftStats stats;
   std::vector<size_t> key_frames;
@@ -58,6 +59,13 @@ struct FrameImages {
 FrameImages read_frame_images(const std::string& dir, const render::FramesMeta& meta, size_t frame);
 
 render::Camera frame_camera(const render::FramesMeta& meta, size_t frame);
+
+// The frames of a lifted splat scene (scene.json): the scene's time indices when every frame of the
+// folder has one (the dynamic objects' tracks then cover every scene state, so `icube lidar
+// --gaussians --scene` and a trajectory's time_indices place them as the guidance buffers do),
+// else the folder's frame numbers. splat_frame_of gives folder frame f's frame in the splat scene.
+bool splat_frames_are_times(const render::FramesMeta& meta);
+size_t splat_frame_of(const render::FramesMeta& meta, size_t frame);
 
 LiftFramesResult lift_frames(gpu::Context& ctx, const world::VoxelGrid& static_world, const std::string& frames_dir,
                              const render::FramesMeta& meta, const LiftFramesOptions& o);

@@ -25,7 +25,7 @@ void write_lift_outputs(const std::string& dir_name, const render::FramesMeta& m
   sj["static"] = "gaussians_static.ply";
   if (!r.objects.empty()) {
     // Each dynamic object's Gaussians in its object frame, and its pose in every frame that has it.
-    sj["frames"] = meta.poses.size();
+    sj["frames"] = r.splat_frames;
     nlohmann::ordered_json objs = nlohmann::ordered_json::array();
     for (const splat::SplatObject& obj : r.objects) {
       splat::write_gaussians_ply((dir / obj.source).string(), obj.gaussians);

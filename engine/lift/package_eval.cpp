@@ -14,6 +14,7 @@
 #include "splat/lidar_gaussians_gpu.h"
 #include "world/car_mesh.h"
 #include "world/npy.h"
+#include "world/semantics.h"
 #include "world/world_file.h"
 
 #include <nlohmann/json.hpp>
@@ -141,6 +142,13 @@ class MapGroundIndex {
   std::vector<std::vector<glm::dvec2>> crosswalks_;
 };
 
+bool is_ground_class(uint8_t c) {
+  using SC = world::SemanticClass;
+  for (SC g : {SC::Curb, SC::Road, SC::LaneMarker, SC::OtherGround, SC::Walkable, SC::Sidewalk})
+    if (c == uint8_t(g)) return true;
+  return false;
+}
+
 struct Projected {
   int u = 0, v = 0;
   double z = 0.0;
@@ -228,9 +236,12 @@ PackageEval evaluate_package(gpu::Context& ctx, const std::string& package, cons
   ev.key_frames = read_key_frames(pkg / "gaussians" / "lift_report.json", n);
   const std::set<size_t> keys(ev.key_frames.begin(), ev.key_frames.end());
   const splat::SplatScene gs = splat::read_splat_scene((pkg / "gaussians" / "scene.json").string());
-  if (gs.has_objects() && gs.frames() != n)
-    throw scene::InputError((pkg / "gaussians" / "scene.json").string(), "/frames",
-                            std::to_string(gs.frames()) + " frames but the package has " + std::to_string(n));
+  if (gs.has_objects())
+    for (size_t f = 0; f < n; ++f)
+      if (splat_frame_of(meta, f) >= gs.frames())
+        throw scene::InputError((pkg / "gaussians" / "scene.json").string(), "/frames",
+                                std::to_string(gs.frames()) + " frames, but package frame " + std::to_string(f) +
+                                    " needs frame " + std::to_string(splat_frame_of(meta, f)));
   const splat::SkyImage sky = splat::read_sky_png((pkg / "gaussians" / "sky.png").string());
 
   // ---- novel views ----
@@ -293,9 +304,38 @@ PackageEval evaluate_package(gpu::Context& ctx, const std::string& package, cons
   // ---- map alignment ----
   t0 = Clock::now();
   const fs::path clip = clip_folder(pkg);
+  const world::VoxelGrid world = world::load_world((pkg / "world.icw").string());
+  // Map heights against the world's ground: a map's z and the prior's road surface can differ (a
+  // Waymo map's elevation model), which would shift every sample in the image without any horizontal
+  // misalignment. The offset of each sample to the top face of the first ground-class voxel of its
+  // column within 2 m is measured, and all samples move by the median offset (one number: the
+  // per-sample surface is the road's or the curb's, which the measure is about).
   std::vector<std::vector<glm::dvec3>> edges, lines;
   for (const auto& e : sc.map.road_edges) edges.push_back(sample_polyline(e.points));
   for (const auto& l : sc.map.road_lines) lines.push_back(sample_polyline(l.points));
+  std::vector<double> ground_offsets;
+  for (const auto* layer : {&edges, &lines})
+    for (const auto& pl : *layer)
+      for (const glm::dvec3& p : pl) {
+        const double vs = world.voxel_size();
+        const glm::ivec3 top = world.world_to_ijk(p + glm::dvec3(0.0, 0.0, 2.0));
+        for (int k = 0; k <= int(std::ceil(4.0 / vs)); ++k) {
+          const glm::ivec3 ijk(top.x, top.y, top.z - k);
+          if (!is_ground_class(world.get(ijk).class_id)) continue;
+          ground_offsets.push_back(world.ijk_to_world(ijk).z + 0.5 * vs - p.z);
+          break;
+        }
+      }
+  if (!ground_offsets.empty()) {
+    std::vector<double> sorted = ground_offsets, abs_offsets;
+    std::nth_element(sorted.begin(), sorted.begin() + ptrdiff_t(sorted.size() / 2), sorted.end());
+    ev.map.ground_offset_median_signed = sorted[sorted.size() / 2];
+    for (double d : ground_offsets) abs_offsets.push_back(std::fabs(d - ev.map.ground_offset_median_signed));
+    ev.map.ground_offset = distance_stats(abs_offsets, 0.2);
+    for (auto* layer : {&edges, &lines})
+      for (auto& pl : *layer)
+        for (glm::dvec3& p : pl) p.z += ev.map.ground_offset_median_signed;
+  }
   std::vector<double> d_edges, d_lines, d_marks;
   const MapGroundIndex ground(sc.map);
   const uint32_t W = meta.width, H = meta.height;
@@ -392,7 +432,6 @@ PackageEval evaluate_package(gpu::Context& ctx, const std::string& package, cons
       traj.time_index.push_back(t);
     }
     // Voxels: the world with each frame's cars, as `icube lidar` casts it.
-    const world::VoxelGrid world = world::load_world((pkg / "world.icw").string());
     const world::TriangleMesh mesh = world::builtin_car_mesh();
     std::vector<std::vector<float>> voxel_range;
     {
@@ -407,7 +446,7 @@ PackageEval evaluate_package(gpu::Context& ctx, const std::string& package, cons
     std::vector<double> err_all, err_view;
     uint64_t rays = 0, both = 0, vo = 0, go = 0, rays_v = 0, both_v = 0, vo_v = 0, go_v = 0;
     for (size_t i = 0; i < pick.size(); ++i) {
-      const splat::GaussianCloud cloud = splat::compose_frame(gs, pick[i]);
+      const splat::GaussianCloud cloud = splat::compose_frame(gs, splat_frame_of(meta, pick[i]));
       const splat::GpuLidarGaussians g = caster.upload(cloud, splat::lidar_gaussian_intensity(cloud));
       const render::LidarScan s = caster.scan(g, traj.c2w[i], splat::LidarGaussianOptions{});
       const glm::dmat4 w2c = glm::inverse(meta.poses[pick[i]]);
@@ -466,6 +505,9 @@ void write_package_eval(const std::string& dir, const PackageEval& e, const Pack
                                   {"mean_px", s.mean}, {"within_tolerance", s.within}};
   };
   j["map_alignment"] = {{"frames", e.map.frames},
+                        {"ground_offset_m", {{"samples", e.map.ground_offset.samples},
+                                             {"median_applied", e.map.ground_offset_median_signed},
+                                             {"spread_p90", e.map.ground_offset.p90}}},
                         {"tolerance_px", o.map_tolerance_px},
                         {"max_depth_m", o.max_map_depth},
                         {"road_edges_to_buffer", dist(e.map.road_edges)},

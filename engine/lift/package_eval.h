@@ -10,7 +10,9 @@
 // row over up to `max_heldout` held-out frames spread evenly.
 //
 // Map alignment. Road edges and lane lines of the scene's map, sampled every
-// 0.25 m, projected into each frame's camera (z in [0.5, max_map_depth] m),
+// 0.25 m and moved by the median height offset to the world's ground (the top
+// face of the first ground-class voxel of each sample's column within 2 m: a
+// map's heights and the prior's road surface can differ), projected into each frame's camera (z in [0.5, max_map_depth] m),
 // kept where the guidance depth buffer shows them unoccluded (z <= depth +
 // max(0.5 m, 5 %)), against the guidance semantic buffer's palette entry 5
 // (CURB and LANE_MARKER, conventions §4): map → buffer is the distance in
@@ -70,6 +72,8 @@ struct MapAlignment {
   size_t frames = 0;
   DistanceStats road_edges, lane_lines;  // map → buffer
   DistanceStats marking_to_map;          // paint → map, metres
+  double ground_offset_median_signed = 0.0;  // world ground − map height, applied to every sample
+  DistanceStats ground_offset;               // |offset − the median| per sample, metres (the spread)
 };
 
 struct LidarStats {

@@ -135,6 +135,31 @@ TrajectoryFile load_json_trajectory(const std::string& path, size_t scene_states
   return out;
 }
 
+}  // namespace
+
+std::string trajectory_json(const std::vector<glm::dmat4>& c2w, const std::optional<PinholeIntrinsics>& camera,
+                            const std::vector<int>* time_indices) {
+  if (time_indices && time_indices->size() != c2w.size())
+    throw std::invalid_argument("trajectory_json: one time index per pose");
+  nlohmann::ordered_json j;
+  j["format"] = "icube-trajectory";
+  j["version"] = 1;
+  nlohmann::ordered_json poses = nlohmann::ordered_json::array();
+  for (const glm::dmat4& m : c2w) {
+    nlohmann::ordered_json rows = nlohmann::ordered_json::array();
+    for (int r = 0; r < 4; ++r) rows.push_back({m[0][r], m[1][r], m[2][r], m[3][r]});
+    poses.push_back(rows);
+  }
+  j["poses"] = poses;
+  if (camera)
+    j["camera"] = {{"fx", camera->fx}, {"fy", camera->fy}, {"cx", camera->cx},
+                   {"cy", camera->cy}, {"width", camera->width}, {"height", camera->height}};
+  if (time_indices) j["time_indices"] = *time_indices;
+  return j.dump(1) + "\n";
+}
+
+namespace {
+
 long parse_long(const std::string& s, const std::string& what) {
   char* end = nullptr;
   const long v = std::strtol(s.c_str(), &end, 10);

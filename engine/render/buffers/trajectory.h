@@ -59,6 +59,11 @@ TrajectoryFile load_trajectory(const std::string& path, size_t scene_states);
 
 // "A:B" (B exclusive), "A:" or ":B", "A" (one frame), and "A:B:S" / "::S" (every S-th
 // position, like a Python slice); over positions in the trajectory.
+// The icube-trajectory JSON (above) of one pass: poses, the camera when given, the time indices
+// when given (one per pose). Written by `icube generate` (the package's trajectory.json) and the viewer.
+std::string trajectory_json(const std::vector<glm::dmat4>& c2w, const std::optional<PinholeIntrinsics>& camera,
+                            const std::vector<int>* time_indices = nullptr);
+
 struct FrameRange {
   long begin = 0;
   long end = -1;  // -1 = to the end
