@@ -51,7 +51,7 @@ TEST_CASE("cli: icube generate --batch: three shards cover the list once, a kill
   scene::write_file_atomic(list.string(), "# four scenes\nscenes/a.json\n\n  scenes/b.json\nscenes/c.json\n" +
                                               (dir.path / "scenes" / "d.json").string() + "\n");
   const std::string icube = test::icube_binary().string();
-  const std::string opts = " generate --camera 180,180,104,60,208,120 --frames 20:30:2 --key-every 2 --no-video -o '" +
+  const std::string opts = " generate --camera 180,180,104,60,208,120 --frames 20:30:2 --key-every 2 --no-video --no-preview -o '" +
                            out.string() + "' --batch '" + list.string() + "'";
   auto shard_cmd = [&](int i) {
     return icube + opts + " --shard " + std::to_string(i) + "/3 > '" + (dir.path / ("log" + std::to_string(i))).string() +

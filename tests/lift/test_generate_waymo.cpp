@@ -31,7 +31,7 @@ TEST_CASE("cli: icube generate on the real Waymo scenario: a package the rendere
   if (waymo.empty()) return;
   test::TempDir dir("gen-waymo");
   const fs::path pkg = dir.path / "pkg", pkg2 = dir.path / "pkg2";
-  const std::string args = "generate '" + waymo + "' --camera 180,180,104,60,208,120 --frames 0:91:3 --no-video -o ";
+  const std::string args = "generate '" + waymo + "' --camera 180,180,104,60,208,120 --frames 0:91:3 --no-video --no-preview -o ";
   test::CliRun r = test::run_icube(args + "'" + pkg.string() + "'", dir.path);
   INFO(r.output);
   REQUIRE(r.code == 0);
