@@ -16,6 +16,7 @@
 #include "bench_worlds.h"
 
 #include "gpu/context.h"
+#include "lift/image_metrics.h"
 #include "lift/lift_frames.h"
 #include "render/appearance/frames_render.h"
 #include "render/buffers/frame_scene.h"
@@ -48,17 +49,9 @@ struct Variant {
 // PSNR of the previous key frame's image as the held-out frame, over its static pixels.
 double stale_view_psnr(const std::string& dir, const render::FramesMeta& meta, size_t f) {
   const lift::FrameImages ref = lift::read_frame_images(dir, meta, f), key = lift::read_frame_images(dir, meta, f - 1);
-  double se = 0.0;
-  size_t n = 0;
-  for (size_t p = 0; p < ref.instance.size(); ++p) {
-    if (ref.instance[p] >= lift::kDynamicInstanceMin) continue;
-    for (size_t c = 0; c < 3; ++c) {
-      const double d = (double(ref.rgb[3 * p + c]) - double(key.rgb[3 * p + c])) / 255.0;
-      se += d * d;
-    }
-    ++n;
-  }
-  return lift::psnr_from_mse(n ? se / (3.0 * double(n)) : 0.0);
+  std::vector<uint8_t> static_px(ref.instance.size());
+  for (size_t p = 0; p < static_px.size(); ++p) static_px[p] = ref.instance[p] < lift::kDynamicInstanceMin;
+  return lift::psnr_rgb8(ref.rgb, key.rgb, static_px);
 }
 
 }  // namespace

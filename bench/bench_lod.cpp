@@ -55,20 +55,6 @@ std::vector<uint8_t> to_rgb8(const splat::SplatImage& img, size_t px) {
   return out;
 }
 
-double psnr_masked(const std::vector<uint8_t>& a, const std::vector<uint8_t>& b, const std::vector<uint8_t>& mask) {
-  double se = 0.0;
-  size_t n = 0;
-  for (size_t p = 0; p < mask.size(); ++p) {
-    if (!mask[p]) continue;
-    for (size_t c = 0; c < 3; ++c) {
-      const double d = (double(a[3 * p + c]) - double(b[3 * p + c])) / 255.0;
-      se += d * d;
-    }
-    ++n;
-  }
-  return lift::psnr_from_mse(n ? se / (3.0 * double(n)) : 0.0);
-}
-
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -172,11 +158,10 @@ int main(int argc, char** argv) {
         const lift::FrameImages ref = lift::read_frame_images(frames_dir, meta, f);
         std::vector<uint8_t> mask(px);
         for (size_t p = 0; p < px; ++p) mask[p] = ref.instance[p] < lift::kDynamicInstanceMin;
-        psnr += psnr_masked(rgb, ref.rgb, mask);
+        psnr += lift::psnr_rgb8(rgb, ref.rgb, mask);
         ssim += lift::ssim_rgb8(rgb, ref.rgb, meta.width, meta.height, mask);
         if (!s.chunked) reference_whole[i] = rgb;
-        std::vector<uint8_t> all(px, 1);
-        vs_whole += psnr_masked(rgb, reference_whole[i], all);
+        vs_whole += lift::psnr_rgb8(rgb, reference_whole[i]);
       }
       const double k = double(std::max<size_t>(1, pick.size()));
       const bench::Summary rs = bench::summarize(render_ms), ss = bench::summarize(sel_ms),

@@ -1,5 +1,7 @@
 #include "lift/image_metrics.h"
 
+#include "lift/heldout_render.h"
+
 #include <cmath>
 #include <limits>
 #include <stdexcept>
@@ -78,6 +80,22 @@ double ssim_rgb8(const std::vector<uint8_t>& a, const std::vector<uint8_t>& b, u
       }
   }
   return counted ? sum / double(counted) : 0.0;
+}
+
+double psnr_rgb8(const std::vector<uint8_t>& a, const std::vector<uint8_t>& b, const std::vector<uint8_t>& mask) {
+  if (a.size() != b.size() || a.size() % 3 != 0 || (!mask.empty() && mask.size() * 3 != a.size()))
+    throw std::invalid_argument("psnr_rgb8: image and mask sizes differ");
+  double se = 0.0;
+  size_t n = 0;
+  for (size_t p = 0; p < a.size() / 3; ++p) {
+    if (!mask.empty() && !mask[p]) continue;
+    for (size_t c = 0; c < 3; ++c) {
+      const double d = (double(a[3 * p + c]) - double(b[3 * p + c])) / 255.0;
+      se += d * d;
+    }
+    ++n;
+  }
+  return psnr_from_mse(n ? se / (3.0 * double(n)) : 0.0);
 }
 
 namespace {

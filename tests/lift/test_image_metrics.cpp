@@ -118,6 +118,20 @@ TEST_CASE("image metrics: the distance transform is exact against brute force") 
   CHECK_THROWS_AS(lift::distance_transform(std::vector<uint8_t>(11, 0), 4, 3), std::invalid_argument);
 }
 
+TEST_CASE("image metrics: PSNR of RGB8 images over a mask") {
+  const std::vector<uint8_t> a(4 * 3 * 3, 100);
+  std::vector<uint8_t> b = a;
+  CHECK(lift::psnr_rgb8(a, b) == 99.0);
+  for (size_t i = 0; i < 6 * 3; ++i) b[i] = 101;  // the first 6 pixels one level off
+  CHECK(lift::psnr_rgb8(a, b) == doctest::Approx(20.0 * std::log10(255.0) + 10.0 * std::log10(2.0)));
+  std::vector<uint8_t> mask(12, 0);
+  for (size_t p = 0; p < 6; ++p) mask[p] = 1;
+  CHECK(lift::psnr_rgb8(a, b, mask) == doctest::Approx(20.0 * std::log10(255.0)));
+  for (size_t p = 0; p < 12; ++p) mask[p] = p >= 6;
+  CHECK(lift::psnr_rgb8(a, b, mask) == 99.0);
+  CHECK_THROWS_AS(lift::psnr_rgb8(a, b, std::vector<uint8_t>(5, 1)), std::invalid_argument);
+}
+
 TEST_CASE("image metrics: distance summaries (nearest-rank percentiles, share within tolerance)") {
   const lift::DistanceStats s = lift::distance_stats({5.0, 1.0, 0.0, 3.0, 2.0, 4.0, 6.0, 7.0, 8.0, 9.0}, 2.0);
   CHECK(s.samples == 10);
