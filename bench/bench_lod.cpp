@@ -47,14 +47,6 @@ struct Setting {
   splat::LodOptions lod;
 };
 
-std::vector<uint8_t> to_rgb8(const splat::SplatImage& img, size_t px) {
-  std::vector<uint8_t> out(px * 3);
-  for (size_t p = 0; p < px; ++p)
-    for (size_t c = 0; c < 3; ++c)
-      out[3 * p + c] = uint8_t(std::lround(std::clamp(double(img.rgba[4 * p + c]), 0.0, 1.0) * 255.0));
-  return out;
-}
-
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -154,7 +146,7 @@ int main(int argc, char** argv) {
           img = renderer.render(g, cam, so);
           if (r >= warmup) render_ms.push_back(ms_since(t0));
         }
-        const std::vector<uint8_t> rgb = to_rgb8(img, px);
+        const std::vector<uint8_t> rgb = lift::splat_rgb8(img);
         const lift::FrameImages ref = lift::read_frame_images(frames_dir, meta, f);
         std::vector<uint8_t> mask(px);
         for (size_t p = 0; p < px; ++p) mask[p] = ref.instance[p] < lift::kDynamicInstanceMin;

@@ -90,7 +90,7 @@ void cmd_eval(const EvalArgs& a) {
     std::map<std::string, std::unique_ptr<ProgressBar>> bars;
     o.progress = [&](const char* stage, size_t done, size_t total) {
       auto& b = bars[stage];
-      if (!b) b = std::make_unique<ProgressBar>(stage, stage == std::string("map") ? "frames" : "frames");
+      if (!b) b = std::make_unique<ProgressBar>(stage, "frames");
       b->update(done, total);
     };
     fs::path out = a.output.empty() ? fs::path(fs::absolute(a.package).lexically_normal().string() + "-eval")

@@ -1,5 +1,6 @@
 #include "lift/flythrough.h"
 
+#include "lift/heldout_render.h"
 #include "lift/lift_frames.h"
 #include "scene/atomic_file.h"
 #include "scene/png_read.h"
@@ -20,7 +21,7 @@ FlythroughResult write_flythrough(gpu::Context& ctx, const splat::SplatScene& sc
                                   const FlythroughOptions& o) {
   namespace fs = std::filesystem;
   const auto t0 = std::chrono::steady_clock::now();
-  const size_t n = meta.poses.size(), W = meta.width, H = meta.height, px = W * H;
+  const size_t n = meta.poses.size(), W = meta.width, H = meta.height;
   FlythroughResult res;
   res.frames = n;
   fs::create_directories(dir);
@@ -47,10 +48,7 @@ FlythroughResult write_flythrough(gpu::Context& ctx, const splat::SplatScene& sc
     const splat::GaussianCloud cloud = splat::compose_frame(part, splat_frame_of(meta, f));
     drawn += double(cloud.size());
     const splat::SplatImage img = renderer.render(renderer.upload(cloud), cam, so);
-    std::vector<uint8_t> rgb(px * 3);
-    for (size_t p = 0; p < px; ++p)
-      for (size_t c = 0; c < 3; ++c)
-        rgb[3 * p + c] = uint8_t(std::lround(std::clamp(double(img.rgba[4 * p + c]), 0.0, 1.0) * 255.0));
+    const std::vector<uint8_t> rgb = splat_rgb8(img);
     if (mp4) mp4->add_frame(rgb);
     const auto at = std::find(sheet.begin(), sheet.end(), f);
     if (at != sheet.end()) {

@@ -10,6 +10,14 @@
 
 namespace icube::lift {
 
+std::vector<uint8_t> splat_rgb8(const splat::SplatImage& img) {
+  std::vector<uint8_t> rgb(img.rgba.size() / 4 * 3);
+  for (size_t p = 0; p < rgb.size() / 3; ++p)
+    for (size_t c = 0; c < 3; ++c)
+      rgb[3 * p + c] = uint8_t(std::lround(std::clamp(double(img.rgba[4 * p + c]), 0.0, 1.0) * 255.0));
+  return rgb;
+}
+
 double psnr_from_mse(double mse) { return mse > 0.0 ? -10.0 * std::log10(mse) : 99.0; }
 
 HeldOutRenderer::HeldOutRenderer(gpu::Context& ctx, const splat::SplatScene& scene, const splat::SkyImage& sky,
@@ -33,7 +41,7 @@ EvalFrame HeldOutRenderer::evaluate(const std::string& frames_dir, const render:
   const splat::SplatImage img = renderer_.render(g, frame_camera(meta, frame), options_);
   e.render_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   const size_t px = size_t(meta.width) * meta.height;
-  e.rendered_rgb.resize(px * 3);
+  e.rendered_rgb = splat_rgb8(img);
   std::vector<uint8_t> static_mask(px);
   double se = 0.0, se_dyn = 0.0;
   for (size_t p = 0; p < px; ++p) {
@@ -41,7 +49,6 @@ EvalFrame HeldOutRenderer::evaluate(const std::string& frames_dir, const render:
     static_mask[p] = dynamic ? 0 : 1;
     for (int c = 0; c < 3; ++c) {
       const double v = std::clamp(double(img.rgba[4 * p + size_t(c)]), 0.0, 1.0);
-      e.rendered_rgb[3 * p + size_t(c)] = static_cast<uint8_t>(std::lround(v * 255.0));
       const double d = v - double(im.rgb[3 * p + size_t(c)]) / 255.0;
       (dynamic ? se_dyn : se) += d * d;
     }

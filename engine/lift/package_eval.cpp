@@ -182,7 +182,13 @@ std::vector<float> read_depth(const fs::path& path, uint32_t W, uint32_t H) {
   return a.values<float>();
 }
 
-LidarStats lidar_stats(std::vector<double>& signed_err, uint64_t rays, uint64_t both, uint64_t vo, uint64_t go) {
+// Nearest-rank percentile q of a sorted, non-empty set.
+double nearest_rank(const std::vector<double>& sorted, double q) {
+  const size_t rank = size_t(std::max(1.0, std::ceil(q * double(sorted.size()))));
+  return sorted[std::min(sorted.size(), rank) - 1];
+}
+
+LidarStats lidar_stats(const std::vector<double>& signed_err, uint64_t rays, uint64_t both, uint64_t vo, uint64_t go) {
   LidarStats s;
   s.rays = rays;
   s.both = both;
@@ -194,10 +200,9 @@ LidarStats lidar_stats(std::vector<double>& signed_err, uint64_t rays, uint64_t 
   a.reserve(signed_err.size());
   for (double e : signed_err) sum += e, a.push_back(std::fabs(e));
   std::sort(a.begin(), a.end());
-  auto pct = [&](double q) { return a[std::min(a.size() - 1, size_t(std::ceil(q * double(a.size()))) - 1)]; };
-  s.p50 = pct(0.5);
-  s.p90 = pct(0.9);
-  s.p99 = pct(0.99);
+  s.p50 = nearest_rank(a, 0.5);
+  s.p90 = nearest_rank(a, 0.9);
+  s.p99 = nearest_rank(a, 0.99);
   s.mean_signed = sum / double(signed_err.size());
   return s;
 }
@@ -209,9 +214,8 @@ DistanceStats distance_stats(std::vector<double> v, double tolerance) {
   s.samples = v.size();
   if (v.empty()) return s;
   std::sort(v.begin(), v.end());
-  auto pct = [&](double q) { return v[std::min(v.size() - 1, size_t(std::max(1.0, std::ceil(q * double(v.size())))) - 1)]; };
-  s.median = pct(0.5);
-  s.p90 = pct(0.9);
+  s.median = nearest_rank(v, 0.5);
+  s.p90 = nearest_rank(v, 0.9);
   double sum = 0.0;
   size_t within = 0;
   for (double d : v) sum += d, within += d <= tolerance ? 1 : 0;
