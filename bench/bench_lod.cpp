@@ -8,7 +8,9 @@
 // whole set's render (the LOD error alone). Correctness check in the same
 // run: frustum culling alone must render the whole set's image (>= 60 dB).
 //
-//   LP_NUM_THREADS=2 build/icube-bench-lod --package build/demo/package [--frames 4] [--runs 5] [--warmup 1]
+//   LP_NUM_THREADS=2 build/icube-bench-lod --package build/demo/package [--frames 4] [--runs 5] [--warmup 1] [--scale S]
+// The last columns: the median GPU time of each rasterizer phase. --scale renders the same
+// views smaller (the viewer's adaptive resolution; no quality columns then).
 //
 // The package comes from `tools/quickstart demo` (or `icube generate`).
 #include "bench_stats.h"
@@ -58,6 +60,10 @@ int main(int argc, char** argv) {
   app.add_option("--frames", frames, "Held-out frames rendered per setting")->capture_default_str();
   app.add_option("--runs", runs, "Timed renders per frame")->capture_default_str()->check(CLI::PositiveNumber);
   app.add_option("--warmup", warmup, "Untimed renders first")->capture_default_str();
+  double scale = 1.0;
+  app.add_option("--scale", scale, "Render at this fraction of the frames' size (quality columns need 1)")
+      ->capture_default_str()
+      ->check(CLI::Range(0.1, 1.0));
   CLI11_PARSE(app, argc, argv);
   try {
     const fs::path pkg(package);
@@ -104,6 +110,9 @@ int main(int argc, char** argv) {
     add("frustum, coarse beyond 40 m", true, true, 0, 40);
     add("frustum, <= 80 m, coarse beyond 25 m", true, true, 80, 25);
     add("frustum, <= 60 m, coarse beyond 15 m", true, true, 60, 15);
+    add("frustum, <= 80 m, coarse beyond 10 m", true, true, 80, 10);
+    add("frustum, <= 80 m, coarse beyond 5 m", true, true, 80, 5);
+    add("frustum, <= 80 m, all coarse", true, true, 80, 1e-3);
 
     splat::SplatRendererGpu renderer(ctx);
     splat::SplatOptions so;
@@ -113,15 +122,24 @@ int main(int argc, char** argv) {
         std::make_shared<const splat::SkyImage>(splat::read_sky_png((pkg / "gaussians" / "sky.png").string())));
     const size_t px = size_t(meta.width) * meta.height;
     std::vector<std::vector<uint8_t>> reference_whole(pick.size());
-    std::printf("%-38s %10s %8s %10s %10s %10s %10s %8s %7s %9s\n", "setting", "Gaussians", "chunks", "select ms",
-                "upload ms", "render min", "render med", "PSNR dB", "SSIM", "vs whole");
+    std::printf("%-38s %10s %8s %10s %10s %10s %10s %8s %7s %9s %7s %7s %7s %7s\n", "setting", "Gaussians", "chunks",
+                "select ms", "upload ms", "render min", "render med", "PSNR dB", "SSIM", "vs whole", "prep", "dsort",
+                "bin", "blend");
     bool ok = true;
     for (const Setting& s : settings) {
-      std::vector<double> sel_ms, up_ms, render_ms;
+      std::vector<double> sel_ms, up_ms, render_ms, prep_ms, dsort_ms, bin_ms, blend_ms;
       double psnr = 0.0, ssim = 0.0, vs_whole = 0.0, gaussians = 0.0, chunks_drawn = 0.0;
       for (size_t i = 0; i < pick.size(); ++i) {
         const size_t f = pick[i];
-        const render::Camera cam = lift::frame_camera(meta, f);
+        render::Camera cam = lift::frame_camera(meta, f);
+        if (scale != 1.0) {  // the same view at a fraction of the size
+          cam.K.fx *= scale;
+          cam.K.fy *= scale;
+          cam.K.cx *= scale;
+          cam.K.cy *= scale;
+          cam.K.width = uint32_t(std::lround(cam.K.width * scale));
+          cam.K.height = uint32_t(std::lround(cam.K.height * scale));
+        }
         t0 = Clock::now();
         splat::SplatScene part;
         part.objects = scene.objects;
@@ -143,10 +161,18 @@ int main(int argc, char** argv) {
         splat::SplatImage img;
         for (int r = 0; r < warmup + runs; ++r) {
           t0 = Clock::now();
-          img = renderer.render(g, cam, so);
-          if (r >= warmup) render_ms.push_back(ms_since(t0));
+          splat::SplatTimings tm;
+          img = renderer.render(g, cam, so, &tm);
+          if (r >= warmup) {
+            render_ms.push_back(ms_since(t0));
+            prep_ms.push_back(tm.preprocess_ms);
+            dsort_ms.push_back(tm.depth_sort_ms);
+            bin_ms.push_back(tm.sort_ms);
+            blend_ms.push_back(tm.blend_ms);
+          }
         }
         const std::vector<uint8_t> rgb = lift::splat_rgb8(img);
+        if (scale != 1.0) continue;  // quality needs the frames' size
         const lift::FrameImages ref = lift::read_frame_images(frames_dir, meta, f);
         std::vector<uint8_t> mask(px);
         for (size_t p = 0; p < px; ++p) mask[p] = ref.instance[p] < lift::kDynamicInstanceMin;
@@ -160,9 +186,11 @@ int main(int argc, char** argv) {
                            us = bench::summarize(up_ms);
       const bool check = s.chunked && !s.lod.max_distance && !s.lod.coarse_distance ? vs_whole / k >= 60.0 : true;
       ok = ok && check;
-      std::printf("%-38s %10.0f %8.0f %10.1f %10.1f %10.1f %10.1f %8.2f %7.4f %9.2f%s\n", s.name.c_str(), gaussians / k,
-                  chunks_drawn / k, ss.median_ms, us.median_ms, rs.min_ms, rs.median_ms, psnr / k, ssim / k,
-                  vs_whole / k, check ? "" : " FAIL");
+      auto med = [](const std::vector<double>& v) { return bench::summarize(v).median_ms; };
+      std::printf("%-38s %10.0f %8.0f %10.1f %10.1f %10.1f %10.1f %8.2f %7.4f %9.2f %7.1f %7.1f %7.1f %7.1f%s\n",
+                  s.name.c_str(), gaussians / k, chunks_drawn / k, ss.median_ms, us.median_ms, rs.min_ms, rs.median_ms,
+                  psnr / k, ssim / k, vs_whole / k, med(prep_ms), med(dsort_ms), med(bin_ms), med(blend_ms),
+                  check ? "" : " FAIL");
     }
     std::printf("\n(Gaussians, chunks: mean per frame; select, upload: median per frame; render: over %d runs x %zu "
                 "frames; PSNR/SSIM over static pixels vs the appearance frames; vs whole: PSNR against the whole set's "

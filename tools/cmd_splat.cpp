@@ -23,6 +23,7 @@
 #include "gpu/context.h"
 #include "render/buffers/trajectory.h"
 #include "scene/png_write.h"
+#include "splat/splat_rgba8.h"
 #include "splat/gaussians.h"
 #include "splat/rasterizer_gpu.h"
 #include "splat/splat_format.h"
@@ -124,7 +125,7 @@ void cmd_render(const SplatRenderArgs& a) {
       render_ms += t.wall_ms;
       for (size_t p = 0; p < size_t{K.width} * K.height; ++p)
         for (int c = 0; c < 3; ++c)
-          rgb[3 * p + c] = static_cast<uint8_t>(std::lround(std::clamp(img.rgba[4 * p + c], 0.0f, 1.0f) * 255.0f));
+          rgb[3 * p + c] = splat::splat_channel8(img.rgba[4 * p + c]);
       char name[32];
       std::snprintf(name, sizeof name, "%06d", traj.frame_index.empty() ? static_cast<int>(i) : traj.frame_index[i]);
       // write_png and write_npy write a temporary file and rename it.

@@ -16,6 +16,7 @@
 #include "render/buffers/stage2_writer.h"
 #include "scene/atomic_file.h"
 #include "scene/package_check.h"
+#include "scene/scene_json.h"
 #include "scene/sha256.h"
 #include "world/car_mesh.h"
 #include "world/procedural/procedural_prior.h"
@@ -143,6 +144,9 @@ GenerateResult generate_package(const GenerateArgs& a, scene::Diagnostics& diag)
       return std::move(r.world);
     }();
     world::save_world(w, (root / "world.icw").string());
+    // The scene as read (map, tracks, ego, cameras) in the icube JSON: icube-view PACKAGE drives its ego track
+    // and shows its cars in the voxel views; icube buffers / lidar take it as --scene.
+    scene::write_scene_json(sc, (root / "scene.json").string());
     return std::to_string(w.voxel_count()) + " voxels in " + std::to_string(w.brick_count()) + " bricks (" +
            (a.world.empty() ? std::string("procedural") : a.world) + ")";
   });

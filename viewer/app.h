@@ -7,9 +7,11 @@
 //   app_script.cpp  --script events
 //   app_ui.cpp      the Dear ImGui panels and the path preview
 //   app_frame.cpp   the frame loop
+// The Gaussian view of a package (icube generate) is gaussian_view.h.
 // Window and Vulkan set-up are in viewer_main.cpp, command-line options in options.h.
 #pragma once
 
+#include "gaussian_view.h"
 #include "options.h"
 #include "presenter.h"
 #include "recorder.h"
@@ -42,6 +44,8 @@ inline constexpr size_t kAutoResidencyBricks = kMaxResidentBricks;
 inline constexpr double kAutoResidencyRadius = 150.0;  // m
 // Adaptive resolution never renders below this scale (the panel's and the script's minimum too).
 inline constexpr double kMinAdaptiveScale = 0.25;
+// The Gaussian view draws its still level of detail once the view has not changed for this long (s).
+inline constexpr double kStillAfter = 0.3;
 
 enum class Control { Drive, Fly, Replay };
 
@@ -73,6 +77,13 @@ struct App {
   double time_accum = 0.0;
   scene::Camera target_cam;
   std::string world_name = "(none)";
+  // A package's (or a splat scene's) Gaussians, drawn instead of the voxels while show_gaussians.
+  std::unique_ptr<GaussianView> gauss;
+  bool show_gaussians = false;
+  double view_changed_at = -1e9;  // sim_time of the last change of the Gaussian view's pose or time
+  glm::dmat4 last_view_pose{0.0};
+  int last_view_time = -1;
+  std::string package_dir;  // the package folder opened, if any
   std::vector<TeleportTarget> map_targets, chunk_targets;
 
   // Control.
@@ -123,9 +134,12 @@ struct App {
   // frame, acquire, submit, present) and the device's timestamps (compute, copy to the swapchain, UI pass).
   struct FrameParts {
     FrameStats sim, residency, cars, ui, record, fence, acquire, submit, present, gpu_compute, gpu_copy, gpu_ui;
-    FrameStats gpu_compute_sliced;
-    FrameStats scale;               // the render scale used (adaptive resolution)  // compute of the frames right after a residency slice (occupancy masks rebuilt)
+    FrameStats gpu_compute_sliced;  // compute of the frames right after a residency slice (occupancy masks rebuilt)
+    FrameStats scale;  // the render scale used (adaptive resolution)
+    FrameStats splat_moving, splat_still;  // Gaussian view: host wall clock of each drawn view (assembly excluded)
+    FrameStats splat_drawn, splat_assemble;  // Gaussian view: Gaussians and assembly ms of each drawn view
     std::string summary() const;
+    std::string gaussian_summary() const;
   } parts;
   std::deque<float> frame_graph;
   double last_frame_ms = 0.0, avg_ms = 16.0;
@@ -147,6 +161,14 @@ struct App {
 
   // app_sim.cpp
   void simulate(double dt);
+  // Time indices the time slider covers: the scene's states, else the Gaussians' frames (0: none).
+  int timeline_frames() const;
+  bool gaussian_mode() const { return show_gaussians && gauss; }
+  GaussianDetail gaussian_detail() const;
+  // What the presenter shows: the voxel view's or the Gaussian view's RGBA8 and its size.
+  const gpu::Buffer* view_rgba() const;
+  uint32_t view_width() const;
+  uint32_t view_height() const;
   glm::dmat4 recorded_pose() const;
   glm::dmat4 replay_pose() const;
   glm::dmat4 view_pose() const;
@@ -166,6 +188,7 @@ struct App {
   void take_screenshot();
   void compare_with_headless(const std::vector<uint8_t>& px);
   void frame_shot(const std::string& path, size_t pass, size_t frame);
+  void gaussian_frame_shot(const std::string& path, size_t pass, size_t frame);
   render::PinholeIntrinsics target_intrinsics() const;
   void finish_autopilot();
 
@@ -176,6 +199,7 @@ struct App {
   void ui();
   void chunk_panel();
   void view_panel();
+  void gaussian_panel();
   void world_panel();
   void drive_panel();
   void teleport_panel();

@@ -62,13 +62,29 @@ int App::run() {
     const VkExtent2D ext = presenter.extent();
     const uint32_t w = std::max(1u, static_cast<uint32_t>(std::lround(ext.width * eff_scale)));
     const uint32_t h = std::max(1u, static_cast<uint32_t>(std::lround(ext.height * eff_scale)));
-    if (have_world) {
+    if (gaussian_mode()) {
+      const glm::dmat4 pose = view_pose();
+      if (pose != last_view_pose || time_index != last_view_time) view_changed_at = sim_time;
+      last_view_pose = pose;
+      last_view_time = time_index;
+      last_cam = view_camera(w, h);
+      // Drawn now (two waited submissions: the rasterizer reads its instance count back), converted to
+      // RGBA8 in the frame's command list; an unchanged view is not drawn again.
+      const GaussianDetail detail = gaussian_detail();
+      if (gauss->draw(last_cam, static_cast<size_t>(std::max(0, time_index)), detail) && frame > 3) {
+        const GaussianViewStats& gs = gauss->stats();
+        (detail == GaussianDetail::Moving ? parts.splat_moving : parts.splat_still).add(gs.render_ms);
+        parts.splat_drawn.add(double(gs.drawn));
+        parts.splat_assemble.add(gs.assemble_ms);
+      }
+      gauss->record_present(presenter.cmd());
+    } else if (have_world) {
       last_cam = view_camera(w, h);
       renderer.record(presenter.cmd(), gpu_world().world(), last_cam, shade);
     }
     const auto t_submit = clock::now();
-    presenter.end_frame(have_world ? &renderer.rgba() : nullptr, have_world ? w : 0, have_world ? h : 0,
-                        ImGui::GetDrawData());
+    const gpu::Buffer* shown = view_rgba();
+    presenter.end_frame(shown, shown ? view_width() : 0, shown ? view_height() : 0, ImGui::GetDrawData());
     if (frame > 3) {
       auto ms = [](auto a, auto b) { return std::chrono::duration<double, std::milli>(b - a).count(); };
       parts.sim.add(ms(now, t_res));
@@ -89,7 +105,7 @@ int App::run() {
       }
     }
     sliced_prev = sliced;
-    if (screenshot_pending && have_world) take_screenshot();
+    if (screenshot_pending && view_rgba()) take_screenshot();
     screenshot_pending = false;
     ++frame;
     if (opt.frames > 0 && frame >= opt.frames) break;
@@ -98,16 +114,27 @@ int App::run() {
   return failures;
 }
 
-std::string App::FrameParts::summary() const {
+std::string App::FrameParts::gaussian_summary() const {
+  if (splat_moving.ms.empty() && splat_still.ms.empty()) return "";
   char buf[512];
+  std::snprintf(buf, sizeof buf,
+                "; Gaussian views drawn: %zu moving (p50 %.1f ms), %zu still (p50 %.1f ms); per drawn view p50: %.0f "
+                "Gaussians, assembly %.2f ms",
+                splat_moving.ms.size(), splat_moving.percentile(50), splat_still.ms.size(), splat_still.percentile(50),
+                splat_drawn.percentile(50), splat_assemble.percentile(50));
+  return buf;
+}
+
+std::string App::FrameParts::summary() const {
+  char buf[768];
   std::snprintf(buf, sizeof buf,
                 "host: sim %.2f, residency %.2f, cars %.2f, ui %.2f, record %.2f; presenter: wait %.2f, acquire %.2f, "
                 "submit %.2f, present %.2f; device: compute %.2f, copy %.2f, ui %.2f; render scale p10/p50/p90 "
-                "%.2f/%.2f/%.2f",
+                "%.2f/%.2f/%.2f%s",
                 sim.percentile(50), residency.percentile(50), cars.percentile(50), ui.percentile(50),
                 record.percentile(50), fence.percentile(50), acquire.percentile(50), submit.percentile(50),
                 present.percentile(50), gpu_compute.percentile(50), gpu_copy.percentile(50), gpu_ui.percentile(50),
-                scale.percentile(10), scale.percentile(50), scale.percentile(90));
+                scale.percentile(10), scale.percentile(50), scale.percentile(90), gaussian_summary().c_str());
   return buf;
 }
 

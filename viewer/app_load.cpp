@@ -1,6 +1,7 @@
 // icube-view: loading the world / scene and teleporting; see app.h.
 #include "app.h"
 
+#include "render/buffers/trajectory.h"
 #include "scene/frames.h"
 #include "scene/scene_load.h"
 #include "world/car_mesh.h"
@@ -12,6 +13,7 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
 
 namespace icube::viewer {
 
@@ -28,16 +30,76 @@ App::App(const Options& o, gpu::Context& c, GLFWwindow* w)
   target_cam = scene::waymo_front_camera();
 }
 
+namespace {
+
+// A file holding Gaussians alone: a 3DGS .ply / .splat or an icube-splat-scene .json.
+bool is_gaussian_file(const std::filesystem::path& p) {
+  const std::string ext = p.extension().string();
+  if (ext == ".ply" || ext == ".splat") return true;
+  if (ext != ".json") return false;
+  std::ifstream f(p);
+  std::string head(4096, '\0');
+  f.read(head.data(), static_cast<std::streamsize>(head.size()));
+  head.resize(static_cast<size_t>(f.gcount()));
+  return head.find(splat::kSplatSceneFormat) != std::string::npos;
+}
+
+}  // namespace
+
 void App::load() {
-  std::string world_path = opt.input, scene_path = opt.scene_path;
-  if (!world_path.empty() && std::filesystem::is_directory(world_path)) {
-    const std::filesystem::path dir(world_path);
+  namespace fs = std::filesystem;
+  std::string world_path = opt.input, scene_path = opt.scene_path, splat_path, sky_path;
+  if (!world_path.empty() && fs::is_directory(world_path)) {
+    const fs::path dir(world_path);
     world_path = (dir / "world.icw").string();
-    if (scene_path.empty() && std::filesystem::exists(dir / "scene.json")) scene_path = (dir / "scene.json").string();
+    if (scene_path.empty() && fs::exists(dir / "scene.json")) scene_path = (dir / "scene.json").string();
+    if (fs::exists(dir / "gaussians" / "scene.json")) {  // an icube generate package
+      package_dir = dir.string();
+      splat_path = (dir / "gaussians" / "scene.json").string();
+      if (fs::exists(dir / "gaussians" / "sky.png")) sky_path = (dir / "gaussians" / "sky.png").string();
+    }
+  } else if (!world_path.empty() && is_gaussian_file(world_path)) {
+    splat_path = world_path;
+    world_path.clear();
+    const fs::path sky = fs::path(splat_path).parent_path() / "sky.png";
+    if (fs::exists(sky)) sky_path = sky.string();
   }
   if (!scene_path.empty()) {
     scene = scene::load_scene(scene_path);
     if (!scene->cameras.empty() && scene->cameras[0].fy > 0.0) target_cam = scene->cameras[0];
+  }
+  if (!package_dir.empty() && fs::exists(fs::path(package_dir) / "trajectory.json")) {
+    // The camera the package's frames were rendered with is the one to record for.
+    const render::TrajectoryFile tf = render::load_trajectory((fs::path(package_dir) / "trajectory.json").string(), 0);
+    if (tf.camera) {
+      target_cam.fx = tf.camera->fx;
+      target_cam.fy = tf.camera->fy;
+      target_cam.cx = tf.camera->cx;
+      target_cam.cy = tf.camera->cy;
+      target_cam.width = tf.camera->width;
+      target_cam.height = tf.camera->height;
+    }
+  }
+  if (!splat_path.empty()) {
+    std::printf("icube-view: loading the Gaussians of %s...\n", splat_path.c_str());
+    std::fflush(stdout);
+    GaussianViewOptions go;
+    if (opt.moving_lod.size() == 2) {
+      go.moving.coarse_distance = opt.moving_lod[0];
+      go.moving.max_distance = opt.moving_lod[1];
+    }
+    if (opt.still_lod.size() == 2) {
+      go.still.coarse_distance = opt.still_lod[0];
+      go.still.max_distance = opt.still_lod[1];
+    }
+    if (opt.chunk_size > 0.0) go.chunking.chunk_size = opt.chunk_size;
+    gauss = std::make_unique<GaussianView>(ctx, splat_path, sky_path, go);
+    const GaussianViewStats& gs = gauss->stats();
+    std::printf("icube-view: %zu static Gaussians in %zu chunks (coarse level %zu), %zu moving objects over %zu "
+                "frames, %.0f MiB on the GPU, loaded in %.1f s\n",
+                gs.static_gaussians, gs.chunks, gs.coarse_gaussians, gs.objects, gauss->frames(),
+                double(gs.resident_bytes) / (1024.0 * 1024.0), gs.load_s);
+    show_gaussians = opt.view != "voxels";
   }
   if (!world_path.empty()) {
     grid = world::load_world(world_path);
@@ -51,6 +113,9 @@ void App::load() {
     world_name = scene_path + " (procedural prior)";
     have_world = true;
   }
+  if (opt.view == "gaussians" && !gauss)
+    throw std::invalid_argument("--view gaussians: " + (opt.input.empty() ? std::string("no input") : opt.input) +
+                                " holds no Gaussians (a package, a splat scene .json or a .ply / .splat)");
   if (have_world) {
     car_mesh = world::builtin_car_mesh();
     if (scene) grid = render::make_static_world(grid, *scene, 0, car_mesh);  // ground following sees what is drawn
@@ -100,7 +165,10 @@ void App::teleport(const std::string& where) {
     autopilot.progress = 0;
     autopilot.finished = false;
   } else if (where == "ego" || where == "origin") {
-    if (have_world) {
+    if (!have_world && gauss) {
+      car = VehicleState{};
+      car.position = gauss->centre();
+    } else if (have_world) {
       const world::IjkBounds b = grid.bounds();
       const glm::dvec3 c = 0.5 * (grid.ijk_to_world(b.min) + grid.ijk_to_world(b.max));
       car = VehicleState{};

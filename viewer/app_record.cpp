@@ -78,14 +78,14 @@ void App::request_screenshot(const std::string& path) {
 
 void App::take_screenshot() {
   presenter.wait();
-  const std::vector<uint8_t> px = renderer.download_rgba();
+  const std::vector<uint8_t> px = gaussian_mode() ? gauss->download_rgba() : renderer.download_rgba();
   if (px.empty()) return;
   try {
-    scene::write_png(screenshot_target, px.data(), static_cast<int>(renderer.width()), static_cast<int>(renderer.height()), 4);
+    scene::write_png(screenshot_target, px.data(), static_cast<int>(view_width()), static_cast<int>(view_height()), 4);
     status = "screenshot " + screenshot_target;
-    std::printf("icube-view: wrote %s (%ux%u, %s)\n", screenshot_target.c_str(), renderer.width(), renderer.height(),
-                kRenderModeNames[static_cast<int>(shade.mode)]);
-    compare_with_headless(px);
+    std::printf("icube-view: wrote %s (%ux%u, %s)\n", screenshot_target.c_str(), view_width(), view_height(),
+                gaussian_mode() ? "gaussians" : kRenderModeNames[static_cast<int>(shade.mode)]);
+    if (!gaussian_mode()) compare_with_headless(px);
   } catch (const std::exception& e) {
     status = std::string("screenshot failed: ") + e.what();
     ++failures;
@@ -162,6 +162,36 @@ void App::frame_shot(const std::string& path, size_t pass, size_t frame) {
   }
 }
 
+// The previewed frame F of replay pass P drawn from the Gaussians as `icube splat render
+// gaussians/scene.json --trajectory FILE --camera <target> --sky gaussians/sky.png` draws that pose
+// of the saved file: the target camera's intrinsics, the whole static set (no level of detail),
+// the moving objects at splat frame min(F, frames - 1), the sky. PNG RGB8.
+void App::gaussian_frame_shot(const std::string& path, size_t pass, size_t frame) {
+  try {
+    if (!gauss) throw std::runtime_error("no Gaussians (open a package)");
+    if (pass >= replay.size() || frame >= replay[pass].size())
+      throw std::invalid_argument("gaussian-shot: no frame " + std::to_string(frame) + " of pass " +
+                                  std::to_string(pass) + " (load a trajectory first)");
+    presenter.wait();
+    render::Camera cam;
+    cam.K = target_intrinsics();
+    cam.c2w = replay[pass][frame];
+    gauss->draw(cam, frame, GaussianDetail::Whole);
+    const std::vector<uint8_t> rgba = gauss->download_rgba();
+    std::vector<uint8_t> rgb(rgba.size() / 4 * 3);
+    for (size_t i = 0; i < rgba.size() / 4; ++i)
+      for (int c = 0; c < 3; ++c) rgb[3 * i + static_cast<size_t>(c)] = rgba[4 * i + static_cast<size_t>(c)];
+    scene::write_png(path, rgb.data(), static_cast<int>(cam.K.width), static_cast<int>(cam.K.height), 3);
+    status = "Gaussian frame " + std::to_string(frame) + " of pass " + std::to_string(pass) + " -> " + path;
+    std::printf("icube-view: wrote %s (pass %zu frame %zu, %ux%u, Gaussians, whole set, target camera)\n", path.c_str(),
+                pass, frame, cam.K.width, cam.K.height);
+  } catch (const std::exception& e) {
+    status = std::string("gaussian-shot failed: ") + e.what();
+    std::fprintf(stderr, "icube-view: error: %s\n", status.c_str());
+    ++failures;
+  }
+}
+
 void App::finish_autopilot() {
   if (recorder.continuous()) {
     recorder.stop_continuous();
@@ -169,7 +199,7 @@ void App::finish_autopilot() {
     save(opt.record_out);
   }
   presenter.wait();
-  if (have_world) {
+  if (view_rgba()) {
     screenshot_target = opt.screenshot_out;
     take_screenshot();
   }

@@ -1,6 +1,7 @@
 // icube-view: --script events (commands: script.h); see app.h.
 #include "app.h"
 
+#include <algorithm>
 #include <cstdio>
 
 namespace icube::viewer {
@@ -17,7 +18,14 @@ void App::run_event(const ScriptEvent& e) {
     else if (e.command == "render") {
       for (size_t m = 0; m < std::size(kRenderModeNames); ++m)
         if (a == kRenderModeNames[m]) shade.mode = static_cast<RenderMode>(m);
-    } else if (e.command == "scale") scale = eff_scale = std::stod(a);
+    } else if (e.command == "view") {
+      if (a == "gaussians" && !gauss) throw std::invalid_argument("no Gaussians loaded (open a package)");
+      show_gaussians = a == "gaussians";
+    } else if (e.command == "time") {
+      if (timeline_frames() == 0) throw std::invalid_argument("no time line (no scene states, no moving objects)");
+      time_index = std::clamp(std::stoi(a), 0, timeline_frames() - 1);
+    } else if (e.command == "play") play_time = a == "on";
+    else if (e.command == "scale") scale = eff_scale = std::stod(a);
     else if (e.command == "adaptive") adaptive = a == "on";
     else if (e.command == "shadows") shade.shadows = a == "on";
     else if (e.command == "ui") show_ui = a == "on";
@@ -50,6 +58,18 @@ void App::run_event(const ScriptEvent& e) {
         }
       if (n == 0) throw std::invalid_argument("frame-shots: no loaded pass (load a trajectory first)");
       status = std::to_string(n) + " frame shots -> " + e.args.at(0) + "_p*_f*.png";
+    } else if (e.command == "gaussian-shots") {
+      const size_t step = std::stoul(e.args.at(1));
+      size_t n = 0;
+      for (size_t p = 0; p < replay.size(); ++p)
+        for (size_t f = 0; f < replay[p].size(); f += step) {
+          char name[64];
+          std::snprintf(name, sizeof name, "_p%zu_f%03zu.png", p, f);
+          gaussian_frame_shot(e.args.at(0) + name, p, f);
+          ++n;
+        }
+      if (n == 0) throw std::invalid_argument("gaussian-shots: no loaded pass (load a trajectory first)");
+      status = std::to_string(n) + " Gaussian frame shots -> " + e.args.at(0) + "_p*_f*.png";
     } else if (e.command == "teleport") teleport(rest);
     else if (e.command == "quit") quit = true;
   } catch (const std::exception& ex) {

@@ -18,18 +18,37 @@ void App::simulate(double dt) {
     const Pass& p = replay[static_cast<size_t>(replay_pass)];
     if (replay_t * 10.0 >= static_cast<double>(p.size())) replay_t = 0.0;
     // The cars as `icube buffers` shows them for this frame: time index = frame (load_trajectory's rule).
-    if (scene && !scene->timestamps.empty())
-      time_index = static_cast<int>(std::min(static_cast<size_t>(replay_t * 10.0), scene->timestamps.size() - 1));
+    if (timeline_frames() > 0)
+      time_index = std::min(static_cast<int>(replay_t * 10.0), timeline_frames() - 1);
   }
   recorder.update(sim_time, recorded_pose());
-  if (scene && !scene->timestamps.empty() && play_time) {
+  if (timeline_frames() > 0 && play_time) {
     time_accum += dt * 10.0;
     while (time_accum >= 1.0) {
       time_accum -= 1.0;
-      time_index = (time_index + 1) % static_cast<int>(scene->timestamps.size());
+      time_index = (time_index + 1) % timeline_frames();
     }
   }
 }
+
+int App::timeline_frames() const {
+  if (scene && !scene->timestamps.empty()) return static_cast<int>(scene->timestamps.size());
+  return gauss ? static_cast<int>(gauss->frames()) : 0;
+}
+
+// The moving level of detail while the view changes (driving, flying, replay, the time playing or its
+// slider dragged) and for kStillAfter seconds after; then the still one, drawn once.
+GaussianDetail App::gaussian_detail() const {
+  const bool busy = moving() || play_time || control == Control::Replay || sim_time - view_changed_at < kStillAfter;
+  return busy ? GaussianDetail::Moving : GaussianDetail::Still;
+}
+
+const gpu::Buffer* App::view_rgba() const {
+  if (gaussian_mode()) return gauss->width() ? &gauss->rgba() : nullptr;
+  return have_world ? &renderer.rgba() : nullptr;
+}
+uint32_t App::view_width() const { return gaussian_mode() ? gauss->width() : renderer.width(); }
+uint32_t App::view_height() const { return gaussian_mode() ? gauss->height() : renderer.height(); }
 
 glm::dmat4 App::recorded_pose() const {
   if (control == Control::Fly) return fly_camera_c2w(fly);
@@ -65,7 +84,7 @@ render::Camera App::view_camera(uint32_t w, uint32_t h) const {
 // The scene's dynamic cars at the time index, plus our own car where the view
 // shows it (chase and fly), as OverlayWorld cells (re-uploaded when they change).
 void App::update_cars() {
-  if (!residency) return;
+  if (!residency || gaussian_mode()) return;  // the Gaussian view places its own cars; the voxels catch up on return
   bool changed = false;
   if (scene && !scene->timestamps.empty() && time_index != shown_time_index) {
     scene_cells = render::dynamic_car_cells(*scene, time_index, car_mesh, grid.origin(), grid.voxel_size(), nullptr,
@@ -112,7 +131,7 @@ void App::apply_cars() {
 // Chunks near the camera on the GPU (residency.h): a background job computes the change when the camera
 // has moved far enough; the frame loop applies it one bounded slice per frame (the slice is the stall).
 void App::update_residency() {
-  if (!residency || residency->radius() <= 0.0) return;
+  if (!residency || residency->radius() <= 0.0 || gaussian_mode()) return;
   residency->update(glm::dvec2(view_pose()[3]));
   if (!residency->ready()) return;
   presenter.wait();  // the frame in flight may still read the table or the records being replaced
@@ -126,7 +145,8 @@ void App::update_residency() {
 }
 
 void App::adapt_resolution() {
-  if (!adaptive || !moving()) {
+  const bool busy = moving() || (gaussian_mode() && gaussian_detail() == GaussianDetail::Moving);
+  if (!adaptive || !busy) {
     eff_scale = scale;
     return;
   }

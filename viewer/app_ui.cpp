@@ -36,7 +36,8 @@ void App::ui() {
   drive_panel();
   teleport_panel();
   record_panel();
-  ImGui::TextDisabled("WASD/arrows drive or fly, Tab drive/fly, RMB look, Q/E down/up, 1-5 modes, F1 panels, Esc quit");
+  ImGui::TextDisabled("WASD/arrows drive or fly, Tab drive/fly, RMB look, Q/E down/up, 1-5 modes, G Gaussians, T play "
+                      "time, F1 panels, Esc quit");
   ImGui::End();
   if (show_path) draw_paths();
 }
@@ -47,8 +48,19 @@ void App::view_panel() {
               presenter.present_mode_name());
   std::vector<float> g(frame_graph.begin(), frame_graph.end());
   ImGui::PlotLines("##ft", g.data(), static_cast<int>(g.size()), 0, "frame ms", 0.0f, 100.0f, ImVec2(0, 50));
-  ImGui::Text("render %ux%u of %ux%u", renderer.width(), renderer.height(), presenter.extent().width,
+  ImGui::Text("render %ux%u of %ux%u", view_width(), view_height(), presenter.extent().width,
               presenter.extent().height);
+  if (gauss) {
+    int v = show_gaussians ? 1 : 0;
+    ImGui::RadioButton("voxels", &v, 0);
+    ImGui::SameLine();
+    ImGui::RadioButton("Gaussians (G)", &v, 1);
+    show_gaussians = v == 1;
+  }
+  if (gaussian_mode()) {
+    gaussian_panel();
+    return;
+  }
   int mode = static_cast<int>(shade.mode);
   if (ImGui::Combo("mode", &mode, kRenderModeNames, static_cast<int>(std::size(kRenderModeNames))))
     shade.mode = static_cast<RenderMode>(mode);
@@ -67,7 +79,31 @@ void App::view_panel() {
     }
   }
   ImGui::Checkbox("path preview", &show_path);
-  ImGui::TextDisabled("Gaussians: not yet (splatting renderer)");
+  if (!gauss) ImGui::TextDisabled("Gaussians: open a package (icube-view PACKAGE)");
+}
+
+// The Gaussian view's figures and its level of detail (gaussian_view.h).
+void App::gaussian_panel() {
+  const GaussianViewStats& gs = gauss->stats();
+  ImGui::Text("%zu static Gaussians, %zu chunks, %zu objects", gs.static_gaussians, gs.chunks, gs.objects);
+  ImGui::Text("drawn %zu (%s): chunks %zu fine, %zu coarse, %zu out", gs.drawn,
+              gs.detail == GaussianDetail::Moving ? "moving" : gs.detail == GaussianDetail::Still ? "still" : "whole",
+              gs.chunks_fine, gs.chunks_coarse, gs.chunks_out);
+  ImGui::Text("draw %.1f ms, %llu tile instances, assembly %.1f ms; %zu drawn, %zu reused", gs.render_ms,
+              static_cast<unsigned long long>(gs.timings.instances), gs.assemble_ms, gs.renders, gs.reused);
+  float s = static_cast<float>(scale);
+  if (ImGui::SliderFloat("res scale", &s, 0.25f, 1.0f)) scale = eff_scale = s;
+  ImGui::Checkbox("adaptive while moving", &adaptive);
+  GaussianViewOptions& o = gauss->options();
+  auto distance = [](const char* label, double& v, float hi) {
+    float f = static_cast<float>(v);
+    if (ImGui::SliderFloat(label, &f, 0.0f, hi, f == 0.0f ? "off" : "%.0f m")) v = f;
+  };
+  distance("moving: fine within", o.moving.coarse_distance, 100.0f);
+  distance("moving: cut beyond", o.moving.max_distance, 400.0f);
+  distance("still: fine within", o.still.coarse_distance, 200.0f);
+  distance("still: cut beyond", o.still.max_distance, 400.0f);
+  ImGui::Checkbox("path preview", &show_path);
 }
 
 void App::world_panel() {
@@ -83,10 +119,11 @@ void App::world_panel() {
   if (scene) {
     ImGui::TextWrapped("scene: %s (%s)", scene->provenance.scenario_id.c_str(), scene->provenance.source_format.c_str());
     ImGui::Text("%zu tracks, %zu ego poses, %zu lanes", scene->tracks.size(), scene->ego.size(), scene->map.lanes.size());
-    if (!scene->timestamps.empty()) {
-      ImGui::SliderInt("time", &time_index, 0, static_cast<int>(scene->timestamps.size()) - 1);
-      ImGui::Checkbox("play cars (10 Hz)", &play_time);
-    }
+  }
+  if (gauss) ImGui::TextWrapped("Gaussians: %s", gauss->source().c_str());
+  if (timeline_frames() > 0) {
+    ImGui::SliderInt("time", &time_index, 0, timeline_frames() - 1);
+    ImGui::Checkbox("play cars (10 Hz)", &play_time);
   }
 }
 

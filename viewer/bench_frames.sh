@@ -6,8 +6,12 @@
 # (--target-ms, default 45), each RUNS times; prints the --stats lines of every
 # run (frame times; p50 of each part of a frame and the render scale) and a
 # table of the run with the median p50. Load (uptime) first.
+# PACKAGE=DIR benchmarks the Gaussian view of an icube generate package instead
+# (viewer/sessions/bench_gaussians.script: the same drive with the cars playing;
+# extra icube-view options in VIEW_OPTS, e.g. "--moving-lod 8,80").
 #
 #   viewer/bench_frames.sh [BUILD_DIR] [RUNS] [SIZES]   (defaults: build 3 "960 1280"; LP_NUM_THREADS=2)
+#   PACKAGE=build/demo/package viewer/bench_frames.sh build 3 960
 set -euo pipefail
 cd "$(dirname "$0")/.."
 build="${1:-build}"
@@ -29,8 +33,14 @@ for w in $sizes; do
     [ "$mode" = adaptive ] && flag="--adaptive --target-ms ${TARGET_MS:-45}"
     lines=()
     for ((r = 0; r < runs; ++r)); do
-      full=$(timeout 300 xvfb-run -a -s "-screen 0 1920x1080x24" "$build/icube-view" "$out/world.icw" \
-        --scene "$out/scene.json" --script viewer/sessions/bench_drive.script --size "$w" --no-vsync --stats $flag)
+      if [ -n "${PACKAGE:-}" ]; then
+        # shellcheck disable=SC2086
+        full=$(timeout 300 xvfb-run -a -s "-screen 0 1920x1080x24" "$build/icube-view" "$PACKAGE" \
+          --script viewer/sessions/bench_gaussians.script --size "$w" --no-vsync --stats $flag ${VIEW_OPTS:-})
+      else
+        full=$(timeout 300 xvfb-run -a -s "-screen 0 1920x1080x24" "$build/icube-view" "$out/world.icw" \
+          --scene "$out/scene.json" --script viewer/sessions/bench_drive.script --size "$w" --no-vsync --stats $flag)
+      fi
       line=$(echo "$full" | grep "stats")
       echo "$line"
       echo "$full" | grep "frame parts" || true

@@ -8,16 +8,35 @@
 
 #include <CLI/CLI.hpp>
 
+#include <algorithm>
+#include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <optional>
 
 namespace icube::viewer {
 
 int parse_options(int argc, char** argv, Options& o) {
-  CLI::App app{"InfiniCube-VK viewer: drive or fly through a voxel world, record and replay camera trajectories",
+  CLI::App app{"InfiniCube-VK viewer: drive or fly through a voxel world or a package's Gaussians, record and replay "
+               "camera trajectories",
                "icube-view"};
-  app.add_option("input", o.input, "World file (.icw) or an output folder holding world.icw (+ scene.json)");
+  app.add_option("input", o.input,
+                 "World file (.icw), a folder holding world.icw (+ scene.json), an icube generate package (its "
+                 "Gaussians too), or Gaussians alone (a splat scene .json, a 3DGS .ply or .splat)");
+  app.add_option("--view", o.view, "Start with the voxel or the Gaussian view (auto: Gaussians when the input has them)")
+      ->check(CLI::IsMember({"auto", "voxels", "gaussians"}));
+  app.add_option("--moving-lod", o.moving_lod,
+                 "Gaussian view while moving: chunks fine within FINE m, none beyond CUT m (0 = off; default 2,60)")
+      ->expected(2)
+      ->delimiter(',')
+      ->check(CLI::Range(0.0, 1e6));
+  app.add_option("--still-lod", o.still_lod, "Gaussian view at rest: FINE,CUT as --moving-lod (default 40,0)")
+      ->expected(2)
+      ->delimiter(',')
+      ->check(CLI::Range(0.0, 1e6));
+  app.add_option("--chunk-size", o.chunk_size, "Gaussian view: chunk size in metres (default 12.8)")
+      ->check(CLI::Range(1.0, 1000.0));
   app.add_option("--scene", o.scene_path, "Scene (icube JSON, Waymo TFRecord, OpenDRIVE): ego track, cars, camera; "
                                           "without a world, its world is built with the procedural prior");
   app.add_option("--frames", o.frames, "Close after this many frames (0 = run until closed)");
@@ -48,7 +67,14 @@ int parse_options(int argc, char** argv, Options& o) {
   app.add_option("--compare-semantic", o.compare,
                  "No window: compare the viewer's semantic PNG (frame-shot) with icube buffers' semantic_buffer PNG "
                  "of the same pose and exit 0 / 1")->expected(2);
-  app.add_option("--max-mismatch", o.max_mismatch, "With --compare-semantic: the fraction of pixels allowed to differ")
+  app.add_option("--compare-rgb", o.compare_rgb,
+                 "No window: compare two RGB PNGs (the Gaussian view's gaussian-shot with `icube splat render`'s "
+                 "frame of the same pose) and exit 0 / 1")
+      ->expected(2);
+  app.add_option("--max-level-diff", o.max_level_diff, "With --compare-rgb: channel levels a pixel may differ by")
+      ->check(CLI::Range(0, 255));
+  app.add_option("--max-mismatch", o.max_mismatch,
+                 "With --compare-semantic / --compare-rgb: the fraction of pixels allowed to differ")
       ->check(CLI::Range(0.0, 1.0));
   try {
     app.parse(argc, argv);
@@ -76,6 +102,47 @@ int run_verify(const Options& o) {
     for (const std::string& b : bad) std::fprintf(stderr, "icube-view: verify: %s\n", b.c_str());
     std::printf("icube-view: verify %s\n", bad.empty() ? "ok" : "FAILED");
     return bad.empty() ? 0 : 1;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "icube-view: error: %s\n", e.what());
+    return 1;
+  }
+}
+
+int run_compare_rgb(const Options& o) {
+  try {
+    const scene::Image8 a = scene::read_png(o.compare_rgb.at(0), 3), b = scene::read_png(o.compare_rgb.at(1), 3);
+    if (a.width != b.width || a.height != b.height)
+      throw std::invalid_argument(o.compare_rgb[0] + " is " + std::to_string(a.width) + "x" + std::to_string(a.height) +
+                                  ", " + o.compare_rgb[1] + " is " + std::to_string(b.width) + "x" +
+                                  std::to_string(b.height));
+    const size_t n = size_t(a.width) * size_t(a.height);
+    size_t bad = 0, first = n;
+    int worst = 0;
+    double se = 0.0;
+    for (size_t i = 0; i < n; ++i) {
+      int d = 0;
+      for (size_t c = 0; c < 3; ++c) {
+        const int e = int(a.pixels[3 * i + c]) - int(b.pixels[3 * i + c]);
+        d = std::max(d, std::abs(e));
+        se += double(e) * double(e);
+      }
+      worst = std::max(worst, d);
+      if (d > o.max_level_diff) {
+        if (first == n) first = i;
+        ++bad;
+      }
+    }
+    const double psnr = se > 0.0 ? 10.0 * std::log10(255.0 * 255.0 * 3.0 * double(n) / se) : 99.0;
+    const double frac = n ? double(bad) / double(n) : 0.0;
+    std::printf("icube-view: compare %s vs %s: %zu pixels, %zu differ by more than %d levels (%.4f%%, limit %.4f%%), "
+                "largest difference %d, PSNR %.1f dB\n",
+                o.compare_rgb[0].c_str(), o.compare_rgb[1].c_str(), n, bad, o.max_level_diff, 100.0 * frac,
+                100.0 * o.max_mismatch, worst, psnr);
+    if (first < n)
+      std::printf("icube-view: first difference at (%zu, %zu)\n", first % size_t(a.width), first / size_t(a.width));
+    const bool ok = frac <= o.max_mismatch;
+    std::printf("icube-view: compare %s\n", ok ? "ok" : "FAILED");
+    return ok ? 0 : 1;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "icube-view: error: %s\n", e.what());
     return 1;

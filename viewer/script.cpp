@@ -42,6 +42,10 @@ const std::map<std::string, CommandSpec>& command_specs() {
       {"load", {0, 1, {}}},
       {"frame-shot", {3, 3, {}}},
       {"frame-shots", {2, 2, {}}},
+      {"view", {1, 1, {"voxels", "gaussians"}}},
+      {"time", {1, 1, {}}},
+      {"play", {1, 1, {"on", "off"}}},
+      {"gaussian-shots", {2, 2, {}}},
       {"quit", {0, 0, {}}},
   };
   return specs;
@@ -102,9 +106,13 @@ std::vector<ScriptEvent> parse_script(const std::string& text, const std::string
         const long k = std::strtol(e.args[i].c_str(), &end, 10);
         if (*end != '\0' || k < 0) fail("frame-shot PATH PASS FRAME: bad index '" + e.args[i] + "'");
       }
-    if (e.command == "frame-shots") {
+    if (e.command == "frame-shots" || e.command == "gaussian-shots") {
       const long k = std::strtol(e.args[1].c_str(), &end, 10);
-      if (*end != '\0' || k < 1) fail("frame-shots PREFIX STEP: bad step '" + e.args[1] + "'");
+      if (*end != '\0' || k < 1) fail(e.command + " PREFIX STEP: bad step '" + e.args[1] + "'");
+    }
+    if (e.command == "time") {
+      const long k = std::strtol(e.args[0].c_str(), &end, 10);
+      if (*end != '\0' || k < 0) fail("time takes a time index >= 0");
     }
     if (e.command == "scale") {
       const double s = std::strtod(e.args[0].c_str(), &end);

@@ -26,6 +26,11 @@
 //   frame-shot PATH P F        semantic PNG of frame F of loaded pass P as `icube buffers` renders it
 //   frame-shots PREFIX S       the same for every S-th frame (0, S, 2S, ...) of every loaded pass:
 //                              PREFIX_p<P>_f<FFF>.png (frame zero-padded to 3 digits)
+//   view voxels|gaussians      the voxel views or a package's Gaussians (gaussian_view.h)
+//   time N                     time index N (the scene's state; the Gaussians' frame)
+//   play on|off                advance the time index at 10 Hz (the moving cars)
+//   gaussian-shots PREFIX S    every S-th frame of every loaded pass drawn from the Gaussians as `icube
+//                              splat render` draws it (target camera, whole set): PREFIX_p<P>_f<FFF>.png
 //   quit                       end the session
 // Parse errors throw std::invalid_argument "FILE:LINE: what".
 #pragma once

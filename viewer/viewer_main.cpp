@@ -1,15 +1,19 @@
 // icube-view: the interactive viewer. Drive a car (or fly) through a semantic
-// voxel world rendered by the compute ray caster, record camera trajectories
+// voxel world rendered by the compute ray caster, or through a package's
+// Gaussians drawn by the splatting rasterizer, record camera trajectories
 // for Stage 2, replay them. GLFW + Vulkan swapchain + Dear ImGui (presenter.h);
-// the view is shaders/raycast/cast.comp + shaders/view/shade.comp (view_renderer.h);
+// the voxel view is shaders/raycast/cast.comp + shaders/view/shade.comp
+// (view_renderer.h), the Gaussian view gaussian_view.h;
 // the application state and its jobs: app.h; the car, recorder, teleport,
 // scripts and checks are CPU code in icube_viewer_core.
 //
 //   icube-view world.icw [--scene scene.json]   a world (and its scene: ego track, cars, camera)
 //   icube-view --scene scene.json               builds the scene's world with the procedural prior
 //   icube-view OUTPUT_DIR                        a folder holding world.icw (+ scene.json)
+//   icube-view PACKAGE                           an icube generate package: its Gaussians (G: voxels), world, scene
+//   icube-view gaussians.ply|scene.json          Gaussians alone (fly)
 //   --script FILE | --autopilot, --record-out, --screenshot-out, --stats, --frames N (smoke tests)
-//   --verify FILE, --compare-semantic A B         window-less checks (options.h)
+//   --verify FILE, --compare-semantic A B, --compare-rgb A B   window-less checks (options.h)
 #include "app.h"
 #include "options.h"
 
@@ -113,6 +117,7 @@ int main(int argc, char** argv) {
   if (const int rc = parse_options(argc, argv, o); rc >= 0) return rc;
   if (!o.verify.empty()) return run_verify(o);
   if (!o.compare.empty()) return run_compare(o);
+  if (!o.compare_rgb.empty()) return run_compare_rgb(o);
   try {
     return run_window(o);
   } catch (const std::exception& e) {

@@ -1,5 +1,7 @@
 #include "lift/heldout_render.h"
 
+#include "splat/splat_rgba8.h"
+
 #include "lift/dynamic_lift.h"
 #include "lift/image_metrics.h"
 #include "lift/lift_frames.h"
@@ -14,7 +16,7 @@ std::vector<uint8_t> splat_rgb8(const splat::SplatImage& img) {
   std::vector<uint8_t> rgb(img.rgba.size() / 4 * 3);
   for (size_t p = 0; p < rgb.size() / 3; ++p)
     for (size_t c = 0; c < 3; ++c)
-      rgb[3 * p + c] = uint8_t(std::lround(std::clamp(double(img.rgba[4 * p + c]), 0.0, 1.0) * 255.0));
+      rgb[3 * p + c] = splat::splat_channel8(img.rgba[4 * p + c]);
   return rgb;
 }
 

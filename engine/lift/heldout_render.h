@@ -49,7 +49,8 @@ class HeldOutRenderer {
   std::optional<splat::GpuGaussians> static_gpu_;
 };
 
-// A render as RGB8 (clamped to [0, 1], rounded), W·H·3.
+// A render as RGB8 (splat::splat_channel8: clamped to [0, 1], rounded, NaN -> 0; as the GPU's
+// splat/to_rgba8.comp), W·H·3.
 std::vector<uint8_t> splat_rgb8(const splat::SplatImage& img);
 
 // PSNR (dB) from a mean squared error in [0, 1] units (99 dB for a zero error).

@@ -161,30 +161,41 @@ bool box_outside_view(const glm::dvec3& lo, const glm::dvec3& hi, const render::
          all([&](const glm::dvec3& p) { return p.y > yb * p.z; });
 }
 
+LodPicks pick_chunks(const std::vector<GaussianChunk>& chunks, const render::Camera& cam, const LodOptions& o) {
+  LodPicks p;
+  const glm::dvec3 eye(cam.c2w[3]);
+  for (uint32_t i = 0; i < chunks.size(); ++i) {
+    const GaussianChunk& ch = chunks[i];
+    const double dist = glm::length(glm::clamp(eye, ch.lo, ch.hi) - eye);
+    if ((o.max_distance > 0.0 && dist > o.max_distance) ||
+        (o.frustum && box_outside_view(ch.lo, ch.hi, cam, o.near_plane, o.margin_px))) {
+      ++p.chunks_out;
+      continue;
+    }
+    const bool coarse = o.coarse_distance > 0.0 && dist > o.coarse_distance;
+    p.picks.push_back({i, coarse});
+    ++(coarse ? p.chunks_coarse : p.chunks_fine);
+  }
+  return p;
+}
+
 LodSelection select_gaussians(const ChunkedGaussians& c, const render::Camera& cam, const LodOptions& o) {
   LodSelection sel;
   sel.cloud.sh_degree = c.fine.sh_degree;
-  const glm::dvec3 eye(cam.c2w[3]);
   const uint32_t K = c.fine.sh_coeffs();
   auto append = [&](const GaussianCloud& src, uint32_t first, uint32_t count) {
     for (uint32_t i = first; i < first + count; ++i)
       sel.cloud.add(src.positions[i], src.scales[i], src.rotations[i], src.opacities[i], &src.sh[size_t(i) * K * 3]);
   };
-  for (const GaussianChunk& ch : c.chunks) {
-    const double dist = glm::length(glm::clamp(eye, ch.lo, ch.hi) - eye);
-    if ((o.max_distance > 0.0 && dist > o.max_distance) ||
-        (o.frustum && box_outside_view(ch.lo, ch.hi, cam, o.near_plane, o.margin_px))) {
-      ++sel.chunks_out;
-      continue;
-    }
-    if (o.coarse_distance > 0.0 && dist > o.coarse_distance) {
-      append(c.coarse, ch.coarse_first, ch.coarse_count);
-      ++sel.chunks_coarse;
-    } else {
-      append(c.fine, ch.first, ch.count);
-      ++sel.chunks_fine;
-    }
+  const LodPicks p = pick_chunks(c.chunks, cam, o);
+  for (const ChunkPick& k : p.picks) {
+    const GaussianChunk& ch = c.chunks[k.chunk];
+    if (k.coarse) append(c.coarse, ch.coarse_first, ch.coarse_count);
+    else append(c.fine, ch.first, ch.count);
   }
+  sel.chunks_fine = p.chunks_fine;
+  sel.chunks_coarse = p.chunks_coarse;
+  sel.chunks_out = p.chunks_out;
   return sel;
 }
 

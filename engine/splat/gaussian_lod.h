@@ -64,7 +64,19 @@ struct LodSelection {
   size_t chunks_fine = 0, chunks_coarse = 0, chunks_out = 0;
 };
 
-// The Gaussians a view of `cam` draws.
+// The chunks a view of `cam` draws and at which level, in chunk order.
+struct ChunkPick {
+  uint32_t chunk = 0;
+  bool coarse = false;
+  bool operator==(const ChunkPick&) const = default;
+};
+struct LodPicks {
+  std::vector<ChunkPick> picks;
+  size_t chunks_fine = 0, chunks_coarse = 0, chunks_out = 0;
+};
+LodPicks pick_chunks(const std::vector<GaussianChunk>& chunks, const render::Camera& cam, const LodOptions& o);
+
+// The Gaussians a view of `cam` draws (pick_chunks' chunks, appended in chunk order).
 LodSelection select_gaussians(const ChunkedGaussians& c, const render::Camera& cam, const LodOptions& o);
 
 // Whether the box [lo, hi] lies wholly outside the view (see the frustum test above).

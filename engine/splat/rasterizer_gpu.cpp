@@ -66,31 +66,47 @@ SplatRendererGpu::SplatRendererGpu(gpu::Context& ctx, SplatGpuVariant variant)
 
 SplatRendererGpu::~SplatRendererGpu() = default;
 
+glm::dvec3 gaussian_origin(const GaussianCloud& cloud) {
+  if (cloud.positions.empty()) return glm::dvec3(0.0);
+  glm::dvec3 lo = cloud.positions[0], hi = lo;
+  for (const auto& p : cloud.positions) {
+    lo = glm::min(lo, p);
+    hi = glm::max(hi, p);
+  }
+  return glm::floor(0.5 * (lo + hi));  // whole metres: exact in float for any planet-sized scene
+}
+
+uint32_t gpu_sh_stride(uint32_t sh_degree) {
+  const uint32_t K = (sh_degree + 1) * (sh_degree + 1);
+  return (3 * K + 3) / 4 * 4;
+}
+
+void pack_gaussians(const GaussianCloud& cloud, const glm::dvec3& origin, uint32_t sh_stride,
+                    std::vector<shader::SplatGaussian>& rows, std::vector<float>& sh) {
+  const uint32_t K = cloud.sh_coeffs();
+  if (sh_stride < 3 * K) throw std::invalid_argument("splat: SH stride below the cloud's coefficients");
+  rows.resize(cloud.size());
+  sh.assign(cloud.size() * sh_stride, 0.0f);
+  for (size_t i = 0; i < cloud.size(); ++i) {
+    const glm::dvec3 d = cloud.positions[i] - origin;
+    const auto cov = covariance3d(cloud.scales[i], cloud.rotations[i]);
+    rows[i] = shader::SplatGaussian{static_cast<float>(d.x), static_cast<float>(d.y), static_cast<float>(d.z),
+                                    cloud.opacities[i], cov[0], cov[1], cov[2], cov[3], cov[4], cov[5], 0.0f, 0.0f};
+    std::memcpy(&sh[i * sh_stride], &cloud.sh[i * K * 3], K * 3 * sizeof(float));
+  }
+}
+
 GpuGaussians SplatRendererGpu::upload(const GaussianCloud& cloud) {
   cloud.validate();
   if (cloud.size() > UINT32_MAX / 4) throw std::invalid_argument("splat: too many Gaussians");
   GpuGaussians g;
   g.count = static_cast<uint32_t>(cloud.size());
   g.sh_degree = cloud.sh_degree;
-  const uint32_t K = cloud.sh_coeffs();
-  g.sh_stride = (3 * K + 3) / 4 * 4;
-  if (!cloud.positions.empty()) {
-    glm::dvec3 lo = cloud.positions[0], hi = lo;
-    for (const auto& p : cloud.positions) {
-      lo = glm::min(lo, p);
-      hi = glm::max(hi, p);
-    }
-    g.origin = glm::floor(0.5 * (lo + hi));  // whole metres: exact in float for any planet-sized scene
-  }
-  std::vector<shader::SplatGaussian> rows(cloud.size());
-  std::vector<float> sh(cloud.size() * g.sh_stride, 0.0f);
-  for (size_t i = 0; i < cloud.size(); ++i) {
-    const glm::dvec3 d = cloud.positions[i] - g.origin;
-    const auto cov = covariance3d(cloud.scales[i], cloud.rotations[i]);
-    rows[i] = shader::SplatGaussian{static_cast<float>(d.x), static_cast<float>(d.y), static_cast<float>(d.z),
-                                    cloud.opacities[i], cov[0], cov[1], cov[2], cov[3], cov[4], cov[5], 0.0f, 0.0f};
-    std::memcpy(&sh[i * g.sh_stride], &cloud.sh[i * K * 3], K * 3 * sizeof(float));
-  }
+  g.sh_stride = gpu_sh_stride(cloud.sh_degree);
+  g.origin = gaussian_origin(cloud);
+  std::vector<shader::SplatGaussian> rows;
+  std::vector<float> sh;
+  pack_gaussians(cloud, g.origin, g.sh_stride, rows, sh);
   g.gaussians = gpu::upload_vector(ctx_, rows, "splat-gaussians");
   g.sh = gpu::upload_vector(ctx_, sh, "splat-sh");
   return g;

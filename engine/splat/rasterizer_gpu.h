@@ -85,6 +85,16 @@ struct GpuGaussians {
   uint64_t bytes() const { return gaussians.size() + sh.size(); }
 };
 
+// The origin upload() puts a cloud's positions against: the bounding-box centre floored to whole
+// metres (exact in float for any planet-sized scene); (0, 0, 0) for an empty cloud.
+glm::dvec3 gaussian_origin(const GaussianCloud& cloud);
+// SH floats per Gaussian on the GPU: 3·(degree + 1)² rounded up to a multiple of 4 (vec4 texels).
+uint32_t gpu_sh_stride(uint32_t sh_degree);
+// The GPU rows of `cloud` (positions relative to `origin`, covariances) and its SH padded with
+// zeros to `sh_stride` floats per Gaussian (>= 3·sh_coeffs(): a higher degree's zero terms).
+void pack_gaussians(const GaussianCloud& cloud, const glm::dvec3& origin, uint32_t sh_stride,
+                    std::vector<shader::SplatGaussian>& rows, std::vector<float>& sh);
+
 // Phase times of the last frame (GPU timestamps; NaN when unsupported) and its size.
 struct SplatTimings {
   double preprocess_ms = 0;  // preprocess

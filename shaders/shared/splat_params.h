@@ -107,6 +107,12 @@ struct SplatBinParams {
   uint pad0;
 };
 
+// splat/to_rgba8.comp
+struct SplatToRgba8Params {
+  uint pixels;
+  uint pad0, pad1, pad2;
+};
+
 struct SplatRangesParams {
   uint n;          // instances (sorted keys)
   uint key_words;  // uint32 words per key, the tile id in the last: 1 (rasterizer tile ids) or 2 (LiDAR 64-bit keys)
@@ -165,6 +171,7 @@ ICUBE_CHECK_LAYOUT(SplatBinParams, chunks, 8);
 ICUBE_CHECK_LAYOUT(SplatBinParams, tiles, 20);
 ICUBE_CHECK_LAYOUT(SplatBinParams, instances, 24);
 ICUBE_CHECK_SIZE(SplatRangesParams, 16);
+ICUBE_CHECK_SIZE(SplatToRgba8Params, 16);
 ICUBE_CHECK_SIZE(SplatBlendParams, 120);
 ICUBE_CHECK_LAYOUT(SplatBlendParams, pixel_offset, 16);
 ICUBE_CHECK_LAYOUT(SplatBlendParams, sky_h, 28);

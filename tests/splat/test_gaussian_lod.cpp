@@ -7,11 +7,14 @@
 
 #include "gpu_test_context.h"
 #include "splat/gaussian_lod.h"
+#include "splat/lod_gaussians_gpu.h"
+#include "splat/splat_scene.h"
 #include "splat/rasterizer_gpu.h"
 #include "splat/test_splat_util.h"
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <map>
 #include <random>
 #include <tuple>
@@ -168,4 +171,106 @@ TEST_CASE("gaussian lod: the culled selection renders the whole set's image; the
     const double d = glm::length(near.cloud.positions[i] - glm::dvec3(0.0, 3.0, 4.0));
     REQUIRE(d < 25.0 + 10.0 * 1.5 + 10.0);  // a kept chunk's bounds reach within 25 m
   }
+}
+
+namespace {
+
+// The frame set's rows and SH as bytes-exact words (the float bits).
+std::vector<uint32_t> words_of(const void* p, size_t bytes) {
+  std::vector<uint32_t> w(bytes / 4);
+  std::memcpy(w.data(), p, bytes);
+  return w;
+}
+
+}  // namespace
+
+TEST_CASE("gaussian lod: the GPU-assembled frame set equals the host selection plus the extra part, packed") {
+  gpu::Context& ctx = test::gpu_context();
+  splat::GaussianCloud c = test::random_cloud(31, 20000, 1, glm::dvec3(5.0, -3.0, 1.0), 40.0, -2.5, -0.5);
+  splat::GaussianChunkOptions co;
+  co.chunk_size = 10.0;
+  const splat::ChunkedGaussians ch = splat::build_gaussian_chunks(c, co);
+  splat::LodGaussiansGpu lod(ctx, ch, 2);  // a higher frame degree than the static set's: zero terms
+  CHECK(lod.origin() == splat::gaussian_origin(ch.fine));
+  const splat::GaussianCloud car_a = test::random_cloud(32, 300, 2, glm::dvec3(10.0, 0.0, 1.0), 2.0, -3.0, -1.5);
+  const splat::GaussianCloud car_b = test::random_cloud(33, 170, 0, glm::dvec3(-8.0, 4.0, 1.0), 2.0, -3.0, -1.5);
+
+  auto expect = [&](const render::Camera& cam, const splat::LodOptions& lo, const splat::GaussianCloud& extra,
+                    const splat::GpuGaussians& g) {
+    splat::GaussianCloud padded;  // the selection padded to the frame degree, as compose_frame does
+    padded.sh_degree = 2;
+    splat::append_cloud(padded, splat::select_gaussians(ch, cam, lo).cloud);
+    splat::append_cloud(padded, extra);
+    std::vector<shader::SplatGaussian> rows;
+    std::vector<float> sh;
+    splat::pack_gaussians(padded, lod.origin(), g.sh_stride, rows, sh);
+    REQUIRE(g.count == padded.size());
+    REQUIRE(g.sh_stride == splat::gpu_sh_stride(2));
+    const auto got_rows = gpu::download_vector<shader::SplatGaussian>(ctx, g.gaussians, g.count);
+    const auto got_sh = gpu::download_vector<float>(ctx, g.sh, size_t{g.count} * g.sh_stride);
+    CHECK(test::equal_report(words_of(got_rows.data(), got_rows.size() * sizeof(rows[0])),
+                             words_of(rows.data(), rows.size() * sizeof(rows[0])), "rows"));
+    CHECK(test::equal_report(words_of(got_sh.data(), got_sh.size() * 4), words_of(sh.data(), sh.size() * 4), "sh"));
+  };
+
+  const render::Camera cam1 = test::look_at_camera(glm::dvec3(0.0, 3.0, 4.0), glm::dvec3(30.0, 0.0, 0.0), 320, 200, 220.0);
+  const render::Camera cam2 = test::look_at_camera(glm::dvec3(20.0, -10.0, 6.0), glm::dvec3(-30.0, 5.0, 0.0), 320, 200, 220.0);
+  splat::LodOptions lo;
+  lo.coarse_distance = 12.0;
+  splat::LodAssembleStats st;
+
+  lod.set_extra(car_a);
+  const splat::LodPicks p1 = splat::pick_chunks(lod.chunks(), cam1, lo);
+  REQUIRE(p1.chunks_coarse > 0);
+  REQUIRE(p1.chunks_fine > 0);
+  expect(cam1, lo, car_a, lod.assemble(p1.picks, &st));
+  CHECK(st.static_copied);
+  CHECK(st.extra_uploaded);
+  CHECK(st.copy_regions >= 1);
+
+  // The same picks and a new extra part: only the extra part moves.
+  lod.set_extra(car_b);
+  expect(cam1, lo, car_b, lod.assemble(p1.picks, &st));
+  CHECK_FALSE(st.static_copied);
+  CHECK(st.extra_uploaded);
+  // Nothing changed: nothing copied.
+  lod.assemble(p1.picks, &st);
+  CHECK_FALSE(st.static_copied);
+  CHECK_FALSE(st.extra_uploaded);
+
+  // Another view: the static part is copied again and the extra part follows it.
+  const splat::LodPicks p2 = splat::pick_chunks(lod.chunks(), cam2, lo);
+  REQUIRE(p2.picks != p1.picks);
+  expect(cam2, lo, car_b, lod.assemble(p2.picks, &st));
+  CHECK(st.static_copied);
+  CHECK(st.extra_uploaded);
+
+  // Every chunk fine (the frame set grows) and no extra part.
+  lod.set_extra(splat::GaussianCloud{});
+  splat::LodOptions all;
+  all.frustum = false;
+  const splat::LodPicks p3 = splat::pick_chunks(lod.chunks(), cam2, all);
+  CHECK(p3.chunks_out == 0);
+  const splat::GpuGaussians& g3 = lod.assemble(p3.picks, &st);
+  CHECK(g3.count == c.size());
+  expect(cam2, all, splat::GaussianCloud{}, g3);
+
+  // Renders of the assembled set equal renders of the host path's upload.
+  splat::SplatRendererGpu r(ctx);
+  lod.set_extra(car_a);
+  const splat::GpuGaussians& g1 = lod.assemble(p1.picks);
+  splat::SplatScene host;
+  host.static_set = splat::select_gaussians(ch, cam1, lo).cloud;
+  splat::GaussianCloud host_cloud;
+  host_cloud.sh_degree = 2;
+  splat::append_cloud(host_cloud, host.static_set);
+  splat::append_cloud(host_cloud, car_a);
+  splat::GpuGaussians hg = r.upload(host_cloud);
+  const splat::SplatImage a = r.render(g1, cam1, {}), b = r.render(hg, cam1, {});
+  double max_diff = 0.0;
+  image_psnr(a, b, &max_diff);
+  INFO("origins " << g1.origin.x << "," << g1.origin.y << " vs " << hg.origin.x << "," << hg.origin.y);
+  CHECK(max_diff < 1e-4);  // the same Gaussians; only the float positions' origin differs
+
+  CHECK_THROWS_AS(lod.set_extra(test::random_cloud(34, 10, 3, glm::dvec3(0.0), 1.0)), std::invalid_argument);
 }

@@ -285,6 +285,18 @@ TEST_CASE("viewer: script parser") {
   CHECK_THROWS_AS(parse_script("a quit\n", "x"), std::invalid_argument);
   CHECK_THROWS_AS(parse_script("0 scale 2\n", "x"), std::invalid_argument);
   CHECK_THROWS_AS(parse_script("0 up\n", "x"), std::invalid_argument);
+  // The Gaussian view's commands.
+  const std::vector<ScriptEvent> g =
+      parse_script("0 view gaussians\n0 time 12\n0 play on\n1 gaussian-shots out/g 3\n2 view voxels\n", "g");
+  REQUIRE(g.size() == 5);
+  CHECK(g[1].args[0] == "12");
+  CHECK(g[3].args[1] == "3");
+  CHECK_THROWS_WITH_AS(parse_script("0 view splats\n", "x"), "x:1: 'view': unknown argument 'splats'",
+                       std::invalid_argument);
+  CHECK_THROWS_AS(parse_script("0 time -1\n", "x"), std::invalid_argument);
+  CHECK_THROWS_AS(parse_script("0 time soon\n", "x"), std::invalid_argument);
+  CHECK_THROWS_AS(parse_script("0 gaussian-shots out/g 0\n", "x"), std::invalid_argument);
+  CHECK_THROWS_AS(parse_script("0 play maybe\n", "x"), std::invalid_argument);
 }
 
 TEST_CASE("viewer: frame-time percentiles (nearest rank)") {

@@ -1,0 +1,107 @@
+// The viewer's Gaussian view; see gaussian_view.h.
+#include "gaussian_view.h"
+
+#include <algorithm>
+#include <chrono>
+#include <filesystem>
+
+namespace icube::viewer {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double ms_since(Clock::time_point t) { return std::chrono::duration<double, std::milli>(Clock::now() - t).count(); }
+
+}  // namespace
+
+bool GaussianView::Key::operator==(const Key& k) const {
+  return cam.c2w == k.cam.c2w && cam.K.fx == k.cam.K.fx && cam.K.fy == k.cam.K.fy && cam.K.cx == k.cam.K.cx &&
+         cam.K.cy == k.cam.K.cy && cam.K.width == k.cam.K.width && cam.K.height == k.cam.K.height &&
+         frame == k.frame && detail == k.detail;
+}
+
+GaussianView::GaussianView(gpu::Context& ctx, const std::string& scene_json, const std::string& sky_png,
+                           const GaussianViewOptions& o)
+    : ctx_(ctx), opt_(o), source_(scene_json), renderer_(ctx), to_rgba8_(ctx) {
+  const auto t0 = Clock::now();
+  splat::SplatScene sc = splat::read_splat_scene(scene_json);
+  frames_ = sc.frames();
+  uint32_t degree = sc.static_set.sh_degree;
+  for (const splat::SplatObject& ob : sc.objects) degree = std::max(degree, ob.gaussians.sh_degree);
+  stats_.static_gaussians = sc.static_set.size();
+  stats_.objects = sc.objects.size();
+  {
+    const splat::ChunkedGaussians chunks = splat::build_gaussian_chunks(sc.static_set, opt_.chunking);
+    sc.static_set = splat::GaussianCloud{};  // the chunked copy is all that is needed, and only until uploaded
+    stats_.coarse_gaussians = chunks.coarse.size();
+    stats_.chunks = chunks.chunks.size();
+    lod_ = std::make_unique<splat::LodGaussiansGpu>(ctx, chunks, degree);
+  }
+  objects_ = std::move(sc.objects);
+  stats_.resident_bytes = lod_->resident_bytes();
+  splat_opts_.depth = false;
+  splat_opts_.sky = sky_png.empty()
+                        ? splat::sky_gradient()
+                        : splat::sky_equirect(std::make_shared<const splat::SkyImage>(splat::read_sky_png(sky_png)));
+  stats_.load_s = ms_since(t0) / 1000.0;
+}
+
+size_t GaussianView::frame_of(size_t time_index) const {
+  return frames_ == 0 ? 0 : std::min(time_index, frames_ - 1);
+}
+
+void GaussianView::place_objects(size_t frame) {
+  if (placed_frame_ && *placed_frame_ == frame) return;
+  splat::GaussianCloud extra;
+  extra.sh_degree = lod_->sh_degree();
+  for (const splat::SplatObject& ob : objects_)
+    if (const glm::dmat4* pose = ob.pose(frame)) splat::append_placed(extra, ob.gaussians, *pose);
+  lod_->set_extra(extra);
+  placed_frame_ = frame;
+}
+
+bool GaussianView::draw(const render::Camera& cam, size_t time_index, GaussianDetail detail) {
+  Key key{cam, frame_of(time_index), detail};
+  if (last_ && *last_ == key) {
+    ++stats_.reused;
+    return false;
+  }
+  place_objects(key.frame);
+  splat::LodOptions whole;
+  whole.frustum = false;
+  const splat::LodOptions& lo =
+      detail == GaussianDetail::Whole ? whole : detail == GaussianDetail::Still ? opt_.still : opt_.moving;
+  const splat::LodPicks picks = splat::pick_chunks(lod_->chunks(), cam, lo);
+  splat::LodAssembleStats as;
+  const splat::GpuGaussians& g = lod_->assemble(picks.picks, &as);
+  const auto t0 = Clock::now();
+  renderer_.render(g, cam, splat_opts_, &stats_.timings, nullptr, /*download=*/false);
+  stats_.render_ms = ms_since(t0);
+  stats_.assemble_ms = as.ms;
+  stats_.drawn = g.count;
+  stats_.chunks_fine = picks.chunks_fine;
+  stats_.chunks_coarse = picks.chunks_coarse;
+  stats_.chunks_out = picks.chunks_out;
+  stats_.detail = detail;
+  ++stats_.renders;
+  width_ = cam.K.width;
+  height_ = cam.K.height;
+  gpu::ensure_capacity(ctx_, rgba8_, uint64_t{width_} * height_ * 4, "gaussian-view-rgba8");
+  last_ = key;
+  converted_ = false;
+  return true;
+}
+
+void GaussianView::record_present(gpu::CommandList& cmd) {
+  if (converted_) return;
+  to_rgba8_.record(cmd, renderer_.buffers().rgba, rgba8_, uint64_t{width_} * height_);
+  converted_ = true;
+}
+
+std::vector<uint8_t> GaussianView::download_rgba() {
+  if (!last_) return {};
+  if (!converted_) ctx_.submit_and_wait([&](gpu::CommandList& cmd) { record_present(cmd); });
+  return gpu::download_vector<uint8_t>(ctx_, rgba8_, size_t{width_} * height_ * 4);
+}
+
+}  // namespace icube::viewer

@@ -1,0 +1,132 @@
+// The viewer's Gaussian view of a package (icube generate's gaussians/): the
+// static Gaussians resident on the GPU in chunks at two levels
+// (splat/lod_gaussians_gpu.h), the moving cars placed at the time index, the
+// fitted sky behind, drawn by the splatting rasterizer
+// (splat/rasterizer_gpu.h) and converted to the presenter's RGBA8
+// (splat/splat_rgba8.h).
+// Per view, chunks outside the frustum or beyond the level of detail's
+// distance are left out and far chunks drawn at the coarse level: the
+// `moving` settings while the camera or the time moves (fewer Gaussians, for
+// the frame rate), the `still` ones when it rests (the image as the
+// package's evaluation sees it). A view whose camera, time and settings did
+// not change is not drawn again: the last image stays on screen.
+// Time: the viewer's time index is the splat scene's frame (clamped to its
+// last frame), which is the scene's time index when the package's frames
+// carry scene times (lift_frames.h splat_frames_are_times).
+// Tests: tests/viewer/test_gaussian_view.cpp; the scripted session viewer/check_gaussian_session.sh.
+#pragma once
+
+#include "gpu/buffer.h"
+#include "gpu/commands.h"
+#include "gpu/context.h"
+#include "render/camera.h"
+#include "splat/gaussian_lod.h"
+#include "splat/lod_gaussians_gpu.h"
+#include "splat/rasterizer_gpu.h"
+#include "splat/sky.h"
+#include "splat/splat_rgba8.h"
+#include "splat/splat_scene.h"
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace icube::viewer {
+
+// Whole: every chunk at the fine level, no culling (what `icube splat render` draws).
+enum class GaussianDetail { Whole, Still, Moving };
+
+struct GaussianViewOptions {
+  splat::GaussianChunkOptions chunking = [] {
+    splat::GaussianChunkOptions o;
+    o.chunk_size = 12.8;  // m: half the preview's chunks, for a finer fine/coarse boundary near the camera
+    return o;
+  }();
+  // At rest: the preview's setting without the distance cut (0.0 dB against the whole set at half
+  // its frame time on the demo town, bench/README.md "Level of detail").
+  splat::LodOptions still = [] {
+    splat::LodOptions o;
+    o.coarse_distance = 40.0;
+    return o;
+  }();
+  // Moving: fine only in the chunks around the camera, nothing beyond 60 m (bench/README.md
+  // "icube-view on Gaussians").
+  splat::LodOptions moving = [] {
+    splat::LodOptions o;
+    o.max_distance = 60.0;
+    o.coarse_distance = 2.0;
+    return o;
+  }();
+};
+
+struct GaussianViewStats {
+  size_t static_gaussians = 0, coarse_gaussians = 0, chunks = 0, objects = 0;
+  uint64_t resident_bytes = 0;
+  double load_s = 0.0;
+  // The last drawn view.
+  size_t drawn = 0, chunks_fine = 0, chunks_coarse = 0, chunks_out = 0;
+  GaussianDetail detail = GaussianDetail::Still;
+  double assemble_ms = 0.0, render_ms = 0.0;
+  splat::SplatTimings timings;
+  size_t renders = 0, reused = 0;  // views drawn / shown again unchanged
+};
+
+class GaussianView {
+ public:
+  // `scene_json`: an icube-splat-scene (gaussians/scene.json); `sky_png`: its equirectangular sky
+  // (empty: the gradient sky).
+  GaussianView(gpu::Context& ctx, const std::string& scene_json, const std::string& sky_png,
+               const GaussianViewOptions& o = {});
+
+  // Frames of the splat scene (0: static only).
+  size_t frames() const { return frames_; }
+  // The static set's centre (whole metres), where a viewer without a world starts.
+  glm::dvec3 centre() const { return lod_->origin(); }
+  const std::string& source() const { return source_; }
+  GaussianViewOptions& options() { return opt_; }
+
+  // Draws the view unless it equals the last one drawn (returns false then). Waits for the GPU;
+  // the caller makes sure no earlier frame still reads the images (one frame in flight).
+  bool draw(const render::Camera& cam, size_t time_index, GaussianDetail detail);
+  // Records the conversion of the last drawn image into rgba() (packed RGBA8) when it changed.
+  // The caller orders it before its copy of rgba() (compute -> transfer).
+  void record_present(gpu::CommandList& cmd);
+  const gpu::Buffer& rgba() const { return rgba8_; }
+  uint32_t width() const { return width_; }
+  uint32_t height() const { return height_; }
+  // The last drawn image as RGBA8 (after record_present's submission finished).
+  std::vector<uint8_t> download_rgba();
+  const GaussianViewStats& stats() const { return stats_; }
+  // The splat scene frame shown at a time index.
+  size_t frame_of(size_t time_index) const;
+
+ private:
+  void place_objects(size_t frame);
+
+  gpu::Context& ctx_;
+  GaussianViewOptions opt_;
+  std::string source_;
+  std::vector<splat::SplatObject> objects_;
+  size_t frames_ = 0;
+  std::unique_ptr<splat::LodGaussiansGpu> lod_;
+  splat::SplatRendererGpu renderer_;
+  splat::SplatToRgba8 to_rgba8_;
+  splat::SplatOptions splat_opts_;
+  gpu::Buffer rgba8_;
+  uint32_t width_ = 0, height_ = 0;
+  GaussianViewStats stats_;
+  // What the last drawn image shows.
+  struct Key {
+    render::Camera cam;
+    size_t frame = 0;
+    GaussianDetail detail = GaussianDetail::Still;
+    bool operator==(const Key& k) const;
+  };
+  std::optional<Key> last_;
+  std::optional<size_t> placed_frame_;
+  bool converted_ = true;
+};
+
+}  // namespace icube::viewer
