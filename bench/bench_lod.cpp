@@ -8,7 +8,7 @@
 // whole set's render (the LOD error alone). Correctness check in the same
 // run: frustum culling alone must render the whole set's image (>= 60 dB).
 //
-//   LP_NUM_THREADS=2 build/icube-bench-lod --package build/demo/package [--frames 4] [--runs 5] [--warmup 1] [--scale S]
+//   LP_NUM_THREADS=2 build/icube-bench-lod --package build/demo/package [--frames 4] [--runs 5] [--warmup 1] [--scale S] [--key-bits 16]
 // The last columns: the median GPU time of each rasterizer phase. --scale renders the same
 // views smaller (the viewer's adaptive resolution; no quality columns then).
 //
@@ -61,6 +61,10 @@ int main(int argc, char** argv) {
   app.add_option("--runs", runs, "Timed renders per frame")->capture_default_str()->check(CLI::PositiveNumber);
   app.add_option("--warmup", warmup, "Untimed renders first")->capture_default_str();
   double scale = 1.0;
+  uint32_t key_bits = 32;
+  app.add_option("--key-bits", key_bits, "Depth sort keys: 32 (exact) or 16 (SplatOptions::depth_key_bits)")
+      ->capture_default_str()
+      ->check(CLI::IsMember({16, 32}));
   app.add_option("--scale", scale, "Render at this fraction of the frames' size (quality columns need 1)")
       ->capture_default_str()
       ->check(CLI::Range(0.1, 1.0));
@@ -118,6 +122,7 @@ int main(int argc, char** argv) {
     splat::SplatOptions so;
     so.pixels = meta.pixels;
     so.depth = false;
+    so.depth_key_bits = key_bits;
     so.sky = splat::sky_equirect(
         std::make_shared<const splat::SkyImage>(splat::read_sky_png((pkg / "gaussians" / "sky.png").string())));
     const size_t px = size_t(meta.width) * meta.height;

@@ -75,7 +75,9 @@ bool GaussianView::draw(const render::Camera& cam, size_t time_index, GaussianDe
   splat::LodAssembleStats as;
   const splat::GpuGaussians& g = lod_->assemble(picks.picks, &as);
   const auto t0 = Clock::now();
-  renderer_.render(g, cam, splat_opts_, &stats_.timings, nullptr, /*download=*/false);
+  splat::SplatOptions so = splat_opts_;
+  so.depth_key_bits = detail == GaussianDetail::Moving ? opt_.moving_key_bits : 32;
+  renderer_.render(g, cam, so, &stats_.timings, nullptr, /*download=*/false);
   stats_.render_ms = ms_since(t0);
   stats_.assemble_ms = as.ms;
   stats_.drawn = g.count;

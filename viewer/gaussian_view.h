@@ -59,6 +59,9 @@ struct GaussianViewOptions {
     o.coarse_distance = 2.0;
     return o;
   }();
+  // Depth sort keys while moving (splat_frame.h SplatOptions::depth_key_bits): 16 halves the depth
+  // sort's passes; at rest the exact 32-bit order.
+  uint32_t moving_key_bits = 16;
 };
 
 struct GaussianViewStats {

@@ -179,15 +179,15 @@ std::vector<shader::SplatProjected> preprocess_cpu(const GaussianCloud& cloud, c
   return out;
 }
 
-TileBins bin_cpu(const std::vector<shader::SplatProjected>& proj, uint32_t gx, uint32_t gy, TileRule rule) {
+TileBins bin_cpu(const std::vector<shader::SplatProjected>& proj, uint32_t gx, uint32_t gy, TileRule rule,
+                 uint32_t depth_key_bits) {
   TileBins b;
   for (size_t i = 0; i < proj.size(); ++i) {
     const auto& g = proj[i];
     if (g.radius <= 0.0f) continue;
     const TileRect r = tile_rect(g.mean_x, g.mean_y, g.radius, gx, gy);
     const float cut = splat_log_cut(g.opacity);
-    uint32_t zbits;
-    std::memcpy(&zbits, &g.depth, 4);
+    const uint32_t zbits = depth_sort_key(g.depth, depth_key_bits);
     for (uint32_t y = r.y0; y < r.y1; ++y) {
       uint32_t x0 = r.x0, x1 = r.x1;
       if (rule == TileRule::Ellipse) tile_row_span(g, cut, r, y, x0, x1);
@@ -270,7 +270,7 @@ SplatImage blend_cpu(const std::vector<shader::SplatProjected>& proj, const Tile
 SplatImage render_cpu(const GaussianCloud& cloud, const render::Camera& cam, const SplatOptions& opts) {
   const auto proj = preprocess_cpu(cloud, cam, opts);
   const SplatFrame f = make_frame(cam, opts, glm::dvec3(0.0));
-  const TileBins bins = bin_cpu(proj, f.grid_x, f.grid_y);
+  const TileBins bins = bin_cpu(proj, f.grid_x, f.grid_y, TileRule::Ellipse, opts.depth_key_bits);
   return blend_cpu(proj, bins, cam, opts);
 }
 

@@ -78,8 +78,9 @@ struct TileBins {
 
 std::vector<shader::SplatProjected> preprocess_cpu(const GaussianCloud& cloud, const render::Camera& cam,
                                                    const SplatOptions& opts);
+// Keys tile << 32 | depth_sort_key(depth, depth_key_bits) (splat_frame.h), stably sorted.
 TileBins bin_cpu(const std::vector<shader::SplatProjected>& proj, uint32_t grid_x, uint32_t grid_y,
-                 TileRule rule = TileRule::Ellipse);
+                 TileRule rule = TileRule::Ellipse, uint32_t depth_key_bits = 32);
 SplatImage blend_cpu(const std::vector<shader::SplatProjected>& proj, const TileBins& bins, const render::Camera& cam,
                      const SplatOptions& opts);
 SplatImage render_cpu(const GaussianCloud& cloud, const render::Camera& cam, const SplatOptions& opts);

@@ -232,7 +232,7 @@ void SplatRendererGpu::record_preprocess(gpu::CommandList& cmd, const SplatFrame
   t1_->end(cmd, ti);
   cmd.barrier(gpu::deps::kComputeToCompute);  // the sort reads the depth keys
   const int td = t1_->begin(cmd, "depth sort");
-  depth_sort_.record(cmd, f.depth_keys, f.order, n, *f.depth_sort_scratch, 32);
+  depth_sort_.record(cmd, f.depth_keys, f.order, n, *f.depth_sort_scratch, p.opts.depth_key_bits);
   cmd.barrier(gpu::deps::kComputeToCompute);  // counts read the order
   const uint32_t cull = variant_.exact_cull ? 1u : 0u;
   cmd.dispatch(counts_, {n}, shader::SplatDuplicateParams{static_cast<uint32_t>(n), p.frame.grid_x, cull, 0},
@@ -396,8 +396,7 @@ SplatImage SplatRendererGpu::render(const GpuGaussians& g, const render::Camera&
     }
     debug->keys.resize(inst);
     for (size_t i = 0; i < inst; ++i) {
-      uint32_t zbits;
-      std::memcpy(&zbits, &debug->proj[debug->values[i]].depth, 4);
+      const uint32_t zbits = depth_sort_key(debug->proj[debug->values[i]].depth, p.opts.depth_key_bits);
       debug->keys[i] = (uint64_t{tile_ids[i]} << 32) | zbits;
     }
   }

@@ -12,7 +12,8 @@
 //   1. preprocess (one invocation per Gaussian, a pipeline per SH degree, the
 //      SH row read as vec4 texels from windows of at most maxStorageBufferRange;
 //      also writes the depth keys) -> 32-bit RadixSort of the Gaussians by
-//      depth (N keys, 4 passes) -> tiles touched in depth order
+//      depth (N keys, 4 passes; 2 with SplatOptions::depth_key_bits = 16, a
+//      log-linear code of the depth) -> tiles touched in depth order
 //      (splat_sorted_counts, which also writes a depth-ordered SplatBinRecord
 //      per Gaussian so that the binning streams instead of gathering by
 //      Gaussian index) -> inclusive PrefixScan -> total to the host;

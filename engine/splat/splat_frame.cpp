@@ -3,12 +3,17 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 #include <stdexcept>
+#include <string>
 
 namespace icube::splat {
 
 SplatFrame make_frame(const render::Camera& cam, const SplatOptions& opts, const glm::dvec3& origin) {
   render::validate_camera(cam);
+  if (opts.depth_key_bits != 32 && opts.depth_key_bits != 16)
+    throw std::invalid_argument("splat: depth_key_bits must be 32 or 16, not " + std::to_string(opts.depth_key_bits));
   if (!(opts.near_z > 0.0) || !(opts.far_z > opts.near_z) || !std::isfinite(opts.near_z))
     throw std::invalid_argument("splat: need 0 < near < far");
   if (!(opts.eps2d >= 0.0f)) throw std::invalid_argument("splat: eps2d must be >= 0");
@@ -39,11 +44,26 @@ SplatFrame make_frame(const render::Camera& cam, const SplatOptions& opts, const
   p.far_z = static_cast<float>(std::min(opts.far_z, 3.0e38));
   p.eps2d = opts.eps2d;
   p.antialiased = opts.antialiased ? 1u : 0u;
+  p.depth_key16 = opts.depth_key_bits == 16 ? 1u : 0u;
   p.width = K.width;
   p.height = K.height;
   p.grid_x = f.grid_x;
   p.grid_y = f.grid_y;
   return f;
+}
+
+uint32_t depth_key16(float z) {
+  uint32_t bits;
+  std::memcpy(&bits, &z, 4);
+  const int64_t k = int64_t{static_cast<int32_t>(bits >> 12)} - SPLAT_DEPTH_KEY16_OFFSET;
+  return static_cast<uint32_t>(std::clamp<int64_t>(k, 0, 65535));
+}
+
+uint32_t depth_sort_key(float z, uint32_t bits) {
+  if (bits == 16) return depth_key16(z);
+  uint32_t b;
+  std::memcpy(&b, &z, 4);
+  return b;
 }
 
 }  // namespace icube::splat

@@ -28,7 +28,16 @@ struct SplatOptions {
   // neither keeps nor writes them (a pipeline without them, ~15 % less blend time on
   // lavapipe), and SplatImage::depth is empty.
   bool depth = true;
+  // Depth sort keys: 32 = the float bits of view z (the exact depth order); 16 = a log-linear
+  // code of z (shared/splat_params.h: 2048 steps per octave over [2^-16, 2^16) m): half the
+  // depth sort's radix passes, Gaussians within one step (relative depth 2^-11) keep index order.
+  uint32_t depth_key_bits = 32;
 };
+
+// The 16-bit depth key of view depth z (see SplatOptions::depth_key_bits; 0 for z <= 2^-16).
+uint32_t depth_key16(float z);
+// The depth sort key of z under `bits` (32: float bits, 16: depth_key16).
+uint32_t depth_sort_key(float z, uint32_t bits);
 
 // Per-frame constants shared by the CPU reference and the GPU push constants.
 struct SplatFrame {

@@ -73,11 +73,18 @@ struct SplatBinRecord {
   uint rect_y;  // tile rect rows y0 | y1 << 16
 };
 
+// 16-bit depth sort keys (SplatOptions::depth_key_bits = 16): the float's exponent and top 11
+// mantissa bits, offset so that z in [2^-16, 2^16) m maps to [0, 65535] (clamped; culled z = 0 -> 0):
+//   key = clamp(int(floatBits(z) >> 12) - (111 << 11), 0, 65535)
+// a monotonic log-linear code, 2048 steps per octave (relative depth step <= 2^-11); the same
+// integer operations on the host (splat_frame.h depth_key16) and in splat/preprocess.comp.
+#define SPLAT_DEPTH_KEY16_OFFSET (111 << 11)
+
 struct SplatPreprocessParams {
   uint n;          // Gaussians in this window
   uint first;      // index of the window's first Gaussian
   uint sh_stride;  // floats per Gaussian in the SH binding
-  uint pad_sh;     // unused: the SH degree is splat_preprocess's spec constant SPLAT_SH_DEGREE
+  uint depth_key16;  // 1: 16-bit depth sort keys (SPLAT_DEPTH_KEY16), 0: the float bits of view z
   float r00, r01, r02, r10, r11, r12, r20, r21, r22;  // world-to-camera rotation (row-major)
   float cam_x, cam_y, cam_z;                          // camera position relative to the scene origin
   float fx, fy, cx, cy;

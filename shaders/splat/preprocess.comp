@@ -12,7 +12,8 @@
 // zero when culled; the exact tile culling happens in
 // splat/sorted_counts.comp), and the
 // depth-sort input depth_keys[i] = float bits of view z (0 when culled; z > 0,
-// so the bits order like the depths), depth_values[i] = i, and the blend
+// so the bits order like the depths), or with p.depth_key16 their 16-bit
+// log-linear code (shared/splat_params.h), depth_values[i] = i, and the blend
 // record records[3i..3i+2] (SplatBlendRecord; unused when culled).
 // Host module: engine/splat/rasterizer_gpu.cpp; test: tests/splat/test_splat.cpp.
 #include "shared/splat_params.h"
@@ -71,7 +72,9 @@ void main() {
   proj[3u * i + 2u] = o2;
   rects[i] = rect;
   const float log_cut = vis ? log(0.9 / (255.0 * o0.w)) : 0.0;
-  depth_keys[i] = floatBitsToUint(o0.z);
+  depth_keys[i] = p.depth_key16 != 0u
+                      ? uint(clamp(int(floatBitsToUint(o0.z) >> 12) - SPLAT_DEPTH_KEY16_OFFSET, 0, 65535))
+                      : floatBitsToUint(o0.z);
   depth_values[i] = i;
   records[3u * i] = vec4(o0.xy, o1.xy);
   records[3u * i + 1u] = vec4(o1.z, log_cut, o0.w, o0.z);
