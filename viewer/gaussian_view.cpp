@@ -52,11 +52,7 @@ size_t GaussianView::frame_of(size_t time_index) const {
 
 void GaussianView::place_objects(size_t frame) {
   if (placed_frame_ && *placed_frame_ == frame) return;
-  splat::GaussianCloud extra;
-  extra.sh_degree = lod_->sh_degree();
-  for (const splat::SplatObject& ob : objects_)
-    if (const glm::dmat4* pose = ob.pose(frame)) splat::append_placed(extra, ob.gaussians, *pose);
-  lod_->set_extra(extra);
+  lod_->set_extra(splat::compose_objects(objects_, frame, lod_->sh_degree()));
   placed_frame_ = frame;
 }
 

@@ -5,6 +5,7 @@
 #include "scene/atomic_file.h"
 #include "scene/png_read.h"
 #include "scene/png_write.h"
+#include "splat/lod_gaussians_gpu.h"
 #include "splat/rasterizer_gpu.h"
 
 #include <algorithm>
@@ -25,7 +26,11 @@ FlythroughResult write_flythrough(gpu::Context& ctx, const splat::SplatScene& sc
   FlythroughResult res;
   res.frames = n;
   fs::create_directories(dir);
-  const splat::ChunkedGaussians chunks = splat::build_gaussian_chunks(scene.static_set);
+  uint32_t degree = scene.static_set.sh_degree;
+  for (const splat::SplatObject& ob : scene.objects) degree = std::max(degree, ob.gaussians.sh_degree);
+  // Both levels resident; per frame the picked chunks are copied on the GPU (when the picks change) and
+  // the placed cars uploaded behind them.
+  splat::LodGaussiansGpu lod(ctx, splat::build_gaussian_chunks(scene.static_set), degree);
   splat::SplatRendererGpu renderer(ctx);
   splat::SplatOptions so;
   so.pixels = meta.pixels;
@@ -41,13 +46,10 @@ FlythroughResult write_flythrough(gpu::Context& ctx, const splat::SplatScene& sc
   double drawn = 0.0;
   for (size_t f = 0; f < n; ++f) {
     const render::Camera cam = frame_camera(meta, f);
-    splat::SplatScene part;
-    part.objects = scene.objects;
-    part.frame_count = scene.frame_count;
-    part.static_set = splat::select_gaussians(chunks, cam, o.lod).cloud;
-    const splat::GaussianCloud cloud = splat::compose_frame(part, splat_frame_of(meta, f));
-    drawn += double(cloud.size());
-    const splat::SplatImage img = renderer.render(renderer.upload(cloud), cam, so);
+    lod.set_extra(splat::compose_objects(scene.objects, splat_frame_of(meta, f), degree));
+    const splat::GpuGaussians& g = lod.assemble(splat::pick_chunks(lod.chunks(), cam, o.lod).picks);
+    drawn += double(g.count);
+    const splat::SplatImage img = renderer.render(g, cam, so);
     const std::vector<uint8_t> rgb = splat_rgb8(img);
     if (mp4) mp4->add_frame(rgb);
     const auto at = std::find(sheet.begin(), sheet.end(), f);

@@ -24,21 +24,21 @@ double psnr_from_mse(double mse) { return mse > 0.0 ? -10.0 * std::log10(mse) : 
 
 HeldOutRenderer::HeldOutRenderer(gpu::Context& ctx, const splat::SplatScene& scene, const splat::SkyImage& sky,
                                  render::PixelConvention pixels)
-    : renderer_(ctx), scene_(scene) {
+    : renderer_(ctx), objects_(scene.objects) {
   options_.pixels = pixels;
   options_.depth = false;
   options_.sky = splat::sky_equirect(std::make_shared<const splat::SkyImage>(sky));
-  // Static scenes upload once; with objects each frame's placement is composed and uploaded.
-  if (scene_.objects.empty()) static_gpu_.emplace(renderer_.upload(scene_.static_set));
+  uint32_t degree = scene.static_set.sh_degree;
+  for (const splat::SplatObject& o : objects_) degree = std::max(degree, o.gaussians.sh_degree);
+  static_gpu_ = std::make_unique<splat::LodGaussiansGpu>(ctx, splat::single_chunk(scene.static_set), degree);
 }
 
 EvalFrame HeldOutRenderer::evaluate(const std::string& frames_dir, const render::FramesMeta& meta, size_t frame) {
   const FrameImages im = read_frame_images(frames_dir, meta, frame);
   EvalFrame e;
   e.frame = frame;
-  std::optional<splat::GpuGaussians> frame_gpu;
-  if (!static_gpu_) frame_gpu.emplace(renderer_.upload(splat::compose_frame(scene_, splat_frame_of(meta, frame))));
-  const splat::GpuGaussians& g = static_gpu_ ? *static_gpu_ : *frame_gpu;
+  static_gpu_->set_extra(splat::compose_objects(objects_, splat_frame_of(meta, frame), static_gpu_->sh_degree()));
+  const splat::GpuGaussians& g = static_gpu_->assemble({splat::ChunkPick{0, false}});
   const auto t0 = std::chrono::steady_clock::now();
   const splat::SplatImage img = renderer_.render(g, frame_camera(meta, frame), options_);
   e.render_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -58,7 +58,7 @@ EvalFrame HeldOutRenderer::evaluate(const std::string& frames_dir, const render:
   }
   e.mse = e.pixels > 0 ? se / (3.0 * double(e.pixels)) : 0.0;
   e.psnr = psnr_from_mse(e.mse);
-  if (!scene_.objects.empty() && e.dynamic_pixels > 0)
+  if (!objects_.empty() && e.dynamic_pixels > 0)
     e.psnr_dynamic = psnr_from_mse(se_dyn / (3.0 * double(e.dynamic_pixels)));
   e.ssim = ssim_rgb8(e.rendered_rgb, im.rgb, meta.width, meta.height, static_mask);
   e.reference_rgb = im.rgb;

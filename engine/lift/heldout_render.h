@@ -10,6 +10,7 @@
 
 #include "gpu/context.h"
 #include "render/appearance/frames_layout.h"
+#include "splat/lod_gaussians_gpu.h"
 #include "splat/rasterizer_gpu.h"
 #include "splat/splat_scene.h"
 #include "splat/sky.h"
@@ -44,9 +45,10 @@ class HeldOutRenderer {
 
  private:
   splat::SplatRendererGpu renderer_;
-  splat::SplatScene scene_;
+  std::vector<splat::SplatObject> objects_;
   splat::SplatOptions options_;
-  std::optional<splat::GpuGaussians> static_gpu_;
+  // The static set resident once, in its order; each frame uploads only the placed objects behind it.
+  std::unique_ptr<splat::LodGaussiansGpu> static_gpu_;
 };
 
 // A render as RGB8 (splat::splat_channel8: clamped to [0, 1], rounded, NaN -> 0; as the GPU's

@@ -161,6 +161,23 @@ bool box_outside_view(const glm::dvec3& lo, const glm::dvec3& hi, const render::
          all([&](const glm::dvec3& p) { return p.y > yb * p.z; });
 }
 
+ChunkedGaussians single_chunk(GaussianCloud cloud) {
+  ChunkedGaussians c;
+  c.coarse.sh_degree = cloud.sh_degree;
+  GaussianChunk ch;
+  ch.count = static_cast<uint32_t>(cloud.size());
+  if (cloud.size() > UINT32_MAX) throw std::invalid_argument("splat: too many Gaussians for one chunk");
+  for (size_t i = 0; i < cloud.size(); ++i) {
+    const glm::dvec3 e(3.0 * double(std::max({cloud.scales[i].x, cloud.scales[i].y, cloud.scales[i].z})));
+    ch.lo = i ? glm::min(ch.lo, cloud.positions[i] - e) : cloud.positions[i] - e;
+    ch.hi = i ? glm::max(ch.hi, cloud.positions[i] + e) : cloud.positions[i] + e;
+  }
+  c.fine = std::move(cloud);
+  c.chunks.push_back(ch);
+  c.options.chunk_size = 0.0;
+  return c;
+}
+
 LodPicks pick_chunks(const std::vector<GaussianChunk>& chunks, const render::Camera& cam, const LodOptions& o) {
   LodPicks p;
   const glm::dvec3 eye(cam.c2w[3]);

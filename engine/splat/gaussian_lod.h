@@ -48,6 +48,10 @@ struct ChunkedGaussians {
 
 ChunkedGaussians build_gaussian_chunks(const GaussianCloud& cloud, const GaussianChunkOptions& o = {});
 
+// The whole set as one chunk in its own order, without a coarse level: for renderers that draw
+// everything through LodGaussiansGpu (pick {0, fine}) and keep the host path's order exactly.
+ChunkedGaussians single_chunk(GaussianCloud cloud);
+
 // The moment-matched merge of Gaussians `idx` of `cloud` (see above), appended to `out`.
 void merge_gaussians(const GaussianCloud& cloud, const std::vector<uint32_t>& idx, GaussianCloud& out);
 

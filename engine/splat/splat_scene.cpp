@@ -319,6 +319,14 @@ void append_placed(GaussianCloud& out, const GaussianCloud& part, const glm::dma
   }
 }
 
+GaussianCloud compose_objects(const std::vector<SplatObject>& objects, size_t frame, uint32_t sh_degree) {
+  GaussianCloud out;
+  out.sh_degree = sh_degree;
+  for (const auto& o : objects)
+    if (const glm::dmat4* T = o.pose(frame)) append_placed(out, o.gaussians, *T);
+  return out;
+}
+
 GaussianCloud compose_frame(const SplatScene& scene, size_t frame) {
   uint32_t degree = scene.static_set.sh_degree;
   size_t total = scene.static_set.size();
