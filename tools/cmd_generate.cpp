@@ -68,6 +68,10 @@ void add_generate_command(CLI::App& app) {
   cmd->add_option("--gaussians-per-cell", a->per_cell, "Gaussians per seen 0.1 m face cell (1, or 4: official density)")
       ->capture_default_str()
       ->check(CLI::IsMember({1, 4}));
+  cmd->add_option("--frames-from", a->frames_from,
+                  "Appearance frames made elsewhere from this job's guidance buffers (a video model's output: a "
+                  "PNG folder or an mp4, one frame per buffer frame), imported instead of the procedural renderer's")
+      ->type_name("DIR|VIDEO.mp4");
   cmd->add_flag("--no-video", a->no_video, "No mp4s (guidance buffers, the preview's fly-through)");
   cmd->add_flag("--no-preview", a->no_preview, "No preview/ (the Gaussians rendered along the trajectory)");
   cmd->add_flag("--resume", a->resume,

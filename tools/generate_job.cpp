@@ -8,6 +8,7 @@
 #include "lift/flythrough.h"
 #include "lift/lift_frames.h"
 #include "lift/lift_output.h"
+#include "render/appearance/frames_import.h"
 #include "render/appearance/frames_render.h"
 #include "render/buffers/contact_sheet.h"
 #include "render/buffers/frame_scene.h"
@@ -15,6 +16,7 @@
 #include "render/buffers/overlay_world.h"
 #include "render/buffers/stage2_writer.h"
 #include "scene/atomic_file.h"
+#include "scene/input_error.h"
 #include "scene/package_check.h"
 #include "scene/scene_json.h"
 #include "scene/sha256.h"
@@ -58,6 +60,18 @@ std::vector<std::string> package_files(const fs::path& root) {
   return out;
 }
 
+// SHA-256 of a file, or of a folder's files (sorted by name: "name sha256\n" each) for --frames-from.
+std::string sha256_of_path(const std::string& path) {
+  if (!fs::is_directory(path)) return scene::sha256_file(path);
+  std::vector<fs::path> files;
+  for (const auto& e : fs::directory_iterator(path))
+    if (e.is_regular_file()) files.push_back(e.path());
+  std::sort(files.begin(), files.end());
+  std::string list;
+  for (const fs::path& f : files) list += f.filename().string() + " " + scene::sha256_file(f.string()) + "\n";
+  return scene::sha256_hex(list);
+}
+
 // Test hook: ICUBE_GENERATE_KILL_AFTER=STAGE kills the process (SIGKILL, no
 // clean-up) right after STAGE is recorded, as a node failure would.
 void kill_hook(const std::string& stage) {
@@ -73,6 +87,7 @@ GenerateResult generate_package(const GenerateArgs& a, scene::Diagnostics& diag)
   if (a.output.empty()) throw std::invalid_argument("give -o PACKAGE");
   refuse_overwriting_input(a.path.scene, a.output);
   if (!a.world.empty()) refuse_overwriting_input(a.world, a.output);
+  if (!a.frames_from.empty()) refuse_overwriting_input(a.frames_from, a.output);
   CameraPath cp = resolve_camera_path(a.path, diag);
   if (cp.passes.size() != 1)
     throw std::invalid_argument("generate takes one camera pass; the trajectory file holds " +
@@ -80,12 +95,25 @@ GenerateResult generate_package(const GenerateArgs& a, scene::Diagnostics& diag)
   const scene::Scene& sc = *cp.scene;
   const render::Trajectory& traj = cp.passes[0];
   const render::AppearancePrompt parsed = render::parse_prompt(a.prompt);
+  if (!a.frames_from.empty() && fs::is_directory(a.frames_from)) {  // before any stage: one frame per camera pose
+    size_t n = 0;
+    for (const auto& e : fs::directory_iterator(a.frames_from)) n += e.is_regular_file() && e.path().extension() == ".png";
+    if (n != traj.size())
+      throw scene::InputError(a.frames_from, "", std::to_string(n) + " .png frames, but the camera path has " +
+                                                     std::to_string(traj.size()) + " frames; frames are matched by index");
+  } else if (!a.frames_from.empty() && !fs::is_regular_file(a.frames_from)) {
+    throw scene::InputError(a.frames_from, "", "neither a folder of PNG frames nor a video file");
+  }
 
   // What the package is made of; its SHA-256 decides whether a staging folder may be resumed.
   nlohmann::ordered_json inputs = {{"scene", a.path.scene}, {"scene_sha256", scene::sha256_file(a.path.scene)}};
   inputs["world"] = a.world.empty() ? nlohmann::ordered_json("procedural") : nlohmann::ordered_json(a.world);
   if (!a.world.empty()) inputs["world_sha256"] = scene::sha256_file(a.world);
   if (!a.path.record.empty()) inputs["record"] = a.path.record;
+  if (!a.frames_from.empty()) {
+    inputs["frames_from"] = a.frames_from;
+    inputs["frames_from_sha256"] = sha256_of_path(a.frames_from);
+  }
   if (!a.path.trajectory.empty()) {
     inputs["trajectory"] = a.path.trajectory;
     inputs["trajectory_sha256"] = scene::sha256_file(a.path.trajectory);
@@ -182,22 +210,35 @@ GenerateResult generate_package(const GenerateArgs& a, scene::Diagnostics& diag)
                                 render::contact_sheet(seq, clip + ": " + std::to_string(seq.frames.size()) + " frames"));
     return std::to_string(traj.size()) + " frames " + std::to_string(cp.K.width) + "x" + std::to_string(cp.K.height);
   });
+  // The camera path in our world frame, pose i = package frame i, with the frames' scene times when they
+  // have them (the frames of gaussians/scene.json then: icube splat render --trajectory places the cars).
+  auto write_trajectory = [&] {
+    bool timed = !traj.time_index.empty();
+    for (int t : traj.time_index) timed = timed && t >= 0;
+    scene::write_file_atomic((root / "trajectory.json").string(),
+                             render::trajectory_json(traj.c2w, cp.K, timed ? &traj.time_index : nullptr));
+  };
   stage("frames", [&] {
     const fs::path fdir = root / "frames";
     fs::remove_all(fdir);
     fs::remove(root / "trajectory.json");
     fs::create_directories(fdir);
+    if (!a.frames_from.empty()) {
+      render::FramesImportOptions io;
+      io.prompt = a.prompt;
+      const render::FramesImportReport rep =
+          render::import_frames(a.frames_from, (root / "buffers" / "clip").string(), fdir.string(), io);
+      for (const std::string& n : rep.notes) diag.warn(a.frames_from, "frames", n);
+      write_trajectory();
+      return "imported " + std::to_string(rep.frames) + " frames from " + a.frames_from +
+             (rep.rescaled ? " (rescaled)" : "");
+    }
     ProgressBar bar("frames", "frames");
     render::FramesRenderOptions fo;
     fo.seed = a.seed;
     fo.progress = [&](size_t done, size_t total) { bar.update(done, total); };
     render::render_frames(ctx, shared_overlay(), static_world, &sc, mesh, cp.K, traj, a.prompt, fo, fdir.string());
-    // The camera path in our world frame, pose i = package frame i, with the frames' scene times when they
-    // have them (the frames of gaussians/scene.json then: icube splat render --trajectory places the cars).
-    bool timed = !traj.time_index.empty();
-    for (int t : traj.time_index) timed = timed && t >= 0;
-    scene::write_file_atomic((root / "trajectory.json").string(),
-                             render::trajectory_json(traj.c2w, cp.K, timed ? &traj.time_index : nullptr));
+    write_trajectory();
     return parsed.summary();
   });
   overlay.reset();  // the lift casts against its own copies of the world

@@ -24,6 +24,9 @@ struct GenerateArgs {
   int per_cell = 1;
   bool no_video = false;
   bool no_preview = false;  // no preview/ (the Gaussians' fly-through)
+  // Appearance frames made elsewhere (a video model run on this job's guidance buffers): a PNG folder
+  // or an mp4, imported (render/appearance/frames_import.h) instead of the procedural renderer's.
+  std::string frames_from;
   // Skip the package when it is complete and made from the same inputs and
   // options; else continue a killed run's staging folder after its last finished stage.
   bool resume = false;

@@ -55,6 +55,38 @@ TEST_CASE("cli: icube generate writes a complete package, the same bytes twice, 
   REQUIRE(test::run_icube(args + "-o '" + pkg2.string() + "'", dir.path).code == 0);
   CHECK(scene::read_file((pkg / "manifest.json").string()) == scene::read_file((pkg2 / "manifest.json").string()));
 
+  // --frames-from: frames made elsewhere from this job's buffers (here the package's own, as a video model's
+  // output would come) are imported instead of rendered, with the buffers' poses; the lift runs on them.
+  const fs::path video_out = dir.path / "video_out", pkg3 = dir.path / "pkg3", short_out = dir.path / "short";
+  fs::create_directories(video_out);
+  fs::create_directories(short_out);
+  for (const auto& e : fs::directory_iterator(pkg / "frames" / "rgb")) {
+    fs::copy_file(e.path(), video_out / e.path().filename());
+    if (e.path().filename() != "000005.png") fs::copy_file(e.path(), short_out / e.path().filename());
+  }
+  const test::CliRun imp =
+      test::run_icube(args + "--frames-from '" + video_out.string() + "' -o '" + pkg3.string() + "'", dir.path);
+  INFO(imp.output);
+  REQUIRE(imp.code == 0);
+  CHECK(imp.output.find("imported 6 frames") != std::string::npos);
+  const auto m3 = nlohmann::json::parse(scene::read_file((pkg3 / "frames" / "frames_meta.json").string()));
+  CHECK(m3["source"] == "import");
+  CHECK(m3["poses"].size() == 6);
+  const auto man3 = nlohmann::json::parse(scene::read_file((pkg3 / "manifest.json").string()));
+  CHECK(man3["inputs"].contains("frames_from_sha256"));
+  const splat::SplatScene sc3 = splat::read_splat_scene((pkg3 / "gaussians" / "scene.json").string());
+  const double ratio = double(sc3.static_set.size()) / double(sc.static_set.size());
+  INFO("static Gaussians from the imported frames " << sc3.static_set.size() << ", rendered " << sc.static_set.size());
+  CHECK(ratio > 0.95);
+  CHECK(ratio < 1.05);
+  // Frames that do not match the buffers (one short): refused, nothing written.
+  const fs::path pkg4 = dir.path / "pkg4";
+  const test::CliRun bad =
+      test::run_icube(args + "--frames-from '" + short_out.string() + "' -o '" + pkg4.string() + "'", dir.path);
+  CHECK(bad.code != 0);
+  CHECK(bad.output.find("short") != std::string::npos);
+  CHECK_FALSE(fs::exists(pkg4));
+
   // Bad input: a missing scene, a corrupt --world. One-line errors, no package, no staging left.
   // A staging folder left by a killed run (no process holds its lock) is removed by a run without --resume.
   const fs::path none = dir.path / "none", stale = dir.path / ".pkg.partial";

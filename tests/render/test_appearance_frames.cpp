@@ -9,6 +9,7 @@
 #include "cli_test_util.h"
 
 #include "render/appearance/frames_import.h"
+#include "render/appearance/frames_layout.h"
 #include "scene/atomic_file.h"
 #include "scene/png_read.h"
 #include "scene/png_write.h"
@@ -176,6 +177,19 @@ TEST_CASE("frames import: PNG frames and mp4 matched to the buffers; other count
       CHECK(meta["source"] == "import");
       CHECK(meta["source_frame_indices"] == std::vector<int>{10, 13});
       CHECK(meta["appearance"]["time_of_day"] == "night");
+      // The camera poses come back from the buffers' pose.tar (float32, voxel world) in our world frame:
+      // the folder reads for Stage 3, with the poses our own frames of the same path carry.
+      const render::FramesMeta im = render::read_frames_meta(out.string());
+      const render::FramesMeta pm = render::read_frames_meta(proc.string());
+      REQUIRE(im.poses.size() == 2);
+      REQUIRE(pm.poses.size() == 2);
+      double worst = 0.0;
+      for (size_t f = 0; f < 2; ++f)
+        for (int col = 0; col < 4; ++col)
+          for (int row = 0; row < 4; ++row)
+            worst = std::max(worst, std::fabs(im.poses[f][col][row] - pm.poses[f][col][row]));
+      INFO("largest pose element difference " << worst);
+      CHECK(worst < 1e-4);  // float32 in the tar: ~1e-7 relative on ~100 m
     }
   }
   SUBCASE("an mp4") {

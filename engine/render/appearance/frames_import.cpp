@@ -8,16 +8,72 @@
 #include "scene/png_read.h"
 #include "scene/png_write.h"
 #include "video/mp4_reader.h"
+#include "world/npy.h"
 #include "world/semantics.h"
 
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <map>
 
 namespace icube::render {
+
+namespace {
+
+glm::dmat4 mat4_of(const world::NpyArray& a, const std::string& file, const std::string& member) {
+  if (a.shape != std::vector<uint64_t>{4, 4}) throw scene::InputError(file, member, "needs a [4, 4] array");
+  glm::dmat4 m(1.0);
+  for (int r = 0; r < 4; ++r)
+    for (int c = 0; c < 4; ++c) {
+      const double v = a.as_double(size_t(4 * r + c));
+      if (!std::isfinite(v)) throw scene::InputError(file, member, "is not finite");
+      m[c][r] = v;
+    }
+  return m;
+}
+
+// The frames' camera-to-world poses in our world frame: inverse(world_to_voxel_world.npy) · pose.tar's
+// camera-to-voxel-world (float32, as InfiniCube stores it), the rotation re-orthonormalised in double
+// (Gram-Schmidt on the columns) and the bottom row exactly (0, 0, 0, 1). Empty (with a note) when the
+// buffers have neither file.
+std::vector<glm::dmat4> buffer_poses(const std::filesystem::path& bdir, const std::string& clip, size_t nf,
+                                     FramesImportReport& rep) {
+  namespace fs = std::filesystem;
+  const std::string tar_path = (bdir / "pose.tar").string(), w2v_path = (bdir / "world_to_voxel_world.npy").string();
+  if (!fs::exists(tar_path) && !fs::exists(w2v_path)) {
+    rep.notes.push_back("no pose.tar / world_to_voxel_world.npy in the buffers: no camera poses (Stage 3 needs them)");
+    return {};
+  }
+  if (!fs::exists(tar_path)) throw scene::InputError(tar_path, "", "missing (world_to_voxel_world.npy is there)");
+  if (!fs::exists(w2v_path)) throw scene::InputError(w2v_path, "", "missing (pose.tar is there)");
+  const glm::dmat4 v2w = glm::inverse(mat4_of(world::read_npy(w2v_path), w2v_path, ""));
+  std::map<std::string, std::string> members;
+  for (render::TarMember& m : render::parse_tar(scene::read_file(tar_path))) members[m.name] = std::move(m.data);
+  std::vector<glm::dmat4> poses;
+  for (size_t f = 0; f < nf; ++f) {
+    char base[64];
+    std::snprintf(base, sizeof(base), ".%06zu.pose.front.npy", f);
+    const auto it = members.find(clip + base);
+    if (it == members.end()) throw scene::InputError(tar_path, clip + base, "missing: one pose per frame");
+    glm::dmat4 c2w = v2w * mat4_of(world::npy_from_bytes(it->second, tar_path + ":" + it->first), tar_path, it->first);
+    glm::dvec3 x(c2w[0]), y(c2w[1]);
+    x = glm::normalize(x);
+    y = glm::normalize(y - glm::dot(x, y) * x);
+    const glm::dvec3 z = glm::cross(x, y);
+    if (glm::dot(z, glm::dvec3(c2w[2])) < 0.5) throw scene::InputError(tar_path, it->first, "is not a rotation");
+    c2w[0] = glm::dvec4(x, 0.0);
+    c2w[1] = glm::dvec4(y, 0.0);
+    c2w[2] = glm::dvec4(z, 0.0);
+    c2w[3].w = 1.0;
+    poses.push_back(c2w);
+  }
+  return poses;
+}
+
+}  // namespace
 
 namespace fs = std::filesystem;
 
@@ -144,6 +200,8 @@ FramesImportReport import_frames(const std::string& input, const std::string& bu
       rep.notes.push_back("no semantic_buffer/ PNGs in the buffers: sky_mask/ is all 0");
     }
   }
+  // Poses: the buffers' camera-to-voxel-world (pose.tar, float32) back in our world frame.
+  const std::vector<glm::dmat4> poses = buffer_poses(bdir, clip, nf, rep);
   // Write.
   for (const char* sub : {"rgb", "sky_mask", "instance"}) fs::create_directories(fs::path(out_dir) / sub);
   for (size_t f = 0; f < nf; ++f) {
@@ -157,6 +215,7 @@ FramesImportReport import_frames(const std::string& input, const std::string& bu
                              scene::encode_png_gray16(instances[f].data(), w, h));
   }
   FramesMeta meta;
+  meta.poses = poses;
   meta.source = "import";
   meta.width = W;
   meta.height = H;
