@@ -44,7 +44,7 @@ void App::shortcuts() {
   if (pressed(GLFW_KEY_F12)) request_screenshot("");
   if (pressed(GLFW_KEY_F1)) show_ui = !show_ui;
   if (pressed(GLFW_KEY_Z)) ground.zero_height = !ground.zero_height;
-  if (pressed(GLFW_KEY_G) && gauss) show_gaussians = !show_gaussians;
+  if (pressed(GLFW_KEY_G) && gauss && have_world) show_gaussians = !show_gaussians;
   if (pressed(GLFW_KEY_T) && timeline_frames() > 0) play_time = !play_time;
   for (int m = 0; m < 5; ++m)
     if (pressed(GLFW_KEY_1 + m)) shade.mode = static_cast<RenderMode>(m);

@@ -142,6 +142,10 @@ void App::load() {
                 residency->radius(), residency->stats().resident_bricks, grid.brick_count(),
                 residency->stats().last_upload_ms);
   }
+  if (!have_world && gauss) {  // Gaussians alone: nothing else to show, no ground to drive on
+    show_gaussians = true;
+    control = Control::Fly;
+  }
   if (!opt.load.empty()) load_recording(opt.load);
 }
 

@@ -20,6 +20,7 @@ void App::run_event(const ScriptEvent& e) {
         if (a == kRenderModeNames[m]) shade.mode = static_cast<RenderMode>(m);
     } else if (e.command == "view") {
       if (a == "gaussians" && !gauss) throw std::invalid_argument("no Gaussians loaded (open a package)");
+      if (a == "voxels" && !have_world) throw std::invalid_argument("no voxel world loaded (Gaussians alone)");
       show_gaussians = a == "gaussians";
     } else if (e.command == "time") {
       if (timeline_frames() == 0) throw std::invalid_argument("no time line (no scene states, no moving objects)");
@@ -46,30 +47,21 @@ void App::run_event(const ScriptEvent& e) {
     else if (e.command == "load") load_recording(a.empty() ? std::string(out_path) : a);
     else if (e.command == "screenshot") request_screenshot(a);
     else if (e.command == "frame-shot") frame_shot(e.args.at(0), std::stoul(e.args.at(1)), std::stoul(e.args.at(2)));
-    else if (e.command == "frame-shots") {
+    else if (e.command == "frame-shots" || e.command == "gaussian-shots") {
+      // Every step-th frame of every loaded pass: PREFIX_p<P>_f<FFF>.png.
+      const bool gaussians = e.command == "gaussian-shots";
       const size_t step = std::stoul(e.args.at(1));
       size_t n = 0;
       for (size_t p = 0; p < replay.size(); ++p)
         for (size_t f = 0; f < replay[p].size(); f += step) {
           char name[64];
           std::snprintf(name, sizeof name, "_p%zu_f%03zu.png", p, f);
-          frame_shot(e.args.at(0) + name, p, f);
+          if (gaussians) gaussian_frame_shot(e.args.at(0) + name, p, f);
+          else frame_shot(e.args.at(0) + name, p, f);
           ++n;
         }
-      if (n == 0) throw std::invalid_argument("frame-shots: no loaded pass (load a trajectory first)");
-      status = std::to_string(n) + " frame shots -> " + e.args.at(0) + "_p*_f*.png";
-    } else if (e.command == "gaussian-shots") {
-      const size_t step = std::stoul(e.args.at(1));
-      size_t n = 0;
-      for (size_t p = 0; p < replay.size(); ++p)
-        for (size_t f = 0; f < replay[p].size(); f += step) {
-          char name[64];
-          std::snprintf(name, sizeof name, "_p%zu_f%03zu.png", p, f);
-          gaussian_frame_shot(e.args.at(0) + name, p, f);
-          ++n;
-        }
-      if (n == 0) throw std::invalid_argument("gaussian-shots: no loaded pass (load a trajectory first)");
-      status = std::to_string(n) + " Gaussian frame shots -> " + e.args.at(0) + "_p*_f*.png";
+      if (n == 0) throw std::invalid_argument(e.command + ": no loaded pass (load a trajectory first)");
+      status = std::to_string(n) + (gaussians ? " Gaussian" : "") + " frame shots -> " + e.args.at(0) + "_p*_f*.png";
     } else if (e.command == "teleport") teleport(rest);
     else if (e.command == "quit") quit = true;
   } catch (const std::exception& ex) {

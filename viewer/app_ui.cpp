@@ -50,7 +50,7 @@ void App::view_panel() {
   ImGui::PlotLines("##ft", g.data(), static_cast<int>(g.size()), 0, "frame ms", 0.0f, 100.0f, ImVec2(0, 50));
   ImGui::Text("render %ux%u of %ux%u", view_width(), view_height(), presenter.extent().width,
               presenter.extent().height);
-  if (gauss) {
+  if (gauss && have_world) {
     int v = show_gaussians ? 1 : 0;
     ImGui::RadioButton("voxels", &v, 0);
     ImGui::SameLine();
