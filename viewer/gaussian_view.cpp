@@ -26,8 +26,7 @@ GaussianView::GaussianView(gpu::Context& ctx, const std::string& scene_json, con
   const auto t0 = Clock::now();
   splat::SplatScene sc = splat::read_splat_scene(scene_json);
   frames_ = sc.frames();
-  uint32_t degree = sc.static_set.sh_degree;
-  for (const splat::SplatObject& ob : sc.objects) degree = std::max(degree, ob.gaussians.sh_degree);
+  const uint32_t degree = splat::max_sh_degree(sc);
   stats_.static_gaussians = sc.static_set.size();
   stats_.objects = sc.objects.size();
   {

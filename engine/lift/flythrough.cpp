@@ -26,8 +26,7 @@ FlythroughResult write_flythrough(gpu::Context& ctx, const splat::SplatScene& sc
   FlythroughResult res;
   res.frames = n;
   fs::create_directories(dir);
-  uint32_t degree = scene.static_set.sh_degree;
-  for (const splat::SplatObject& ob : scene.objects) degree = std::max(degree, ob.gaussians.sh_degree);
+  const uint32_t degree = splat::max_sh_degree(scene);
   // Both levels resident; per frame the picked chunks are copied on the GPU (when the picks change) and
   // the placed cars uploaded behind them.
   splat::LodGaussiansGpu lod(ctx, splat::build_gaussian_chunks(scene.static_set), degree);

@@ -28,9 +28,8 @@ HeldOutRenderer::HeldOutRenderer(gpu::Context& ctx, const splat::SplatScene& sce
   options_.pixels = pixels;
   options_.depth = false;
   options_.sky = splat::sky_equirect(std::make_shared<const splat::SkyImage>(sky));
-  uint32_t degree = scene.static_set.sh_degree;
-  for (const splat::SplatObject& o : objects_) degree = std::max(degree, o.gaussians.sh_degree);
-  static_gpu_ = std::make_unique<splat::LodGaussiansGpu>(ctx, splat::single_chunk(scene.static_set), degree);
+  static_gpu_ =
+      std::make_unique<splat::LodGaussiansGpu>(ctx, splat::single_chunk(scene.static_set), splat::max_sh_degree(scene));
 }
 
 EvalFrame HeldOutRenderer::evaluate(const std::string& frames_dir, const render::FramesMeta& meta, size_t frame) {

@@ -319,6 +319,12 @@ void append_placed(GaussianCloud& out, const GaussianCloud& part, const glm::dma
   }
 }
 
+uint32_t max_sh_degree(const SplatScene& scene) {
+  uint32_t degree = scene.static_set.sh_degree;
+  for (const auto& o : scene.objects) degree = std::max(degree, o.gaussians.sh_degree);
+  return degree;
+}
+
 GaussianCloud compose_objects(const std::vector<SplatObject>& objects, size_t frame, uint32_t sh_degree) {
   GaussianCloud out;
   out.sh_degree = sh_degree;

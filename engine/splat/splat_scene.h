@@ -94,6 +94,9 @@ SplatScene splat_scene_from_json(std::string_view text, const std::string& name,
 // frame >= frames()) give the static set and the objects present there (none).
 GaussianCloud compose_frame(const SplatScene& scene, size_t frame);
 
+// The highest SH degree of the static set and every object (what a frame set holding any of them needs).
+uint32_t max_sh_degree(const SplatScene& scene);
+
 // The objects present at `frame`, placed, in file order, at SH degree `sh_degree` (at least
 // theirs): compose_frame's part after the static set (renderers that keep the static set resident).
 GaussianCloud compose_objects(const std::vector<SplatObject>& objects, size_t frame, uint32_t sh_degree);
