@@ -62,7 +62,8 @@ struct FramesSheetArgs {
 };
 
 struct FramesImportArgs {
-  std::string input, buffers, output, prompt;
+  std::string input, buffers, output, prompt, sky_masks;
+  int sky_label = -1;
 };
 
 void report_prompt(const render::AppearancePrompt& p, scene::Diagnostics& diag) {
@@ -196,11 +197,19 @@ void cmd_frames_import(const FramesImportArgs& a) {
     StagingDir staging(final_dir.parent_path(), final_dir.filename().string());
     render::FramesImportOptions o;
     o.prompt = a.prompt;
+    o.sky_masks = a.sky_masks;
+    o.sky_label = a.sky_label;
     const render::FramesImportReport rep = render::import_frames(a.input, a.buffers, staging.path.string(), o);
     for (const std::string& n : rep.notes) diag.warn(a.input, "", n);
     move_into_place(staging, final_dir);
     std::printf("import: %zu frames %ux%u%s -> %s\n", rep.frames, rep.width, rep.height,
                 rep.rescaled ? " (rescaled)" : "", final_dir.string().c_str());
+    if (!a.sky_masks.empty())
+      std::printf("import: sky pixels %zu from the masks, %zu in the buffers (%+.2f %% of all pixels not sky by the "
+                  "masks: what the video model drew beyond the voxel world, or disagreement)\n",
+                  rep.sky_pixels_masks, rep.sky_pixels_buffers,
+                  100.0 * (double(rep.sky_pixels_buffers) - double(rep.sky_pixels_masks)) /
+                      double(std::max<size_t>(1, rep.frames * rep.width * rep.height)));
   });
 }
 
@@ -255,11 +264,21 @@ void add_frames_commands(CLI::App& app) {
       ->required()
       ->type_name("CLIP_DIR");
   imp->add_option("--prompt", i->prompt, "The prompt the video model was given (recorded in frames_meta.json)")->type_name("TEXT");
+  imp->add_option("--sky-masks", i->sky_masks,
+                  "Sky masks segmented from the frames (one PNG per frame, sorted by name; e.g. SegFormer on the "
+                  "frames) instead of the buffers' sky")
+      ->type_name("MASK_DIR");
+  imp->add_option("--sky-label", i->sky_label,
+                  "The masks are 8-bit gray label maps and this value is sky (Cityscapes: 10); default: binary masks, "
+                  "gray >= 128 = sky")
+      ->type_name("N")
+      ->check(CLI::Range(0, 255));
   imp->add_option("-o,--output", i->output, "Frames folder")->required()->type_name("FRAMES_DIR");
   imp->footer(
       "Frames are matched to the buffers' frames by index: the count must equal the buffers' frame count; a different "
-      "size with the same aspect ratio is rescaled to the buffers' size, another aspect ratio is refused. sky_mask/ and "
-      "instance/ come from the buffers (semantic sky colour, instance_buffer tar).");
+      "size with the same aspect ratio is rescaled to the buffers' size, another aspect ratio is refused. sky_mask/ comes "
+      "from the buffers (semantic sky colour) or from --sky-masks, instance/ from the buffers' instance_buffer tar. "
+      "Only segmented sky masks let `icube lift` place Gaussians for what the video model drew beyond the voxel world.");
   imp->callback([i] { cmd_frames_import(*i); });
 }
 

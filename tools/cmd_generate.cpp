@@ -6,6 +6,7 @@
 //   icube generate SCENE -o PACKAGE [--world WORLD.icw] [--prompt TEXT] [--seed N] [--resume]
 //                  [--frames A:B[:S]] [--camera ... | --camera-preset NAME | --trajectory F | --route M]
 //                  [--key-every N] [--gaussians-per-cell 1|4] [--no-video] [--no-preview]
+//                  [--frames-from DIR|VIDEO [--sky-masks DIR [--sky-label N]]] [--pixel-frames N]
 //   icube generate --batch SCENES.txt [--shard I/N] -o OUT_ROOT [the options above]
 #include "command_registry.h"
 #include "generate_batch.h"
@@ -72,6 +73,16 @@ void add_generate_command(CLI::App& app) {
                   "Appearance frames made elsewhere from this job's guidance buffers (a video model's output: a "
                   "PNG folder or an mp4, one frame per buffer frame), imported instead of the procedural renderer's")
       ->type_name("DIR|VIDEO.mp4");
+  cmd->add_option("--sky-masks", a->sky_masks,
+                  "With --frames-from: sky masks segmented from those frames (one PNG per frame; see `icube frames "
+                  "import --help`), so Stage 3 lifts what the video model drew beyond the voxel world")
+      ->type_name("MASK_DIR");
+  cmd->add_option("--sky-label", a->sky_label, "The sky masks are gray label maps and this value is sky (Cityscapes: 10)")
+      ->type_name("N")
+      ->check(CLI::Range(0, 255));
+  cmd->add_option("--pixel-frames", a->pixel_frames,
+                  "Stage 3 pixel branch: Gaussians for the mid-ground pixels of the last N key frames (0 = off)")
+      ->capture_default_str();
   cmd->add_flag("--no-video", a->no_video, "No mp4s (guidance buffers, the preview's fly-through)");
   cmd->add_flag("--no-preview", a->no_preview, "No preview/ (the Gaussians rendered along the trajectory)");
   cmd->add_flag("--resume", a->resume,

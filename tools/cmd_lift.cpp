@@ -42,7 +42,7 @@ namespace fs = std::filesystem;
 
 struct LiftArgs {
   std::string world, frames, scene, output;
-  size_t key_every = 2, eval_frames = 4;
+  size_t key_every = 2, eval_frames = 4, pixel_frames = 1;
   int per_cell = 1;
   float cell_sigma = lift::kCellSigma;
   double hidden_radius = 40.0;
@@ -75,6 +75,7 @@ void cmd_lift(const LiftArgs& a) {
     o.lift.hidden = !a.no_hidden;
     o.lift.cell_sigma = a.cell_sigma;
     o.lift.hidden_radius = a.hidden_radius;
+    o.pixel_frames = a.pixel_frames;
     if (sc) o.scene = &*sc, o.car_mesh = &mesh;
     ProgressBar lift_bar("lift", "frames");
     ProgressBar eval_bar("eval", "frames");
@@ -93,11 +94,12 @@ void cmd_lift(const LiftArgs& a) {
     size_t object_gaussians = 0;
     for (const auto& obj : r.objects) object_gaussians += obj.gaussians.size();
     std::printf("lift: %zu key frames of %zu, %zu samples -> %zu Gaussians (%zu surface, %zu hidden), %zu dynamic "
-                "objects (%zu Gaussians from %zu samples), sky from %zu pixels; held-out PSNR %.2f dB over %zu "
+                "objects (%zu Gaussians from %zu samples), sky from %zu pixels, %zu mid-ground pixels (%zu on the road "
+                "plane, %zu at the world's bounds); held-out PSNR %.2f dB over %zu "
                 "frames; %.2f s [cast %.2f, accumulate %.2f, emit %.2f, eval %.2f] -> %s\n",
                 r.key_frames.size(), meta.poses.size(), r.samples, r.cloud.size(), r.stats.surface_gaussians,
                 r.stats.hidden_gaussians, r.objects.size(), object_gaussians, r.dynamic_samples, r.sky_samples,
-                r.mean_psnr(), r.eval.size(), total_s, r.cast_s, r.accumulate_s, r.emit_s, r.eval_s,
+                r.pixel.pixels, r.pixel.ground, r.pixel.backdrop, r.mean_psnr(), r.eval.size(), total_s, r.cast_s, r.accumulate_s, r.emit_s, r.eval_s,
                 final_dir.string().c_str());
   });
 }
@@ -130,13 +132,19 @@ void add_lift_command(CLI::App& app) {
                   "Hidden surface voxels get a Gaussian only within this many metres of a frame's camera")
       ->capture_default_str()
       ->check(CLI::Range(0.0, 1e7));
+  cmd->add_option("--pixel-frames", a->pixel_frames,
+                  "Pixel branch: Gaussians for the mid-ground pixels (not sky, no voxel hit) of the last N key frames "
+                  "(0 = off; needs sky masks segmented from the frames, see `icube frames import --sky-masks`)")
+      ->capture_default_str();
   cmd->add_option("--eval-frames", a->eval_frames, "Held-out frames rendered for the PSNR figures and eval.png")
       ->capture_default_str();
   cmd->add_option("-o,--output", a->output, "Output folder")->required()->type_name("OUT_DIR");
   cmd->footer(
       "Non-learned voxel branch: each key frame's pixels (not sky, not dynamic objects) colour the 0.1 m cells of "
       "the voxel faces they hit; every seen cell becomes flat Gaussians on that face, hidden surface voxels one "
-      "Gaussian in their class's colour. The sky is an equirectangular panorama of the sky pixels.");
+      "Gaussian in their class's colour. Mid-ground pixels of the last key frame (sky masks segmented from the "
+      "frames say not sky, no voxel hit) become two Gaussians each on the road plane or at the world's bounds. The "
+      "sky is an equirectangular panorama of the sky pixels.");
   cmd->callback([a] { cmd_lift(*a); });
 }
 

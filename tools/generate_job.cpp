@@ -88,6 +88,9 @@ GenerateResult generate_package(const GenerateArgs& a, scene::Diagnostics& diag)
   refuse_overwriting_input(a.path.scene, a.output);
   if (!a.world.empty()) refuse_overwriting_input(a.world, a.output);
   if (!a.frames_from.empty()) refuse_overwriting_input(a.frames_from, a.output);
+  if (!a.sky_masks.empty() && a.frames_from.empty())
+    throw std::invalid_argument("--sky-masks goes with --frames-from (masks segmented from those frames)");
+  if (!a.sky_masks.empty()) refuse_overwriting_input(a.sky_masks, a.output);
   CameraPath cp = resolve_camera_path(a.path, diag);
   if (cp.passes.size() != 1)
     throw std::invalid_argument("generate takes one camera pass; the trajectory file holds " +
@@ -114,6 +117,11 @@ GenerateResult generate_package(const GenerateArgs& a, scene::Diagnostics& diag)
     inputs["frames_from"] = a.frames_from;
     inputs["frames_from_sha256"] = sha256_of_path(a.frames_from);
   }
+  if (!a.sky_masks.empty()) {
+    inputs["sky_masks"] = a.sky_masks;
+    inputs["sky_masks_sha256"] = sha256_of_path(a.sky_masks);
+    inputs["sky_label"] = a.sky_label;
+  }
   if (!a.path.trajectory.empty()) {
     inputs["trajectory"] = a.path.trajectory;
     inputs["trajectory_sha256"] = scene::sha256_file(a.path.trajectory);
@@ -122,7 +130,8 @@ GenerateResult generate_package(const GenerateArgs& a, scene::Diagnostics& diag)
       {"prompt", a.prompt},       {"seed", a.seed},
       {"frames", a.path.frames},  {"camera", {cp.K.fx, cp.K.fy, cp.K.cx, cp.K.cy, cp.K.width, cp.K.height}},
       {"route_m", a.path.route_m}, {"key_every", a.key_every},
-      {"gaussians_per_cell", a.per_cell}, {"videos", !a.no_video}, {"preview", !a.no_preview}};
+      {"gaussians_per_cell", a.per_cell}, {"pixel_frames", a.pixel_frames}, {"videos", !a.no_video},
+      {"preview", !a.no_preview}};
   const std::string fingerprint = scene::sha256_hex(inputs.dump() + "\n" + options.dump());
 
   GenerateResult result;
@@ -226,6 +235,8 @@ GenerateResult generate_package(const GenerateArgs& a, scene::Diagnostics& diag)
     if (!a.frames_from.empty()) {
       render::FramesImportOptions io;
       io.prompt = a.prompt;
+      io.sky_masks = a.sky_masks;
+      io.sky_label = a.sky_label;
       const render::FramesImportReport rep =
           render::import_frames(a.frames_from, (root / "buffers" / "clip").string(), fdir.string(), io);
       for (const std::string& n : rep.notes) diag.warn(a.frames_from, "frames", n);
@@ -250,6 +261,7 @@ GenerateResult generate_package(const GenerateArgs& a, scene::Diagnostics& diag)
     lift::LiftFramesOptions lo;
     lo.key_every = a.key_every;
     lo.lift.per_cell = a.per_cell;
+    lo.pixel_frames = a.pixel_frames;
     lo.scene = &sc;
     lo.car_mesh = &mesh;
     ProgressBar lift_bar("lift", "frames");
@@ -260,10 +272,12 @@ GenerateResult generate_package(const GenerateArgs& a, scene::Diagnostics& diag)
     lift::write_lift_outputs((root / "gaussians").string(), meta, lr, lo);
     size_t object_gaussians = 0;
     for (const auto& obj : lr.objects) object_gaussians += obj.gaussians.size();
-    char detail[200];
+    char detail[256];
     std::snprintf(detail, sizeof detail,
-                  "%zu static Gaussians, %zu dynamic objects (%zu Gaussians), held-out PSNR %.2f dB over %zu frames",
-                  lr.cloud.size(), lr.objects.size(), object_gaussians, lr.mean_psnr(), lr.eval.size());
+                  "%zu static Gaussians (%zu of %zu mid-ground pixels), %zu dynamic objects (%zu Gaussians), "
+                  "held-out PSNR %.2f dB over %zu frames",
+                  lr.cloud.size(), lr.pixel.gaussians, lr.pixel.pixels, lr.objects.size(), object_gaussians,
+                  lr.mean_psnr(), lr.eval.size());
     return std::string(detail);
   });
 

@@ -27,6 +27,11 @@ struct GenerateArgs {
   // Appearance frames made elsewhere (a video model run on this job's guidance buffers): a PNG folder
   // or an mp4, imported (render/appearance/frames_import.h) instead of the procedural renderer's.
   std::string frames_from;
+  // With frames_from: sky masks segmented from those frames (render/appearance/frames_import.h),
+  // binary or a label map with sky_label as sky; they let the pixel branch see the mid-ground.
+  std::string sky_masks;
+  int sky_label = -1;
+  size_t pixel_frames = 1;  // Stage 3 pixel branch: the last N key frames (lift_frames.h)
   // Skip the package when it is complete and made from the same inputs and
   // options; else continue a killed run's staging folder after its last finished stage.
   bool resume = false;

@@ -9,6 +9,7 @@
 #include "scene/input_error.h"
 #include "scene/png_read.h"
 #include "splat/rasterizer_gpu.h"
+#include "splat/splat_scene.h"
 
 #include <algorithm>
 #include <chrono>
@@ -98,6 +99,8 @@ LiftFramesResult lift_frames(gpu::Context& ctx, const world::VoxelGrid& static_w
   StaticLiftAccumulator acc(static_world);
   DynamicLiftAccumulator dyn(o.dynamic);
   SkyFitter sky;
+  splat::GaussianCloud pixel_cloud;
+  const size_t first_pixel_key = res.key_frames.size() - std::min(o.pixel_frames, res.key_frames.size());
   auto time_index = [&](size_t f) { return f < meta.source_time_indices.size() ? meta.source_time_indices[f] : -1; };
   for (size_t k = 0; k < res.key_frames.size(); ++k) {
     const size_t f = res.key_frames[k];
@@ -115,6 +118,12 @@ LiftFramesResult lift_frames(gpu::Context& ctx, const world::VoxelGrid& static_w
       for (auto& [id, m] : w2o) m = glm::inverse(m);
       res.dynamic_samples += dyn.add_frame(cam, meta.pixels, im.rgb, im.instance, hits, w2o);
     }
+    if (k >= first_pixel_key) {
+      const PixelBranchStats ps =
+          lift_midground_pixels(static_world, cam, meta.pixels, im.rgb, im.sky, im.instance, hits, pixel_cloud);
+      res.pixel.pixels += ps.pixels, res.pixel.ground += ps.ground, res.pixel.backdrop += ps.backdrop;
+      res.pixel.clamped += ps.clamped, res.pixel.gaussians += ps.gaussians;
+    }
     res.accumulate_s += seconds_since(t0);
     if (o.progress) o.progress("lift", k + 1, res.key_frames.size());
   }
@@ -123,6 +132,7 @@ LiftFramesResult lift_frames(gpu::Context& ctx, const world::VoxelGrid& static_w
   if (lo.cameras.empty())
     for (const glm::dmat4& c2w : meta.poses) lo.cameras.emplace_back(c2w[3]);
   res.cloud = emit_static_gaussians(static_world, acc, lo, &res.stats);
+  if (pixel_cloud.size() > 0) splat::append_cloud(res.cloud, pixel_cloud);
   res.sky = sky.image();
   // Splat-scene frames: every scene state (by time index) or the folder's frames (splat_frames_are_times).
   const bool by_time = splat_frames_are_times(meta);

@@ -14,6 +14,7 @@
 #include "gpu/context.h"
 #include "lift/dynamic_lift.h"
 #include "lift/heldout_render.h"
+#include "lift/pixel_branch.h"
 #include "lift/static_lift.h"
 #include "render/appearance/frames_layout.h"
 #include "world/triangle_mesh.h"
@@ -34,16 +35,20 @@ struct LiftFramesOptions {
   const world::TriangleMesh* car_mesh = nullptr;
   DynamicLiftOptions dynamic;
   size_t key_every = 2;
+  // Pixel branch (pixel_branch.h): the mid-ground pixels of the last `pixel_frames` key frames
+  // (the official default is the last 1; 0 = off). Needs sky masks from the frames themselves.
+  size_t pixel_frames = 1;
   size_t max_eval_frames = 4;  // held-out frames rendered for the figures (evenly spread)
   std::function<void(const char* stage, size_t done, size_t total)> progress;
 };
 
 struct LiftFramesResult {
-  splat::GaussianCloud cloud;                // the static set (world frame)
+  splat::GaussianCloud cloud;                // the static set (world frame): voxel branch, then pixel branch
   std::vector<splat::SplatObject> objects;   // dynamic objects (object frames), poses per splat-scene frame
   size_t splat_frames = 0;                   // frames of the splat scene (splat_frames_are_times)
   splat::SkyImage sky;
   LiftStats stats;
+  PixelBranchStats pixel;                    // the pixel branch's part (appended to `cloud`)
   std::vector<size_t> key_frames;
   size_t samples = 0, sky_samples = 0, dynamic_samples = 0;
   double cast_s = 0.0, accumulate_s = 0.0, emit_s = 0.0, eval_s = 0.0;

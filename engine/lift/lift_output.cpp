@@ -50,12 +50,17 @@ void write_lift_outputs(const std::string& dir_name, const render::FramesMeta& m
   rep["key_frames"] = r.key_frames;
   rep["options"] = {{"key_every", o.key_every},          {"gaussians_per_cell", o.lift.per_cell},
                     {"cell_sigma", o.lift.cell_sigma},    {"face_gaussians", o.lift.face_gaussians},
-                    {"hidden", o.lift.hidden},            {"hidden_radius", o.lift.hidden_radius}};
+                    {"hidden", o.lift.hidden},            {"hidden_radius", o.lift.hidden_radius},
+                    {"pixel_frames", o.pixel_frames}};
   rep["samples"] = r.samples;
   rep["sky_samples"] = r.sky_samples;
   rep["gaussians"] = {{"total", r.cloud.size()},           {"surface", r.stats.surface_gaussians},
                       {"hidden", r.stats.hidden_gaussians}, {"seen_faces", r.stats.seen_faces},
-                      {"seen_cells", r.stats.seen_cells}};
+                      {"seen_cells", r.stats.seen_cells},   {"pixel", r.pixel.gaussians}};
+  rep["midground_pixels"] = {{"total", r.pixel.pixels},
+                             {"road_plane", r.pixel.ground},
+                             {"world_bounds", r.pixel.backdrop},
+                             {"clamped", r.pixel.clamped}};
   nlohmann::ordered_json objs = nlohmann::ordered_json::array();
   for (const splat::SplatObject& obj : r.objects)
     objs.push_back({{"id", obj.id}, {"gaussians", obj.gaussians.size()}, {"file", obj.source}});

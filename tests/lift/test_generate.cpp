@@ -57,23 +57,33 @@ TEST_CASE("cli: icube generate writes a complete package, the same bytes twice, 
 
   // --frames-from: frames made elsewhere from this job's buffers (here the package's own, as a video model's
   // output would come) are imported instead of rendered, with the buffers' poses; the lift runs on them.
+  // Sky masks segmented from them (here the package's own masks: a segmentation that agrees with the
+  // buffers, so the pixel branch finds next to no mid-ground).
   const fs::path video_out = dir.path / "video_out", pkg3 = dir.path / "pkg3", short_out = dir.path / "short";
+  const fs::path masks = dir.path / "masks";
   fs::create_directories(video_out);
   fs::create_directories(short_out);
+  fs::copy(pkg / "frames" / "sky_mask", masks);
   for (const auto& e : fs::directory_iterator(pkg / "frames" / "rgb")) {
     fs::copy_file(e.path(), video_out / e.path().filename());
     if (e.path().filename() != "000005.png") fs::copy_file(e.path(), short_out / e.path().filename());
   }
-  const test::CliRun imp =
-      test::run_icube(args + "--frames-from '" + video_out.string() + "' -o '" + pkg3.string() + "'", dir.path);
+  const test::CliRun imp = test::run_icube(args + "--frames-from '" + video_out.string() + "' --sky-masks '" +
+                                               masks.string() + "' -o '" + pkg3.string() + "'",
+                                           dir.path);
   INFO(imp.output);
   REQUIRE(imp.code == 0);
   CHECK(imp.output.find("imported 6 frames") != std::string::npos);
   const auto m3 = nlohmann::json::parse(scene::read_file((pkg3 / "frames" / "frames_meta.json").string()));
   CHECK(m3["source"] == "import");
   CHECK(m3["poses"].size() == 6);
+  CHECK(m3["sky_mask"] == "segmentation");
   const auto man3 = nlohmann::json::parse(scene::read_file((pkg3 / "manifest.json").string()));
   CHECK(man3["inputs"].contains("frames_from_sha256"));
+  CHECK(man3["inputs"].contains("sky_masks_sha256"));
+  const auto rep3 = nlohmann::json::parse(scene::read_file((pkg3 / "gaussians" / "lift_report.json").string()));
+  INFO("mid-ground pixels " << rep3["midground_pixels"].dump());
+  CHECK(rep3["midground_pixels"]["total"].get<size_t>() * 200 <= size_t(m3["width"]) * size_t(m3["height"]));
   const splat::SplatScene sc3 = splat::read_splat_scene((pkg3 / "gaussians" / "scene.json").string());
   const double ratio = double(sc3.static_set.size()) / double(sc.static_set.size());
   INFO("static Gaussians from the imported frames " << sc3.static_set.size() << ", rendered " << sc.static_set.size());
@@ -85,6 +95,10 @@ TEST_CASE("cli: icube generate writes a complete package, the same bytes twice, 
       test::run_icube(args + "--frames-from '" + short_out.string() + "' -o '" + pkg4.string() + "'", dir.path);
   CHECK(bad.code != 0);
   CHECK(bad.output.find("short") != std::string::npos);
+  CHECK_FALSE(fs::exists(pkg4));
+  const test::CliRun lone = test::run_icube(args + "--sky-masks '" + masks.string() + "' -o '" + pkg4.string() + "'", dir.path);
+  CHECK(lone.code != 0);
+  CHECK(lone.output.find("--sky-masks goes with --frames-from") != std::string::npos);
   CHECK_FALSE(fs::exists(pkg4));
 
   // Bad input: a missing scene, a corrupt --world. One-line errors, no package, no staging left.

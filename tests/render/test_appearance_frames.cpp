@@ -207,6 +207,69 @@ TEST_CASE("frames import: PNG frames and mp4 matched to the buffers; other count
     const scene::Image8 img = scene::read_png((out / "rgb" / "000001.png").string(), 3);
     CHECK(std::abs(int{img.pixels[300]} - 160) <= 8);
   }
+  SUBCASE("sky masks segmented from the frames: label maps at the frames' size, binary masks; bad masks refused") {
+    const fs::path in = d.dir.path / "in_sky", labels = d.dir.path / "labels", binary = d.dir.path / "binary";
+    for (const auto& p : {in, labels, binary}) fs::create_directories(p);
+    write_rgb(in / "a.png", 208, 120, 10);
+    write_rgb(in / "b.png", 208, 120, 90);
+    // Label maps at the input frames' 208 x 120: sky (10) in the top 40 rows of frame 0, the top 20 of
+    // frame 1, road (0) below; binary masks at the buffers' 104 x 60: sky in the left half.
+    for (int f = 0; f < 2; ++f) {
+      std::vector<uint8_t> lab(208 * 120, 0), bin(104 * 60, 0);
+      for (int y = 0; y < (f == 0 ? 40 : 20); ++y)
+        for (int x = 0; x < 208; ++x) lab[size_t(y * 208 + x)] = 10;
+      for (int y = 0; y < 60; ++y)
+        for (int x = 0; x < 52; ++x) bin[size_t(y * 104 + x)] = 200;
+      const std::string n = std::string(f == 0 ? "m0" : "m1") + ".png";
+      scene::write_file_atomic((labels / n).string(), scene::encode_png(lab.data(), 208, 120, 1));
+      scene::write_file_atomic((binary / n).string(), scene::encode_png(bin.data(), 104, 60, 1));
+    }
+    const fs::path out_l = d.dir.path / "out_labels", out_b = d.dir.path / "out_binary";
+    test::CliRun r = test::run_icube("frames import '" + in.string() + "' --buffers '" + clip.string() +
+                                         "' --sky-masks '" + labels.string() + "' --sky-label 10 -o '" + out_l.string() + "'",
+                                     d.dir.path);
+    INFO(r.output);
+    REQUIRE(r.code == 0);
+    CHECK(r.output.find("sky pixels 3120 from the masks") != std::string::npos);  // (20 + 10) rows x 104
+    for (int f = 0; f < 2; ++f) {
+      const scene::Image8 m = scene::read_png((out_l / "sky_mask" / render::frame_file_name(size_t(f))).string(), 1);
+      REQUIRE(m.pixels.size() == 104 * 60);
+      size_t wrong = 0;
+      for (int y = 0; y < 60; ++y)
+        for (int x = 0; x < 104; ++x) wrong += m.pixels[size_t(y * 104 + x)] != (y < (f == 0 ? 20 : 10) ? 255 : 0);
+      CHECK(wrong == 0);
+    }
+    CHECK(render::read_frames_meta(out_l.string()).sky_mask == "segmentation");
+    CHECK(render::read_frames_meta(proc.string()).sky_mask == "buffers");
+    r = test::run_icube("frames import '" + in.string() + "' --buffers '" + clip.string() + "' --sky-masks '" +
+                            binary.string() + "' -o '" + out_b.string() + "'",
+                        d.dir.path);
+    REQUIRE(r.code == 0);
+    const scene::Image8 mb = scene::read_png((out_b / "sky_mask" / "000001.png").string(), 1);
+    CHECK(mb.pixels[0] == 255);
+    CHECK(mb.pixels[51] == 255);
+    CHECK(mb.pixels[52] == 0);
+    // Refused, nothing written: a mask too many, a mask of a third size.
+    const fs::path out_bad = d.dir.path / "out_bad_masks";
+    auto refused = [&](const fs::path& masks, const char* why) {
+      const test::CliRun e = test::run_icube("frames import '" + in.string() + "' --buffers '" + clip.string() +
+                                                 "' --sky-masks '" + masks.string() + "' -o '" + out_bad.string() + "'",
+                                             d.dir.path);
+      INFO(e.output);
+      CHECK(e.code != 0);
+      CHECK(e.output.find(why) != std::string::npos);
+      CHECK(!fs::exists(out_bad));
+    };
+    const fs::path three = d.dir.path / "three_masks", odd = d.dir.path / "odd_masks";
+    fs::create_directories(three);
+    fs::create_directories(odd);
+    for (const char* n : {"a.png", "b.png", "c.png"}) fs::copy_file(binary / "m0.png", three / n);
+    refused(three, "3 sky masks, but there are 2 frames");
+    const std::vector<uint8_t> small(50 * 30, 0);
+    for (const char* n : {"a.png", "b.png"})
+      scene::write_file_atomic((odd / n).string(), scene::encode_png(small.data(), 50, 30, 1));
+    refused(odd, "50x30 is neither the buffers' 104x60 nor the frames' 208x120");
+  }
   SUBCASE("refused: another count, another aspect ratio, frames of mixed sizes; nothing written") {
     const fs::path out = d.dir.path / "refused";
     auto refused = [&](const fs::path& in, const char* why) {

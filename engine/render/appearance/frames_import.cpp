@@ -73,6 +73,42 @@ std::vector<glm::dmat4> buffer_poses(const std::filesystem::path& bdir, const st
   return poses;
 }
 
+// The segmented sky masks (see the header), one per frame at W x H (nonzero = sky); checked before
+// anything is written.
+std::vector<std::vector<uint8_t>> read_sky_masks(const std::string& dir, int label, size_t nf, uint32_t W, uint32_t H,
+                                                 uint32_t iw, uint32_t ih) {
+  namespace fs = std::filesystem;
+  if (!fs::is_directory(dir)) throw scene::InputError(dir, "", "--sky-masks needs a folder of PNG masks");
+  if (label > 255) throw scene::InputError(dir, "", "sky label " + std::to_string(label) + " is not an 8-bit value");
+  std::vector<std::string> names;
+  for (const auto& e : fs::directory_iterator(dir))
+    if (e.is_regular_file() && e.path().extension() == ".png") names.push_back(e.path().string());
+  std::sort(names.begin(), names.end());
+  if (names.size() != nf)
+    throw scene::InputError(dir, "", std::to_string(names.size()) + " sky masks, but there are " + std::to_string(nf) +
+                                         " frames; masks are matched to frames by sorted name");
+  std::vector<std::vector<uint8_t>> masks;
+  for (const std::string& n : names) {
+    const scene::Image8 m = scene::read_png(n, 1);
+    const uint32_t mw = static_cast<uint32_t>(m.width), mh = static_cast<uint32_t>(m.height);
+    if (!(mw == W && mh == H) && !(mw == iw && mh == ih))
+      throw scene::InputError(n, "", std::to_string(mw) + "x" + std::to_string(mh) + " is neither the buffers' " +
+                                         std::to_string(W) + "x" + std::to_string(H) + " nor the frames' " +
+                                         std::to_string(iw) + "x" + std::to_string(ih));
+    std::vector<uint8_t> out(size_t{W} * H);
+    for (uint32_t y = 0; y < H; ++y) {
+      const uint32_t sy = static_cast<uint32_t>((uint64_t{y} * 2 + 1) * mh / (uint64_t{H} * 2));
+      for (uint32_t x = 0; x < W; ++x) {
+        const uint32_t sx = static_cast<uint32_t>((uint64_t{x} * 2 + 1) * mw / (uint64_t{W} * 2));
+        const uint8_t g = m.pixels[size_t{sy} * mw + sx];
+        out[size_t{y} * W + x] = (label < 0 ? g >= 128 : g == label) ? 255 : 0;
+      }
+    }
+    masks.push_back(std::move(out));
+  }
+  return masks;
+}
+
 }  // namespace
 
 namespace fs = std::filesystem;
@@ -200,6 +236,11 @@ FramesImportReport import_frames(const std::string& input, const std::string& bu
       rep.notes.push_back("no semantic_buffer/ PNGs in the buffers: sky_mask/ is all 0");
     }
   }
+  for (const auto& m : sky_masks) rep.sky_pixels_buffers += size_t(std::count(m.begin(), m.end(), uint8_t{255}));
+  if (!o.sky_masks.empty()) {
+    sky_masks = read_sky_masks(o.sky_masks, o.sky_label, nf, W, H, iw, ih);
+    for (const auto& m : sky_masks) rep.sky_pixels_masks += size_t(std::count(m.begin(), m.end(), uint8_t{255}));
+  }
   // Poses: the buffers' camera-to-voxel-world (pose.tar, float32) back in our world frame.
   const std::vector<glm::dmat4> poses = buffer_poses(bdir, clip, nf, rep);
   // Write.
@@ -228,6 +269,11 @@ FramesImportReport import_frames(const std::string& input, const std::string& bu
   meta.K.fx = intr[0], meta.K.fy = intr[1], meta.K.cx = intr[2], meta.K.cy = intr[3];
   meta.K.width = W, meta.K.height = H;
   meta.notes = rep.notes;
+  if (!o.sky_masks.empty()) {
+    meta.sky_mask = "segmentation";
+    meta.notes.push_back("sky_mask/ from " + o.sky_masks +
+                         (o.sky_label < 0 ? std::string(" (binary masks)") : " (label " + std::to_string(o.sky_label) + ")"));
+  }
   if (rep.rescaled)
     meta.notes.push_back("rescaled from " + std::to_string(iw) + "x" + std::to_string(ih) + " to " + std::to_string(W) +
                          "x" + std::to_string(H));

@@ -9,7 +9,15 @@
 // area-resampled to the buffers' size; anything else is refused with a
 // message naming the file and both sizes, before anything is written.
 // sky_mask/ comes from the buffers' semantic colours (the palette's sky entry
-// where no instance covers it), instance/ from instance_buffer_480p_front.tar;
+// where no instance covers it), or, with sky_masks, from masks segmented from
+// the frames themselves (InfiniCube runs SegFormer-B5, Cityscapes class 10 =
+// sky, on the generated frames): a folder of one PNG per frame (sorted by name,
+// the count must match), each either a binary mask (sky_label < 0: gray >= 128
+// = sky) or an 8-bit grayscale label map (pixel == sky_label = sky; a paletted
+// PNG's indices are not kept, save the labels as gray), at the buffers' size or
+// at the input frames' size (nearest-sampled to the buffers'). Only such masks
+// show the pixel branch (lift/pixel_branch.h) what the video model drew beyond
+// the voxel world. instance/ comes from instance_buffer_480p_front.tar;
 // frames_meta.json copies the buffers' frame indices and camera.
 #pragma once
 
@@ -20,13 +28,16 @@
 namespace icube::render {
 
 struct FramesImportOptions {
-  std::string prompt;  // recorded only
+  std::string prompt;     // recorded only
+  std::string sky_masks;  // folder of segmented sky masks (empty: from the buffers)
+  int sky_label = -1;     // < 0: binary masks; else the label map's sky value (Cityscapes: 10)
 };
 
 struct FramesImportReport {
   size_t frames = 0;
   uint32_t width = 0, height = 0;
   bool rescaled = false;
+  size_t sky_pixels_buffers = 0, sky_pixels_masks = 0;  // over all frames (masks: 0 without sky_masks)
   std::vector<std::string> notes;
 };
 

@@ -45,6 +45,7 @@ std::string frames_meta_json(const FramesMeta& m) {
   }
   j["poses"] = poses;
   j["pixels"] = m.pixels == PixelConvention::Centre ? "centre" : "integer";
+  j["sky_mask"] = m.sky_mask;
   j["notes"] = m.notes;
   return j.dump(1) + "\n";
 }
@@ -126,6 +127,9 @@ FramesMeta read_frames_meta(const std::string& dir) {
     const std::string px = j.value("pixels", std::string("integer"));
     if (px != "integer" && px != "centre") throw scene::InputError(file, "/pixels", "must be \"integer\" or \"centre\"");
     m.pixels = px == "centre" ? PixelConvention::Centre : PixelConvention::Integer;
+    m.sky_mask = j.value("sky_mask", std::string("buffers"));
+    if (m.sky_mask != "buffers" && m.sky_mask != "segmentation")
+      throw scene::InputError(file, "/sky_mask", "must be \"buffers\" or \"segmentation\"");
     if (j.contains("notes")) m.notes = j["notes"].get<std::vector<std::string>>();
     m.source_frame_indices.resize(count, -1);
     m.source_time_indices.resize(count, -1);

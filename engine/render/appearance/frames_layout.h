@@ -2,13 +2,14 @@
 // render` (procedural) and `icube frames import` (a video model's frames):
 //
 //   rgb/NNNNNN.png        RGB8 frame
-//   sky_mask/NNNNNN.png   gray8, 255 = sky (no voxel hit)
+//   sky_mask/NNNNNN.png   gray8, 255 = sky (no voxel hit, or segmented from the frame: "sky_mask")
 //   instance/NNNNNN.png   gray16 instance id of the hit voxel (0 = none; cars >= 10000 dynamic)
 //   frames_meta.json      {"format": "icube-frames", "version": 1, "source": "procedural" | "import",
 //                          "width", "height", "count", "prompt", "appearance" (parsed prompt), "seed",
 //                          "source_frame_indices", "source_time_indices", "camera" [fx, fy, cx, cy, w, h],
 //                          "poses" (OpenCV camera-to-world 4x4 row-major per frame, our world frame),
-//                          "pixels": "integer" | "centre" (the rays' pixel convention; absent: integer)}
+//                          "pixels": "integer" | "centre" (the rays' pixel convention; absent: integer),
+//                          "sky_mask": "buffers" | "segmentation" (where sky_mask/ came from; absent: buffers)}
 //
 // NNNNNN = 0 ... count - 1 as the guidance buffers number their frames (the
 // same trajectory and --frames selection give the same numbers).
@@ -35,6 +36,7 @@ struct FramesMeta {
   PinholeIntrinsics K;
   std::vector<glm::dmat4> poses;
   PixelConvention pixels = PixelConvention::Integer;
+  std::string sky_mask = "buffers";  // "buffers" | "segmentation"
   std::vector<std::string> notes;
 };
 
