@@ -20,7 +20,7 @@ std::string_view local_part(const char* name) {
 bool is_blank(char c) { return c == ' ' || c == '\t' || c == '\n' || c == '\r'; }
 
 // Quotes an attribute value for a message, shortened to 40 characters.
-std::string quoted(std::string_view v) {
+std::string quoted_value(std::string_view v) {
   std::string out(v.substr(0, 40));
   for (char& c : out)
     if (static_cast<unsigned char>(c) < 0x20) c = '?';
@@ -106,17 +106,17 @@ double XmlSource::number(const pugi::xml_node& node, const char* name, const std
   const auto [ptr, ec] = std::from_chars(body.data(), body.data() + body.size(), out);
   if (body.empty() || ptr != body.data() + body.size() ||
       (ec != std::errc() && ec != std::errc::result_out_of_range))
-    fail(node, where, std::string("attribute '") + name + "' is not a number: " + quoted(v));
+    fail(node, where, std::string("attribute '") + name + "' is not a number: " + quoted_value(v));
   if (ec == std::errc::result_out_of_range) {
     // from_chars leaves `out` untouched on overflow and underflow alike; underflow reads as 0.
     const std::string copy(body);
     const double approx = std::strtod(copy.c_str(), nullptr);
-    if (std::fabs(approx) >= 1.0) fail(node, where, std::string("attribute '") + name + "' is out of range: " + quoted(v));
+    if (std::fabs(approx) >= 1.0) fail(node, where, std::string("attribute '") + name + "' is out of range: " + quoted_value(v));
     out = 0.0;
   }
   if (std::isnan(out)) fail(node, where, std::string("attribute '") + name + "' is NaN");
   if (std::isinf(out)) fail(node, where, std::string("attribute '") + name + "' is infinite");
-  if (std::fabs(out) > 1e300) fail(node, where, std::string("attribute '") + name + "' is out of range: " + quoted(v));
+  if (std::fabs(out) > 1e300) fail(node, where, std::string("attribute '") + name + "' is out of range: " + quoted_value(v));
   return out;
 }
 
@@ -135,7 +135,7 @@ int XmlSource::integer(const pugi::xml_node& node, const char* name, const std::
   const auto [ptr, ec] = std::from_chars(body.data(), body.data() + body.size(), out);
   if (body.empty() || ec != std::errc() || ptr != body.data() + body.size() || out < -1000000000LL ||
       out > 1000000000LL)
-    fail(node, where, std::string("attribute '") + name + "' is not an integer: " + quoted(a.value()));
+    fail(node, where, std::string("attribute '") + name + "' is not an integer: " + quoted_value(a.value()));
   return static_cast<int>(out);
 }
 
@@ -157,7 +157,7 @@ bool XmlSource::boolean_or(const pugi::xml_node& node, const char* name, bool fa
   const std::string v = trim(a.value());
   if (v == "true" || v == "1") return true;
   if (v == "false" || v == "0") return false;
-  warn(node, where, std::string("attribute '") + name + "' is not a boolean: " + quoted(v) + "; using " +
+  warn(node, where, std::string("attribute '") + name + "' is not a boolean: " + quoted_value(v) + "; using " +
                         (fallback ? "true" : "false"));
   return fallback;
 }
