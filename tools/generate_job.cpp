@@ -107,6 +107,14 @@ GenerateResult generate_package(const GenerateArgs& a, scene::Diagnostics& diag)
   } else if (!a.frames_from.empty() && !fs::is_regular_file(a.frames_from)) {
     throw scene::InputError(a.frames_from, "", "neither a folder of PNG frames nor a video file");
   }
+  if (!a.sky_masks.empty()) {  // before any stage too: one mask per camera pose (sizes: the import)
+    if (!fs::is_directory(a.sky_masks)) throw scene::InputError(a.sky_masks, "", "--sky-masks needs a folder of PNG masks");
+    size_t n = 0;
+    for (const auto& e : fs::directory_iterator(a.sky_masks)) n += e.is_regular_file() && e.path().extension() == ".png";
+    if (n != traj.size())
+      throw scene::InputError(a.sky_masks, "", std::to_string(n) + " sky masks, but the camera path has " +
+                                                   std::to_string(traj.size()) + " frames; masks are matched by index");
+  }
 
   // What the package is made of; its SHA-256 decides whether a staging folder may be resumed.
   nlohmann::ordered_json inputs = {{"scene", a.path.scene}, {"scene_sha256", scene::sha256_file(a.path.scene)}};

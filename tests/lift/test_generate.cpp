@@ -100,6 +100,17 @@ TEST_CASE("cli: icube generate writes a complete package, the same bytes twice, 
   CHECK(lone.code != 0);
   CHECK(lone.output.find("--sky-masks goes with --frames-from") != std::string::npos);
   CHECK_FALSE(fs::exists(pkg4));
+  // A mask short: refused before any stage, nothing written.
+  const fs::path short_masks = dir.path / "short_masks";
+  fs::copy(masks, short_masks);
+  fs::remove(short_masks / "000005.png");
+  const test::CliRun few = test::run_icube(args + "--frames-from '" + video_out.string() + "' --sky-masks '" +
+                                               short_masks.string() + "' -o '" + pkg4.string() + "'",
+                                           dir.path);
+  CHECK(few.code != 0);
+  CHECK(few.output.find("5 sky masks, but the camera path has 6 frames") != std::string::npos);
+  CHECK(few.output.find("[world]") == std::string::npos);  // no stage ran
+  CHECK_FALSE(fs::exists(pkg4));
 
   // Bad input: a missing scene, a corrupt --world. One-line errors, no package, no staging left.
   // A staging folder left by a killed run (no process holds its lock) is removed by a run without --resume.
