@@ -44,4 +44,19 @@ inline void refuse_overwriting_input(const std::string& input, const std::string
     throw std::runtime_error(output + ": is the input file; choose another output path");
 }
 
+// --sky-masks DIR and --sky-label N (render/appearance/frames_import.h), shared by `icube frames
+// import` and `icube generate`; `what` says which frames the masks were segmented from.
+inline void add_sky_mask_options(CLI::App* cmd, std::string& masks, int& label, const std::string& what) {
+  cmd->add_option("--sky-masks", masks,
+                  "Sky masks segmented from " + what +
+                      " (one PNG per frame, sorted by name; e.g. SegFormer on the frames) instead of the buffers' sky, "
+                      "so Stage 3 lifts what the video model drew beyond the voxel world")
+      ->type_name("MASK_DIR");
+  cmd->add_option("--sky-label", label,
+                  "The masks are 8-bit gray label maps and this value is sky (Cityscapes: 10); default: binary masks, "
+                  "gray >= 128 = sky")
+      ->type_name("N")
+      ->check(CLI::Range(0, 255));
+}
+
 }  // namespace icube::tools

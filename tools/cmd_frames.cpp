@@ -264,15 +264,7 @@ void add_frames_commands(CLI::App& app) {
       ->required()
       ->type_name("CLIP_DIR");
   imp->add_option("--prompt", i->prompt, "The prompt the video model was given (recorded in frames_meta.json)")->type_name("TEXT");
-  imp->add_option("--sky-masks", i->sky_masks,
-                  "Sky masks segmented from the frames (one PNG per frame, sorted by name; e.g. SegFormer on the "
-                  "frames) instead of the buffers' sky")
-      ->type_name("MASK_DIR");
-  imp->add_option("--sky-label", i->sky_label,
-                  "The masks are 8-bit gray label maps and this value is sky (Cityscapes: 10); default: binary masks, "
-                  "gray >= 128 = sky")
-      ->type_name("N")
-      ->check(CLI::Range(0, 255));
+  add_sky_mask_options(imp, i->sky_masks, i->sky_label, "the frames");
   imp->add_option("-o,--output", i->output, "Frames folder")->required()->type_name("FRAMES_DIR");
   imp->footer(
       "Frames are matched to the buffers' frames by index: the count must equal the buffers' frame count; a different "

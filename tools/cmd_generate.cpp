@@ -73,13 +73,7 @@ void add_generate_command(CLI::App& app) {
                   "Appearance frames made elsewhere from this job's guidance buffers (a video model's output: a "
                   "PNG folder or an mp4, one frame per buffer frame), imported instead of the procedural renderer's")
       ->type_name("DIR|VIDEO.mp4");
-  cmd->add_option("--sky-masks", a->sky_masks,
-                  "With --frames-from: sky masks segmented from those frames (one PNG per frame; see `icube frames "
-                  "import --help`), so Stage 3 lifts what the video model drew beyond the voxel world")
-      ->type_name("MASK_DIR");
-  cmd->add_option("--sky-label", a->sky_label, "The sky masks are gray label maps and this value is sky (Cityscapes: 10)")
-      ->type_name("N")
-      ->check(CLI::Range(0, 255));
+  add_sky_mask_options(cmd, a->sky_masks, a->sky_label, "the --frames-from frames");
   cmd->add_option("--pixel-frames", a->pixel_frames,
                   "Stage 3 pixel branch: Gaussians for the mid-ground pixels of the last N key frames (0 = off)")
       ->capture_default_str();
