@@ -95,12 +95,12 @@ void cmd_lift(const LiftArgs& a) {
     for (const auto& obj : r.objects) object_gaussians += obj.gaussians.size();
     std::printf("lift: %zu key frames of %zu, %zu samples -> %zu Gaussians (%zu surface, %zu hidden), %zu dynamic "
                 "objects (%zu Gaussians from %zu samples), sky from %zu pixels, %zu mid-ground pixels (%zu on the road "
-                "plane, %zu at the world's bounds); held-out PSNR %.2f dB over %zu "
-                "frames; %.2f s [cast %.2f, accumulate %.2f, emit %.2f, eval %.2f] -> %s\n",
+                "plane, %zu at the world's bounds); held-out PSNR %.2f dB over %zu frames; %.2f s [cast %.2f, "
+                "accumulate %.2f, emit %.2f, eval %.2f] -> %s\n",
                 r.key_frames.size(), meta.poses.size(), r.samples, r.cloud.size(), r.stats.surface_gaussians,
                 r.stats.hidden_gaussians, r.objects.size(), object_gaussians, r.dynamic_samples, r.sky_samples,
-                r.pixel.pixels, r.pixel.ground, r.pixel.backdrop, r.mean_psnr(), r.eval.size(), total_s, r.cast_s, r.accumulate_s, r.emit_s, r.eval_s,
-                final_dir.string().c_str());
+                r.pixel.pixels, r.pixel.ground, r.pixel.backdrop, r.mean_psnr(), r.eval.size(), total_s, r.cast_s,
+                r.accumulate_s, r.emit_s, r.eval_s, final_dir.string().c_str());
   });
 }
 

@@ -99,8 +99,7 @@ GenerateResult generate_package(const GenerateArgs& a, scene::Diagnostics& diag)
   const render::Trajectory& traj = cp.passes[0];
   const render::AppearancePrompt parsed = render::parse_prompt(a.prompt);
   if (!a.frames_from.empty() && fs::is_directory(a.frames_from)) {  // before any stage: one frame per camera pose
-    size_t n = 0;
-    for (const auto& e : fs::directory_iterator(a.frames_from)) n += e.is_regular_file() && e.path().extension() == ".png";
+    const size_t n = render::png_files(a.frames_from).size();
     if (n != traj.size())
       throw scene::InputError(a.frames_from, "", std::to_string(n) + " .png frames, but the camera path has " +
                                                      std::to_string(traj.size()) + " frames; frames are matched by index");
@@ -108,9 +107,7 @@ GenerateResult generate_package(const GenerateArgs& a, scene::Diagnostics& diag)
     throw scene::InputError(a.frames_from, "", "neither a folder of PNG frames nor a video file");
   }
   if (!a.sky_masks.empty()) {  // before any stage too: one mask per camera pose (sizes: the import)
-    if (!fs::is_directory(a.sky_masks)) throw scene::InputError(a.sky_masks, "", "--sky-masks needs a folder of PNG masks");
-    size_t n = 0;
-    for (const auto& e : fs::directory_iterator(a.sky_masks)) n += e.is_regular_file() && e.path().extension() == ".png";
+    const size_t n = render::png_files(a.sky_masks).size();
     if (n != traj.size())
       throw scene::InputError(a.sky_masks, "", std::to_string(n) + " sky masks, but the camera path has " +
                                                    std::to_string(traj.size()) + " frames; masks are matched by index");

@@ -3,9 +3,9 @@
 # build-sanitize/ (viewer and benchmarks off, shaders with debug info: the
 # option set CI builds once) and runs icube-tests under them on lavapipe.
 #
-#   tools/sanitize-run.sh                 # the whole suite but the "slow-gpu" suite (~25 min on 2 cores)
+#   tools/sanitize-run.sh                 # the whole suite but the "slow-gpu" suite (~23 min on 2 cores)
 #   tools/sanitize-run.sh --cpu-only      # the CPU-side tests alone (icube-tests-cpu: scene/ readers,
-#                                         # world/ containers, meshes, plans; ~3 min; as CI runs it)
+#                                         # world/ containers, meshes, plans; ~5 min; as CI runs it)
 #   tools/sanitize-run.sh -- -tc='*npy*'  # any doctest arguments after --
 #   ICUBE_SANITIZE=thread tools/sanitize-run.sh -- -tc='world build*'   # ThreadSanitizer instead
 #

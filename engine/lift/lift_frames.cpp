@@ -118,12 +118,8 @@ LiftFramesResult lift_frames(gpu::Context& ctx, const world::VoxelGrid& static_w
       for (auto& [id, m] : w2o) m = glm::inverse(m);
       res.dynamic_samples += dyn.add_frame(cam, meta.pixels, im.rgb, im.instance, hits, w2o);
     }
-    if (k >= first_pixel_key) {
-      const PixelBranchStats ps =
-          lift_midground_pixels(static_world, cam, meta.pixels, im.rgb, im.sky, im.instance, hits, pixel_cloud);
-      res.pixel.pixels += ps.pixels, res.pixel.ground += ps.ground, res.pixel.backdrop += ps.backdrop;
-      res.pixel.clamped += ps.clamped, res.pixel.gaussians += ps.gaussians;
-    }
+    if (k >= first_pixel_key)
+      res.pixel += lift_midground_pixels(static_world, cam, meta.pixels, im.rgb, im.sky, im.instance, hits, pixel_cloud);
     res.accumulate_s += seconds_since(t0);
     if (o.progress) o.progress("lift", k + 1, res.key_frames.size());
   }

@@ -52,7 +52,7 @@ PixelBranchStats lift_midground_pixels(const world::VoxelGrid& grid, const rende
   const bool inside = !b.empty() && o.x >= lo.x && o.x <= hi.x && o.y >= lo.y && o.y <= hi.y;
   const glm::dmat3 R(cam.c2w);
   const glm::dvec3 x_axis = glm::normalize(R[0]);
-  glm::dquat q = glm::normalize(glm::quat_cast(R));
+  const glm::dquat q = glm::normalize(glm::quat_cast(R));
   const glm::vec4 q_wxyz(float(q.w), float(q.x), float(q.y), float(q.z));
   constexpr double kInf = std::numeric_limits<double>::infinity();
 

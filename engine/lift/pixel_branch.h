@@ -49,6 +49,10 @@ struct PixelBranchStats {
   size_t backdrop = 0;  // of them at the world's xy bounds (or z_far outside them)
   size_t clamped = 0;   // of them clamped to [z_near, z_far]
   size_t gaussians = 0;
+  PixelBranchStats& operator+=(const PixelBranchStats& o) {
+    pixels += o.pixels, ground += o.ground, backdrop += o.backdrop, clamped += o.clamped, gaussians += o.gaussians;
+    return *this;
+  }
 };
 
 // The road plane's height of one frame: the median top (world z) of the road / lane-marker voxels

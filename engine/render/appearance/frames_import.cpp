@@ -77,13 +77,8 @@ std::vector<glm::dmat4> buffer_poses(const std::filesystem::path& bdir, const st
 // anything is written.
 std::vector<std::vector<uint8_t>> read_sky_masks(const std::string& dir, int label, size_t nf, uint32_t W, uint32_t H,
                                                  uint32_t iw, uint32_t ih) {
-  namespace fs = std::filesystem;
-  if (!fs::is_directory(dir)) throw scene::InputError(dir, "", "--sky-masks needs a folder of PNG masks");
   if (label > 255) throw scene::InputError(dir, "", "sky label " + std::to_string(label) + " is not an 8-bit value");
-  std::vector<std::string> names;
-  for (const auto& e : fs::directory_iterator(dir))
-    if (e.is_regular_file() && e.path().extension() == ".png") names.push_back(e.path().string());
-  std::sort(names.begin(), names.end());
+  const std::vector<std::string> names = png_files(dir);
   if (names.size() != nf)
     throw scene::InputError(dir, "", std::to_string(names.size()) + " sky masks, but there are " + std::to_string(nf) +
                                          " frames; masks are matched to frames by sorted name");
@@ -112,6 +107,15 @@ std::vector<std::vector<uint8_t>> read_sky_masks(const std::string& dir, int lab
 }  // namespace
 
 namespace fs = std::filesystem;
+
+std::vector<std::string> png_files(const std::string& dir) {
+  if (!fs::is_directory(dir)) throw scene::InputError(dir, "", "is not a folder of PNG files");
+  std::vector<std::string> names;
+  for (const auto& e : fs::directory_iterator(dir))
+    if (e.is_regular_file() && e.path().extension() == ".png") names.push_back(e.path().string());
+  std::sort(names.begin(), names.end());
+  return names;
+}
 
 std::vector<uint8_t> resample_rgb8(const std::vector<uint8_t>& src, uint32_t sw, uint32_t sh, uint32_t dw, uint32_t dh) {
   std::vector<uint8_t> out(size_t{dw} * dh * 3);
@@ -162,9 +166,7 @@ FramesImportReport import_frames(const std::string& input, const std::string& bu
   std::vector<std::string> names;
   uint32_t iw = 0, ih = 0;
   if (fs::is_directory(input)) {
-    for (const auto& e : fs::directory_iterator(input))
-      if (e.is_regular_file() && e.path().extension() == ".png") names.push_back(e.path().string());
-    std::sort(names.begin(), names.end());
+    names = png_files(input);
     if (names.empty()) throw scene::InputError(input, "", "no .png frames in the folder");
   } else if (fs::is_regular_file(input)) {
     video::DecodedVideo v = video::read_video(input);

@@ -45,6 +45,10 @@ struct FramesImportReport {
 FramesImportReport import_frames(const std::string& input, const std::string& buffers_dir, const std::string& out_dir,
                                  const FramesImportOptions& o);
 
+// Every regular *.png file in `dir`, sorted by name: how the import matches frames and sky masks to
+// the buffers' frames by index. Throws scene::InputError when `dir` is not a folder.
+std::vector<std::string> png_files(const std::string& dir);
+
 // Area resampling of an RGB8 image (for the import's same-aspect rescale).
 std::vector<uint8_t> resample_rgb8(const std::vector<uint8_t>& src, uint32_t sw, uint32_t sh, uint32_t dw, uint32_t dh);
 
