@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Builds the suite with AddressSanitizer + UndefinedBehaviorSanitizer into
 # build-sanitize/ (viewer and benchmarks off, shaders with debug info: the
-# option set CI builds once) and runs icube-tests under them on lavapipe.
+# option set CI configures) and runs icube-tests under them on lavapipe.
 #
 #   tools/sanitize-run.sh                 # the whole suite but the "slow-gpu" suite (~23 min on 2 cores)
 #   tools/sanitize-run.sh --cpu-only      # the CPU-side tests alone (icube-tests-cpu: scene/ readers,
