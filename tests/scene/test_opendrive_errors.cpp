@@ -79,6 +79,26 @@ TEST_CASE("OpenDRIVE paramPoly3 whose length overflows is an InputError, not a N
   CHECK(msg.find("synthetic.xodr: road 12 geometry 0 (line 6)") == 0);
 }
 
+TEST_CASE("OpenDRIVE roads more than 1e8 m from the origin are InputErrors naming road and place") {
+  // a start point past the bound
+  const std::string far = error_of(one_road("<geometry s=\"0\" x=\"2e8\" y=\"0\" hdg=\"0\" length=\"10\"><line/></geometry>"));
+  CHECK(far.find("synthetic.xodr: road 12 (line 4): lane border ") == 0);
+  CHECK(far.find("reaches (2e+08, ") != std::string::npos);
+  CHECK(far.find("more than 1e8 m from the origin") != std::string::npos);
+  // finite attributes whose curve leaves the bound: a paramPoly3 offset by 1e71 m across its direction
+  const std::string offset = error_of(one_road(
+      "<geometry s=\"0\" x=\"0\" y=\"0\" hdg=\"0\" length=\"10\"><paramPoly3 aU=\"0\" bU=\"1\" cU=\"0\" dU=\"0\" "
+      "aV=\"1e71\" bV=\"0\" cV=\"0\" dV=\"0\" pRange=\"arcLength\"/></geometry>"));
+  CHECK(offset.find("synthetic.xodr: road 12 (line 4): lane border ") == 0);
+  CHECK(offset.find("more than 1e8 m from the origin") != std::string::npos);
+  // a lane 1e9 m wide
+  const std::string wide = error_of(document(road_xml("w", 10, kGoodGeometry, two_lane_section(1e9))));
+  CHECK(wide.find("road w (line 4): lane border ") != std::string::npos);
+  CHECK(wide.find("more than 1e8 m") != std::string::npos);
+  // inside the bound: 9e7 m east and 9e7 m north parse (UTM-sized coordinates are far smaller)
+  CHECK(error_of(one_road("<geometry s=\"0\" x=\"9e7\" y=\"-9e7\" hdg=\"0\" length=\"10\"><line/></geometry>")).empty());
+}
+
 TEST_CASE("OpenDRIVE lanes on the wrong side, duplicate lanes and huge maps are InputErrors") {
   const std::string wrong = document(road_xml("r", 10, kGoodGeometry,
       "<laneSection s=\"0\"><left><lane id=\"-1\" type=\"driving\"><width sOffset=\"0\" a=\"3\"/></lane></left>"

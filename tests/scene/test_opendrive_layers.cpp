@@ -170,6 +170,34 @@ TEST_CASE("OpenDRIVE junction edges come from the union of drivable areas") {
   CHECK(std::fabs(length - 8 * 6.5) < 3.0);  // four corners, each 2 × (10 − 3.5) m
 }
 
+TEST_CASE("OpenDRIVE junction whose incoming road lies 9e7 m away: its quads fall outside the junction raster") {
+  // The "west" arm claims junction 7 as its successor but lies 9e7 m west: its drivable quads are
+  // rasterised into a grid that spans only the connecting roads (cell indices near -6e8).
+  const auto arm = [](const std::string& id, double x, double y, double hdg, const std::string& link) {
+    return road_xml(id, 20.0, line_geom(0, x, y, hdg, 20.0), two_lane_section(3.5), "<link>" + link + "</link>");
+  };
+  std::string body = arm("west", -9e7, 0, 0, "<successor elementType=\"junction\" elementId=\"7\"/>");
+  body += arm("east", 10, 0, 0, "<predecessor elementType=\"junction\" elementId=\"7\"/>");
+  body += road_xml("c-ew", 20.0, line_geom(0, -10, 0, 0, 20.0), two_lane_section(3.5),
+                   "<link><predecessor elementType=\"road\" elementId=\"west\" contactPoint=\"end\"/>"
+                   "<successor elementType=\"road\" elementId=\"east\" contactPoint=\"start\"/></link>",
+                   "junction=\"7\"");
+  body += "<junction id=\"7\" name=\"x\"/>\n";
+  const Scene sc = parse(document(body));
+  // the union outline of the connecting road alone: a 20 x 7 m rectangle, open where "east" enters
+  size_t near = 0;
+  for (const RoadEdge& e : sc.map.road_edges) {
+    if (std::fabs(e.points.front().x) > 1e6) continue;  // the far road's own edges
+    for (const glm::dvec3& p : e.points) {
+      CHECK(std::fabs(p.y) < 3.7);
+      CHECK(p.x > -10.8);
+      CHECK(p.x < 30.2);
+    }
+    ++near;
+  }
+  CHECK(near > 0);
+}
+
 TEST_CASE("OpenDRIVE lane graph links incoming, connecting and outgoing lanes") {
   const Scene sc = parse(crossing());
   const Lane* west_right = nullptr;

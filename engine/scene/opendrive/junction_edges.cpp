@@ -24,11 +24,19 @@ struct Grid {
   uint8_t at(int x, int y) const { return mask[static_cast<size_t>(y) * static_cast<size_t>(w) + static_cast<size_t>(x)]; }
 };
 
+// A cell index clamped to [lo, hi] while still a double: an incoming road's quad may lie far outside
+// the grid (which spans the connecting roads), where the index would not fit an int.
+int clamped_index(double v, int lo, int hi) {
+  if (!(v > lo)) return lo;  // also NaN
+  if (v >= hi) return hi;
+  return static_cast<int>(v);
+}
+
 void fill_quad(Grid& g, const Quad& q, uint8_t bits) {
   double min_y = q[0].y, max_y = q[0].y;
   for (const glm::dvec3& p : q) min_y = std::min(min_y, p.y), max_y = std::max(max_y, p.y);
-  const int r0 = std::max(0, static_cast<int>(std::ceil((min_y - g.y0) / g.cell - 0.5)));
-  const int r1 = std::min(g.h - 1, static_cast<int>(std::floor((max_y - g.y0) / g.cell - 0.5)));
+  const int r0 = clamped_index(std::ceil((min_y - g.y0) / g.cell - 0.5), 0, g.h);
+  const int r1 = clamped_index(std::floor((max_y - g.y0) / g.cell - 0.5), -1, g.h - 1);
   const float zq = static_cast<float>(0.25 * (q[0].z + q[1].z + q[2].z + q[3].z));
   for (int r = r0; r <= r1; ++r) {
     const double y = g.y0 + (r + 0.5) * g.cell;
@@ -43,8 +51,8 @@ void fill_quad(Grid& g, const Quad& q, uint8_t bits) {
     for (int a = 1; a < n; ++a)  // insertion sort of at most 4 crossings
       for (int b = a; b > 0 && xs[b] < xs[b - 1]; --b) std::swap(xs[b], xs[b - 1]);
     for (int p = 0; p + 1 < n; p += 2) {
-      const int c0 = std::max(0, static_cast<int>(std::ceil((xs[p] - g.x0) / g.cell - 0.5)));
-      const int c1 = std::min(g.w - 1, static_cast<int>(std::ceil((xs[p + 1] - g.x0) / g.cell - 0.5)) - 1);
+      const int c0 = clamped_index(std::ceil((xs[p] - g.x0) / g.cell - 0.5), 0, g.w);
+      const int c1 = clamped_index(std::ceil((xs[p + 1] - g.x0) / g.cell - 0.5) - 1.0, -1, g.w - 1);
       for (int c = c0; c <= c1; ++c) {
         const size_t idx = static_cast<size_t>(r) * static_cast<size_t>(g.w) + static_cast<size_t>(c);
         const uint8_t before = g.mask[idx];

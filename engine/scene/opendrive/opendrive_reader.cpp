@@ -2,7 +2,8 @@
 // document, sample every road, derive lanes, road lines and road edges
 // (per road, or from the union of drivable areas inside junctions), link
 // lanes, and fill provenance. Rejects maps that would need more than
-// kMaxPoints samples, and roads whose geometry evaluates to non-finite points.
+// kMaxPoints samples, and roads whose geometry evaluates to non-finite points
+// or to points more than kMaxCoordinate from the origin.
 #include "scene/opendrive_reader.h"
 
 #include "scene/atomic_file.h"
@@ -14,6 +15,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <map>
 #include <set>
 #include <utility>
@@ -23,19 +25,33 @@ namespace icube::scene {
 namespace {
 
 constexpr double kMaxPoints = 2.0e7;
+// 1e8 m (100,000 km) holds any projected coordinate on Earth (UTM northings stay under 1e7 m) and
+// keeps every grid index the layers derive from a point (lane-link cells, junction rasters) in range.
+constexpr double kMaxCoordinate = 1.0e8;
 
 std::string road_where(const odr::Road& road) { return "road " + road.id + " (line " + std::to_string(road.line) + ")"; }
 
 bool finite(const glm::dvec3& p) { return std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z); }
+bool in_range(const glm::dvec3& p) {
+  return std::abs(p.x) <= kMaxCoordinate && std::abs(p.y) <= kMaxCoordinate && std::abs(p.z) <= kMaxCoordinate;
+}
 
-void check_finite(const std::string& file, const odr::Road& road, const std::vector<odr::SectionSamples>& samples) {
+void check_points(const std::string& file, const odr::Road& road, const std::vector<odr::SectionSamples>& samples) {
   for (const odr::SectionSamples& ss : samples)
     for (size_t i = 0; i < ss.s.size(); ++i)
-      for (size_t k = 0; k < ss.borders; ++k)
-        if (!finite(ss.point(i, k)))
+      for (size_t k = 0; k < ss.borders; ++k) {
+        const glm::dvec3 p = ss.point(i, k);
+        if (!finite(p))
           throw InputError(file, road_where(road),
                            "lane border " + std::to_string(k) + " evaluates to a non-finite point at s = " +
                                std::to_string(ss.s[i]));
+        if (!in_range(p)) {
+          char at[160];
+          std::snprintf(at, sizeof at, "reaches (%.4g, %.4g, %.4g) at s = %.6g", p.x, p.y, p.z, ss.s[i]);
+          throw InputError(file, road_where(road),
+                           "lane border " + std::to_string(k) + " " + at + ", more than 1e8 m from the origin");
+        }
+      }
 }
 
 // Which junction areas each road touches as an incoming road, and at which end (0 start, 1 end).
@@ -112,7 +128,7 @@ Scene parse_opendrive(const char* xml, size_t size, const std::string& file, con
       }
     }();
     const std::vector<odr::SectionSamples> samples = odr::sample_road(road, line, options.sample_step);
-    check_finite(file, road, samples);
+    check_points(file, road, samples);
     odr::emit_road_lines(road, samples, scene.map, next_line);
     odr::emit_lanes(road, i, samples, scene.map);
     if (union_edges && road.in_junction())
