@@ -69,6 +69,7 @@ struct App {
   render::CarVoxelCache car_cache;
   int time_index = 0, shown_time_index = -1;
   static constexpr uint32_t kOwnInstance = 9999;  // our car: below the dynamic ids, above static ones
+  static constexpr double kOwnLength = 4.6, kOwnWidth = 2.0, kOwnHeight = 1.6;  // m: our car's box
   std::vector<render::CarCell> scene_cells, own_cells;
   world::BoxVoxelization own_box;
   bool own_shown = false;
@@ -132,6 +133,8 @@ struct App {
   // Per-frame parts (--stats, p50 each): host work on the main thread (simulation + script, residency,
   // cars, ImGui panels, recording the compute), the presenter's calls (waiting for the previous
   // frame, acquire, submit, present) and the device's timestamps (compute, copy to the swapchain, UI pass).
+  // The Gaussian view draws in the rasterizer's own submissions: gpu_compute then holds only the
+  // RGBA8 conversion, and the draw is in splat_moving / splat_still (wall clock).
   struct FrameParts {
     FrameStats sim, residency, cars, ui, record, fence, acquire, submit, present, gpu_compute, gpu_copy, gpu_ui;
     FrameStats gpu_compute_sliced;  // compute of the frames right after a residency slice (occupancy masks rebuilt)
@@ -175,6 +178,10 @@ struct App {
   render::Camera view_camera(uint32_t w, uint32_t h) const;
   void update_cars();
   void apply_cars();  // scene_cells + own_cells into the GPU world
+  // Our car where the view shows it (chase and fly, with a world to drive on): its box (the voxel
+  // overlay and the Gaussian view both place the car mesh in it).
+  bool own_car_visible() const;
+  scene::BoxState own_car_box() const;
   void update_residency();
   void adapt_resolution();
 

@@ -1,6 +1,8 @@
 // icube-view: the frame loop; see app.h.
 #include "app.h"
 
+#include "scene/frames.h"
+
 #include <imgui.h>
 #include <imgui_impl_glfw.h>
 #include <imgui_impl_vulkan.h>
@@ -71,7 +73,9 @@ int App::run() {
       // Drawn now (two waited submissions: the rasterizer reads its instance count back), converted to
       // RGBA8 in the frame's command list; an unchanged view is not drawn again.
       const GaussianDetail detail = gaussian_detail();
-      if (gauss->draw(last_cam, static_cast<size_t>(std::max(0, time_index)), detail) && frame > 3) {
+      const glm::dmat4 own = scene::box_to_world(own_car_box());
+      const glm::dmat4* own_car = own_car_visible() ? &own : nullptr;
+      if (gauss->draw(last_cam, static_cast<size_t>(std::max(0, time_index)), detail, own_car) && frame > 3) {
         const GaussianViewStats& gs = gauss->stats();
         (detail == GaussianDetail::Moving ? parts.splat_moving : parts.splat_still).add(gs.render_ms);
         parts.splat_drawn.add(double(gs.drawn));

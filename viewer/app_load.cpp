@@ -118,6 +118,7 @@ void App::load() {
                                 " holds no Gaussians (a package, a splat scene .json or a .ply / .splat)");
   if (have_world) {
     car_mesh = world::builtin_car_mesh();
+    if (gauss) gauss->set_own_car(car_mesh, kOwnLength, kOwnWidth, kOwnHeight);
     if (scene) grid = render::make_static_world(grid, *scene, 0, car_mesh);  // ground following sees what is drawn
     double radius = opt.resident_radius;
     if (radius < 0.0) radius = grid.brick_count() > kAutoResidencyBricks ? kAutoResidencyRadius : 0.0;

@@ -92,25 +92,16 @@ void App::update_cars() {
     shown_time_index = time_index;
     changed = true;
   }
-  const bool show_own = control == Control::Fly || (control == Control::Drive && chase);
+  const bool show_own = own_car_visible();
   const glm::dvec4 own_pose(car.position, car.yaw + car.pitch);
   if (show_own != own_shown || (show_own && own_pose != own_pose_shown)) {
     own_cells.clear();
     if (show_own) {
-      if (own_box.sub_voxels.empty()) own_box = world::voxelize_mesh_in_box(car_mesh, 4.6, 2.0, 1.6);
-      scene::BoxState box;
-      const glm::dvec3 fwd{std::cos(car.yaw) * std::cos(car.pitch), std::sin(car.yaw) * std::cos(car.pitch), std::sin(car.pitch)};
-      box.center = car.position + 0.5 * limits.wheelbase * fwd + glm::dvec3(0.0, 0.0, 0.8);
-      box.length = 4.6;
-      box.width = 2.0;
-      box.height = 1.6;
-      box.heading = car.yaw;
-      box.pitch = -car.pitch;  // Ry(pitch) turns +x down for positive angles
-      box.valid = true;
+      if (own_box.sub_voxels.empty()) own_box = world::voxelize_mesh_in_box(car_mesh, kOwnLength, kOwnWidth, kOwnHeight);
       world::VoteOptions vo;
       vo.cell = grid.voxel_size();
       vo.grid_origin = grid.origin();
-      for (const world::VehicleVoxel& v : world::vote_into_cells(own_box, box, kOwnInstance, vo))
+      for (const world::VehicleVoxel& v : world::vote_into_cells(own_box, own_car_box(), kOwnInstance, vo))
         own_cells.push_back({v.ijk, static_cast<uint16_t>(kOwnInstance)});
     }
     own_shown = show_own;
@@ -120,6 +111,23 @@ void App::update_cars() {
   if (!changed) return;
   presenter.wait();  // the table is rewritten: no frame may still read it
   apply_cars();
+}
+
+bool App::own_car_visible() const {
+  return have_world && (control == Control::Fly || (control == Control::Drive && chase));
+}
+
+scene::BoxState App::own_car_box() const {
+  scene::BoxState box;
+  const glm::dvec3 fwd{std::cos(car.yaw) * std::cos(car.pitch), std::sin(car.yaw) * std::cos(car.pitch), std::sin(car.pitch)};
+  box.center = car.position + 0.5 * limits.wheelbase * fwd + glm::dvec3(0.0, 0.0, 0.5 * kOwnHeight);
+  box.length = kOwnLength;
+  box.width = kOwnWidth;
+  box.height = kOwnHeight;
+  box.heading = car.yaw;
+  box.pitch = -car.pitch;  // Ry(pitch) turns +x down for positive angles
+  box.valid = true;
+  return box;
 }
 
 void App::apply_cars() {

@@ -3,15 +3,20 @@
 // composed at the frame, uploaded and rasterized, converted to RGBA8 on the
 // CPU); the moving object follows the time index; an unchanged view is not
 // drawn again; the moving level of detail draws fewer Gaussians; time indices
-// past the last frame show the last frame.
+// past the last frame show the last frame; our own car is drawn at the pose
+// given and leaves no trace when it is not.
 #include <doctest/doctest.h>
 
 #include "cli_test_util.h"
 #include "gaussian_view.h"
 #include "gpu_test_context.h"
+#include "scene/frames.h"
+#include "splat/mesh_gaussians.h"
 #include "splat/rasterizer_gpu.h"
 #include "splat/splat_rgba8.h"
 #include "splat/test_splat_util.h"
+#include "world/car_mesh.h"
+#include "world/mesh_voxelize.h"
 
 #include <cmath>
 #include <cstdlib>
@@ -110,4 +115,60 @@ TEST_CASE("gaussian view: whole-set view equals the host path; objects follow th
   const std::vector<uint8_t> moving = view.download_rgba();
   rgba_diff(moving, shown[2], &max_d, &differing);
   CHECK(differing > 0);
+}
+
+TEST_CASE("gaussian view: our car is drawn at the pose it is given, and a new pose draws the view again") {
+  gpu::Context& ctx = test::gpu_context();
+  test::TempDir dir("gaussian-view-own");
+  splat::GaussianCloud ground = test::random_cloud(43, 5000, 0, glm::dvec3(0.0), 30.0, -2.0, -0.7);
+  for (auto& p : ground.positions) p.z *= 0.01;
+  splat::write_gaussians_ply((dir.path / "static.ply").string(), ground);
+  viewer::GaussianView view(ctx, (dir.path / "static.ply").string(), "");
+  const world::TriangleMesh mesh = world::builtin_car_mesh();
+  view.set_own_car(mesh, 4.6, 2.0, 1.6);
+  const size_t own = view.own_car_gaussians();
+  splat::MeshGaussianOptions mo;
+  mo.spacing = 0.08;
+  CHECK(own == splat::mesh_surface_gaussians(world::fit_mesh_to_box(mesh, 4.6, 2.0, 1.6), {}, mo).size());
+
+  // A chase camera 8 m behind and 3 m above a car at the origin heading +x.
+  const render::Camera cam = test::look_at_camera(glm::dvec3(-8.0, 0.0, 3.0), glm::dvec3(0.0, 0.0, 0.8), 160, 90, 110.0);
+  scene::BoxState box;
+  box.center = {0.0, 0.0, 0.8};
+  box.length = 4.6;
+  box.width = 2.0;
+  box.height = 1.6;
+  box.valid = true;
+  const glm::dmat4 pose = scene::box_to_world(box);
+
+  CHECK(view.draw(cam, 0, viewer::GaussianDetail::Whole));
+  CHECK(view.stats().drawn == ground.size());
+  const std::vector<uint8_t> without = view.download_rgba();
+  CHECK(view.draw(cam, 0, viewer::GaussianDetail::Whole, &pose));
+  CHECK(view.stats().drawn == ground.size() + own);
+  const std::vector<uint8_t> with = view.download_rgba();
+  CHECK_FALSE(view.draw(cam, 0, viewer::GaussianDetail::Whole, &pose));  // unchanged
+  // The car's pixels: many, and mostly the red body paint (roof, trunk; the rest glass and tires).
+  int max_d = 0;
+  size_t differing = 0;
+  rgba_diff(without, with, &max_d, &differing);
+  size_t changed = 0, red = 0;
+  for (size_t i = 0; i < with.size(); i += 4) {
+    if (with[i] == without[i] && with[i + 1] == without[i + 1] && with[i + 2] == without[i + 2]) continue;
+    ++changed;
+    red += with[i] > with[i + 2] + 40;
+  }
+  MESSAGE("own car: " << own << " Gaussians, " << changed << " pixels changed, " << red << " red");
+  CHECK(changed > 160 * 90 / 20);
+  CHECK(red > changed / 3);
+
+  // The car moved 3 m to the left: drawn again, another image.
+  box.center.y = 3.0;
+  const glm::dmat4 moved = scene::box_to_world(box);
+  CHECK(view.draw(cam, 0, viewer::GaussianDetail::Whole, &moved));
+  rgba_diff(with, view.download_rgba(), &max_d, &differing);
+  CHECK(differing > 0);
+  // And gone again when no pose is given.
+  CHECK(view.draw(cam, 0, viewer::GaussianDetail::Whole));
+  CHECK(view.download_rgba() == without);
 }
