@@ -26,6 +26,6 @@ for t in "${targets[@]}"; do
   corpus="tests/fuzz/corpus/${t#fuzz_}"
   mkdir -p "$corpus" build-fuzz/corpus-work/"$t"
   echo "== $t for ${seconds}s (corpus $corpus)"
-  (cd build-fuzz && ./"$t" -max_total_time="$seconds" "${runs[@]}" -timeout=10 -rss_limit_mb=4096 \
+  (cd build-fuzz && ./"$t" -max_total_time="$seconds" "${runs[@]}" -timeout=30 -rss_limit_mb=4096 \
      -print_final_stats=1 corpus-work/"$t" ../"$corpus")
 done

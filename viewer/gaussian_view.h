@@ -77,8 +77,12 @@ struct GaussianViewStats {
   GaussianDetail detail = GaussianDetail::Still;
   double assemble_ms = 0.0, render_ms = 0.0;
   // The rasterizer's GPU timestamps of the last drawn view. Inside icube-view on lavapipe the
-  // preprocess and blend intervals read ~0.02 ms (cause not found: the same view drawn by the tests
-  // reads 1-6 and 15 ms); the viewer reports the wall clock, render_ms.
+  // preprocess and blend intervals read ~0.02 ms (the same view drawn by the tests reads 1-6 and
+  // 15 ms): with the swapchain's framebuffer left bound on the queue's gallium context, llvmpipe
+  // reads a timestamp's clock when its tile scene is next flushed (lp_setup_end_query), not at the
+  // command, so an interval holding one dispatch and no barrier collapses (Mesa 22.3 source, not
+  // verified by a build). A barrier right after each timestamp would fix it; the viewer reports
+  // the wall clock, render_ms, instead.
   splat::SplatTimings timings;
   size_t renders = 0, reused = 0;  // views drawn / shown again unchanged
 };

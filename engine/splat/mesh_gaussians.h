@@ -12,8 +12,8 @@
 // `belt_height` and which slope more than 25° from horizontal (|n.z| < 0.9:
 // side windows, windshield, rear window; the roof stays body), `tire` for
 // triangles below `tire_height` (wheels, sills, underbody), `body` for the
-// rest; each
-// multiplied by ambient + (1 − ambient)·max(0, n·sun), in the mesh frame.
+// rest; each multiplied by ambient + (1 − ambient)·max(0, n·sun), in the mesh
+// frame (the light turns with the car).
 // Heights are measured from the mesh's lowest point.
 // Tests: tests/splat/test_mesh_gaussians.cpp.
 #pragma once
