@@ -65,9 +65,18 @@ void GaussianView::set_own_car(const world::TriangleMesh& mesh, double length, d
 
 void GaussianView::place_objects(size_t frame, const std::optional<glm::dmat4>& own_car) {
   if (placed_ && placed_->first == frame && placed_->second == own_car) return;
-  splat::GaussianCloud extra = splat::compose_objects(objects_, frame, lod_->sh_degree());
-  if (own_car && own_car_.size() > 0) splat::append_placed(extra, own_car_, *own_car);
-  lod_->set_extra(extra);
+  // The scene's objects are composed once per frame; a moving own car only re-places itself.
+  if (!composed_frame_ || *composed_frame_ != frame) {
+    composed_ = splat::compose_objects(objects_, frame, lod_->sh_degree());
+    composed_frame_ = frame;
+  }
+  if (own_car && own_car_.size() > 0) {
+    splat::GaussianCloud extra = composed_;
+    splat::append_placed(extra, own_car_, *own_car);
+    lod_->set_extra(extra);
+  } else {
+    lod_->set_extra(composed_);
+  }
   placed_ = std::make_pair(frame, own_car);
 }
 

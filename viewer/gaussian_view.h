@@ -150,6 +150,9 @@ class GaussianView {
   std::optional<Key> last_;
   // What the placed objects show: the frame and our car's pose.
   std::optional<std::pair<size_t, std::optional<glm::dmat4>>> placed_;
+  // The scene's objects composed at composed_frame_ (without our car).
+  splat::GaussianCloud composed_;
+  std::optional<size_t> composed_frame_;
   bool converted_ = true;
 };
 
