@@ -34,15 +34,16 @@ GaussianCloud mesh_surface_gaussians(const world::TriangleMesh& mesh, const Mesh
   auto corners = [&](const glm::uvec3& t, glm::dvec3& a, glm::dvec3& b, glm::dvec3& c) {
     a = mesh.positions.at(t.x), b = mesh.positions.at(t.y), c = mesh.positions.at(t.z);
   };
-  auto subdivisions = [&](const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c) {
-    const double longest = std::max({glm::length(b - a), glm::length(c - b), glm::length(a - c)});
-    return std::max(1.0, std::ceil(longest / options.spacing));
+  auto longest_edge = [](const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c) {
+    return std::max({glm::length(b - a), glm::length(c - b), glm::length(a - c)});
   };
+  auto subdivisions = [&](double longest) { return std::max(1.0, std::ceil(longest / options.spacing)); };
   double total = 0.0;
   for (const glm::uvec3& t : mesh.triangles) {
     glm::dvec3 a, b, c;
     corners(t, a, b, c);
-    if (glm::length(glm::cross(b - a, c - a)) > 0.0) total += subdivisions(a, b, c) * subdivisions(a, b, c);
+    const double m = subdivisions(longest_edge(a, b, c));
+    if (glm::length(glm::cross(b - a, c - a)) > 0.0) total += m * m;
   }
   if (!(total <= static_cast<double>(options.max_gaussians)))
     throw std::invalid_argument("mesh_surface_gaussians: " + std::to_string(static_cast<long long>(total)) +
@@ -70,8 +71,8 @@ GaussianCloud mesh_surface_gaussians(const world::TriangleMesh& mesh, const Mesh
     for (int k = 0; k < 3; ++k)
       sh0[k] = static_cast<float>((static_cast<double>(std::clamp(rgb[k] * shade, 0.0f, 1.0f)) - 0.5) / kShC0);
 
-    const int m = static_cast<int>(subdivisions(a, b, c));
-    const double longest = std::max({glm::length(b - a), glm::length(c - b), glm::length(a - c)});
+    const double longest = longest_edge(a, b, c);
+    const int m = static_cast<int>(subdivisions(longest));
     const float sigma = static_cast<float>(0.5 * longest / m);
     const glm::vec3 scale(sigma, sigma, static_cast<float>(options.normal_sigma));
     // Sub-triangles of the m x m split in barycentric steps (i, j): "up" ones with corners
