@@ -4,6 +4,7 @@
 // 6.7e-5 m geometries, <userData>).
 #include <doctest/doctest.h>
 
+#include "scene/opendrive/junction_edges.h"
 #include "test_opendrive_util.h"
 
 #include <cmath>
@@ -196,6 +197,54 @@ TEST_CASE("OpenDRIVE junction whose incoming road lies 9e7 m away: its quads fal
     ++near;
   }
   CHECK(near > 0);
+}
+
+TEST_CASE("OpenDRIVE junction raster cell: real junctions keep 0.15 m, folded strips coarsen to the visit budget") {
+  using icube::scene::odr::junction_raster_cell;
+  using icube::scene::odr::kCellSize;
+  using icube::scene::odr::kFillVisitsPerCell;
+  // fabriksgatan's junction 4 (the largest fill ratio of the real maps): 8.6-fold box overlap
+  const double bw = 40.0, bh = 40.0;
+  CHECK(junction_raster_cell(bw, bh, 8.6 * bw * bh, 10.0 * bw * bh, 4.0e6) == kCellSize);
+  // a 4e6-cell budget shared by many junctions: the grid budget alone decides
+  const double grid_only = junction_raster_cell(bw, bh, 8.6 * bw * bh, 10.0 * bw * bh, 1.0e4);
+  CHECK(grid_only > kCellSize);
+  CHECK((bw / grid_only + 3.0) * (bh / grid_only + 3.0) <= 1.0e4);
+  CHECK((bw / (grid_only / 1.1) + 3.0) * (bh / (grid_only / 1.1) + 3.0) > 1.0e4);
+  // strips covering their 126 m box 2e5 times over: the fill visits decide, at the 1.1x step that meets them
+  const double fw = 126.0, area = 2.0e5 * fw * fw, side = 2.0e5 * 2.0 * fw;
+  const double folded = junction_raster_cell(fw, fw, area, side, 4.0e6);
+  const auto visits = [&](double c) { return area / (c * c) + side / c; };
+  MESSAGE("folded strips: " << folded << " m cells, " << visits(folded) << " fill visits");
+  CHECK(visits(folded) <= kFillVisitsPerCell * 4.0e6);
+  CHECK(visits(folded / 1.1) > kFillVisitsPerCell * 4.0e6);
+  CHECK((fw / folded + 3.0) * (fw / folded + 3.0) <= 4.0e6);
+}
+
+TEST_CASE("OpenDRIVE junction with a 61 m lane on a 0.2-0.5 m radius spiral: the raster coarsens, edges stay in its box") {
+  // Found by fuzz_opendrive: 20 km of a 61 m wide lane wound on a spiral of radius 0.2-0.5 m. Its
+  // quads each cover most of the 124 m junction box, so filling them at 0.15 m cells visited ~1e10
+  // cells (past the fuzzer's 30 s timeout); the fill visits now bound the cell size.
+  const std::string lanes = "<laneSection s=\"0\"><center><lane id=\"0\" type=\"none\"/></center><right>"
+                            "<lane id=\"-1\" type=\"driving\"><width sOffset=\"0\" a=\"61\" b=\"0\" c=\"0\" d=\"0\"/>"
+                            "</lane></right></laneSection>";
+  const std::string plan = "<geometry s=\"0\" x=\"1\" y=\"1\" hdg=\"0\" length=\"20000\">"
+                           "<spiral curvStart=\"5\" curvEnd=\"2\"/></geometry>";
+  const std::string body = road_xml("coil", 20000.0, plan, lanes, "", "junction=\"7\"") + "<junction id=\"7\" name=\"x\"/>\n";
+  Diagnostics diag;
+  const Scene sc = parse(document(body), {}, &diag);
+  bool coarsened = false;
+  for (const std::string& w : diag.warnings) coarsened |= w.find("junction 7") != std::string::npos &&
+                                                            w.find("coarsened") != std::string::npos;
+  CHECK(coarsened);
+  size_t edges = 0;
+  for (const RoadEdge& e : sc.map.road_edges)
+    for (const glm::dvec3& p : e.points) {
+      ++edges;
+      CHECK(std::fabs(p.x - 1.0) < 80.0);
+      CHECK(std::fabs(p.y - 1.0) < 80.0);
+    }
+  CHECK(edges > 0);
 }
 
 TEST_CASE("OpenDRIVE lane graph links incoming, connecting and outgoing lanes") {

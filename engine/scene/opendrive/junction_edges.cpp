@@ -114,6 +114,17 @@ std::vector<glm::dvec3> simplify(const std::vector<glm::dvec3>& pts, double tol)
 
 }  // namespace
 
+double junction_raster_cell(double bw, double bh, double area_sum, double side_sum, double max_cells) {
+  const double cell_budget = std::max(1.0e4, max_cells), visit_budget = kFillVisitsPerCell * cell_budget;
+  auto grid_cells = [&](double c) { return (bw / c + 3.0) * (bh / c + 3.0); };
+  auto fill_visits = [&](double c) { return area_sum / (c * c) + side_sum / c; };
+  double cell = kCellSize;
+  if (grid_cells(cell) <= cell_budget && fill_visits(cell) <= visit_budget) return cell;
+  cell = std::max({cell, std::sqrt(bw * bh / cell_budget), std::sqrt(area_sum / visit_budget)}) * 1.1 + 1e-9;
+  while (grid_cells(cell) > cell_budget || fill_visits(cell) > visit_budget) cell *= 1.1;
+  return cell;
+}
+
 void drivable_quads(const Road& road, const std::vector<SectionSamples>& samples,
                     const std::vector<std::string>& drivable_types, int end, double reach, std::vector<Quad>& out) {
   for (const SectionSamples& ss : samples) {
@@ -140,7 +151,6 @@ void drivable_quads(const Road& road, const std::vector<SectionSamples>& samples
 
 void junction_union_edges(const JunctionArea& area, Map& map, int64_t& next_id, const std::string& file,
                           Diagnostics* diag, double max_cells) {
-  const double cell_budget = std::max(1.0e4, max_cells);
   if (area.connecting.empty()) return;
   double min_x = std::numeric_limits<double>::max(), min_y = min_x;
   double max_x = std::numeric_limits<double>::lowest(), max_y = max_x;
@@ -151,16 +161,28 @@ void junction_union_edges(const JunctionArea& area, Map& map, int64_t& next_id, 
     }
   const double margin = 1.0;
   min_x -= margin, min_y -= margin, max_x += margin, max_y += margin;
-  Grid g;
   const double bw = max_x - min_x, bh = max_y - min_y;
-  if ((bw / g.cell + 3.0) * (bh / g.cell + 3.0) > cell_budget) {
-    g.cell = std::sqrt(bw * bh / cell_budget) * 1.1 + 1e-9;
-    while ((bw / g.cell + 3.0) * (bh / g.cell + 3.0) > cell_budget) g.cell *= 1.1;
-    if (diag)
-      diag->warn(file, "junction " + area.junction_id,
-                 "junction spans " + std::to_string(bw) + " x " + std::to_string(bh) + " m; edge raster coarsened to " +
-                     std::to_string(g.cell) + " m cells");
-  }
+  // fill_quad visits at most (w/cell + 1) * (h/cell + 1) cells of a quad whose bounding box, clipped
+  // to the grid, is w x h.
+  double area_sum = 0.0, side_sum = 0.0;
+  auto add_extent = [&](const Quad& q) {
+    double x0 = max_x, x1 = min_x, y0 = max_y, y1 = min_y;
+    for (const glm::dvec3& p : q)
+      x0 = std::min(x0, p.x), x1 = std::max(x1, p.x), y0 = std::min(y0, p.y), y1 = std::max(y1, p.y);
+    const double w = std::min(x1, max_x) - std::max(x0, min_x), h = std::min(y1, max_y) - std::max(y0, min_y);
+    if (!(w >= 0.0 && h >= 0.0)) return;  // outside the grid: no row is visited
+    area_sum += w * h;
+    side_sum += w + h;
+  };
+  for (const Quad& q : area.connecting) add_extent(q);
+  for (const Quad& q : area.incoming) add_extent(q);
+  Grid g;
+  g.cell = junction_raster_cell(bw, bh, area_sum, side_sum, max_cells);
+  if (g.cell > kCellSize && diag)
+    diag->warn(file, "junction " + area.junction_id,
+               "junction spans " + std::to_string(bw) + " x " + std::to_string(bh) + " m and its drivable strips cover it " +
+                   std::to_string(area_sum / std::max(bw * bh, 1e-12)) + " times; edge raster coarsened to " +
+                   std::to_string(g.cell) + " m cells");
   g.x0 = min_x - g.cell;  // one empty cell of padding on every side keeps contours closed
   g.y0 = min_y - g.cell;
   g.w = static_cast<int>(std::ceil(bw / g.cell)) + 3;

@@ -6,7 +6,8 @@
 // between consecutive samples) and of every incoming road within
 // kIncomingReach metres of its junction end are rasterised into a BEV mask
 // (cell centres, even-odd scanline fill, cells of kCellSize metres, coarser
-// when the junction would need more than `max_cells`); marching squares traces
+// when the junction would need more than `max_cells` cells or fill visits,
+// junction_raster_cell); marching squares traces
 // the mask's boundary; only boundary segments touching a connecting-road cell
 // are kept (so the incoming roads, which have their own edges, and the
 // junction mouths, which lie inside the union, produce none); the chains are
@@ -30,6 +31,10 @@ namespace icube::scene::odr {
 
 inline constexpr double kCellSize = 0.15;
 inline constexpr double kIncomingReach = 3.0;
+// Raster fill visits allowed per cell of a junction's grid budget. The real maps' junctions (CARLA
+// Town01/02/07, esmini) visit up to 9.6 cells per grid cell at kCellSize (overlap of the strips'
+// bounding boxes up to 8.6, plus up to 10 per metre of cell for the partly covered rows and columns).
+inline constexpr double kFillVisitsPerCell = 32.0;
 
 using Quad = std::array<glm::dvec3, 4>;  // a polygon: border a at s_i, s_i+1, border b at s_i+1, s_i
 
@@ -43,6 +48,13 @@ struct JunctionArea {
 // road; with end 0 (start) or 1 (end) only samples within `reach` of that end.
 void drivable_quads(const Road& road, const std::vector<SectionSamples>& samples,
                     const std::vector<std::string>& drivable_types, int end, double reach, std::vector<Quad>& out);
+
+// The raster cell of a junction whose connecting roads span bw x bh m: kCellSize, unless the grid
+// would hold more than max(1e4, max_cells) cells, or filling its strips would visit more than
+// kFillVisitsPerCell times that many (area_sum, side_sum: the summed area and width + height of the
+// strips' bounding boxes clipped to the grid; strips that fold over themselves, a wide lane on a
+// tight spiral, cover the grid thousands of times). Then the smallest 1.1x step that meets both.
+double junction_raster_cell(double bw, double bh, double area_sum, double side_sum, double max_cells);
 
 // max_cells: raster budget of this junction (the reader shares 3.2e7 cells
 // among all junctions, at most 4e6 each).
