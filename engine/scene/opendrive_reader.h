@@ -24,6 +24,11 @@ struct OpenDriveOptions {
                                                   "offRamp", "bidirectional", "parking", "shoulder"};
   // Build junction road edges from the union of drivable areas instead of per connecting road.
   bool junction_union_edges = true;
+  // Most border samples (samples along s times borders, summed over roads) a map may need at
+  // `sample_step`; larger maps are an InputError before any sampling. 2e7 is ~2,000 km of
+  // four-lane road at 0.25 m. The fuzz target lowers it so that each input's linear work stays far
+  // under libFuzzer's timeout and a timeout means superlinear work (docs/fuzzing.md).
+  double max_points = 2.0e7;
 };
 
 // Parses and samples an OpenDRIVE file. The scene has a map, provenance and

@@ -4,6 +4,7 @@
 
 #include "test_opendrive_util.h"
 
+#include <cmath>
 #include <string>
 
 using namespace icube::scene;
@@ -112,7 +113,28 @@ TEST_CASE("OpenDRIVE lanes on the wrong side, duplicate lanes and huge maps are 
   for (int i = 1; i <= 5; ++i) lanes += "<lane id=\"-" + std::to_string(i) + "\"><width sOffset=\"0\" a=\"3\"/></lane>";
   lanes += "</right></laneSection>";
   const std::string huge = document(road_xml("r", 1e6, "<geometry s=\"0\" x=\"0\" y=\"0\" hdg=\"0\" length=\"1e6\"><line/></geometry>", lanes));
-  CHECK(error_of(huge).find("more than the limit") != std::string::npos);
+  CHECK(error_of(huge).find("more than the limit of 2e+07") != std::string::npos);
+}
+
+TEST_CASE("OpenDRIVE max_points bounds the samples a map may need; out-of-range bounds are option errors") {
+  // 10 m of a two-lane road at 0.25 m: ~43 samples along s on each of 5 borders and centre lines
+  const std::string xml = one_road(kGoodGeometry);
+  OpenDriveOptions options;
+  options.max_points = 100.0;
+  std::string msg;
+  try {
+    parse(xml, options);
+  } catch (const InputError& e) {
+    msg = e.what();
+  }
+  CHECK(msg.find("synthetic.xodr: map needs about ") == 0);
+  CHECK(msg.find("more than the limit of 100") != std::string::npos);
+  options.max_points = 1000.0;
+  CHECK_NOTHROW(parse(xml, options));
+  for (double bad : {0.0, -1.0, 2e9, std::nan("")}) {
+    options.max_points = bad;
+    CHECK_THROWS_WITH_AS(parse(xml, options), doctest::Contains("options: max_points must be in [1, 1e9]"), InputError);
+  }
 }
 
 TEST_CASE("OpenDRIVE recoverable issues are warnings") {

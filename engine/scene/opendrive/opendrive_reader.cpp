@@ -2,7 +2,7 @@
 // document, sample every road, derive lanes, road lines and road edges
 // (per road, or from the union of drivable areas inside junctions), link
 // lanes, and fill provenance. Rejects maps that would need more than
-// kMaxPoints samples, and roads whose geometry evaluates to non-finite points
+// options.max_points samples, and roads whose geometry evaluates to non-finite points
 // or to points more than kMaxCoordinate from the origin.
 #include "scene/opendrive_reader.h"
 
@@ -24,7 +24,6 @@ namespace icube::scene {
 
 namespace {
 
-constexpr double kMaxPoints = 2.0e7;
 // 1e8 m (100,000 km) holds any projected coordinate on Earth (UTM northings stay under 1e7 m) and
 // keeps every grid index the layers derive from a point (lane-link cells, junction rasters) in range.
 constexpr double kMaxCoordinate = 1.0e8;
@@ -63,6 +62,8 @@ Scene parse_opendrive(const char* xml, size_t size, const std::string& file, con
                       Diagnostics* diag) {
   if (!(options.sample_step >= 1e-3 && options.sample_step <= 1e3))
     throw InputError(file, "options", "sample_step must be in [0.001, 1000] m, got " + std::to_string(options.sample_step));
+  if (!(options.max_points >= 1.0 && options.max_points <= 1.0e9))
+    throw InputError(file, "options", "max_points must be in [1, 1e9], got " + std::to_string(options.max_points));
   const odr::Document doc = odr::parse_document(xml, size, file, diag);
 
   Scene scene;
@@ -76,10 +77,13 @@ Scene parse_opendrive(const char* xml, size_t size, const std::string& file, con
 
   double points = 0.0;
   for (const odr::Road& road : doc.roads) points += odr::estimate_points(road, options.sample_step);
-  if (points > kMaxPoints)
+  if (points > options.max_points) {
+    char limit[32];
+    std::snprintf(limit, sizeof limit, "%.3g", options.max_points);
     throw InputError(file, "", "map needs about " + std::to_string(static_cast<long long>(points)) +
                                    " samples at a step of " + std::to_string(options.sample_step) +
-                                   " m, more than the limit of 2e7");
+                                   " m, more than the limit of " + limit);
+  }
 
   // Junction areas and the road ends that enter them.
   std::map<std::string, size_t> area_of;
