@@ -25,8 +25,8 @@ struct OpenDriveOptions {
   // Build junction road edges from the union of drivable areas instead of per connecting road.
   bool junction_union_edges = true;
   // Most border samples (samples along s times borders, summed over roads) a map may need at
-  // `sample_step`; larger maps are an InputError before any sampling. 2e7 is ~2,000 km of
-  // four-lane road at 0.25 m. The fuzz target lowers it so that each input's linear work stays far
+  // `sample_step`; larger maps are an InputError before any sampling. 2e7 is ~550 km of
+  // four-lane road at 0.25 m (9 borders and centre lines per sample). The fuzz target lowers it so that each input's linear work stays far
   // under libFuzzer's timeout and a timeout means superlinear work (docs/fuzzing.md).
   double max_points = 2.0e7;
 };

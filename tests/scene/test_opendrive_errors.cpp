@@ -12,10 +12,10 @@ using namespace icube::test::odr_util;
 
 namespace {
 
-// The message of the InputError that parsing `xml` throws ("" when none).
-std::string error_of(const std::string& xml) {
+// The message of the InputError that parsing `xml` with `options` throws ("" when none).
+std::string error_of(const std::string& xml, const OpenDriveOptions& options = {}) {
   try {
-    parse(xml);
+    parse(xml, options);
   } catch (const InputError& e) {
     CHECK(e.file() == "synthetic.xodr");
     const std::string msg = e.what();
@@ -121,12 +121,7 @@ TEST_CASE("OpenDRIVE max_points bounds the samples a map may need; out-of-range 
   const std::string xml = one_road(kGoodGeometry);
   OpenDriveOptions options;
   options.max_points = 100.0;
-  std::string msg;
-  try {
-    parse(xml, options);
-  } catch (const InputError& e) {
-    msg = e.what();
-  }
+  const std::string msg = error_of(xml, options);
   CHECK(msg.find("synthetic.xodr: map needs about ") == 0);
   CHECK(msg.find("more than the limit of 100") != std::string::npos);
   options.max_points = 1000.0;
