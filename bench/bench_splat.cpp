@@ -23,8 +23,11 @@
 // "cull-tile-color") renders without the depth outputs (SplatOptions::depth =
 // false: splat_blend's pipeline without them), as `icube splat render` does
 // without --depth.
+// A "-slices-N" suffix (before -color) blends frames of more than N Gaussians in depth
+// slices of at most N (SplatGpuVariant::max_pass_gaussians); frames over the device's one pass
+// (lavapipe: 2.79 M Gaussians) are sliced by every variant ("slices" column).
 // Check in the same run: each variant's image against the first variant's
-// (max |difference| over RGBA, and depth where both have it).
+// (max |difference| over RGBA, and depth where both have it; slicings agree bit for bit).
 //
 //   LP_NUM_THREADS=2 icube-bench-splat [--gaussians 100000,1000000] [--sizes 1280x720,1920x1080] [--runs 5]
 //       [--variants rect-rows,cull-tile]
@@ -97,6 +100,13 @@ struct Variant {
 };
 
 Variant parse_pipeline(const std::string& s) {
+  const size_t sl = s.find("-slices-");
+  if (sl != std::string::npos) {  // depth slices of at most N Gaussians (SplatGpuVariant::max_pass_gaussians)
+    Variant v = parse_pipeline(s.substr(0, sl));
+    v.name = s;
+    v.v.max_pass_gaussians = std::stoull(s.substr(sl + 8));
+    return v;
+  }
   if (s == "rect-rows") return {s, {false, false}};
   if (s == "cull-rows") return {s, {true, false}};
   if (s == "rect-tile") return {s, {false, true}};
@@ -106,8 +116,8 @@ Variant parse_pipeline(const std::string& s) {
   if (s.rfind("cull-tile-counting-", 0) == 0)  // forced chunk count (SplatGpuVariant::bin_chunks)
     return {s, {true, true, splat::TileBinning::Counting, static_cast<uint32_t>(std::stoul(s.substr(19)))}};
   throw std::invalid_argument("--variants: unknown variant '" + s +
-                              "' (rect-rows, cull-rows, rect-tile, cull-tile, cull-tile-radix, cull-tile-counting[-CHUNKS], each with an "
-                              "optional -color suffix)");
+                              "' (rect-rows, cull-rows, rect-tile, cull-tile, cull-tile-radix, cull-tile-counting[-CHUNKS], each with "
+                              "optional -slices-N and -color suffixes)");
 }
 
 // A pipeline name with an optional "-color" suffix (no depth outputs).
@@ -149,7 +159,8 @@ int main(int argc, char** argv) {
   app.add_option("--sh", sh, "SH degree 0-3")->capture_default_str();
   app.add_option("--variants", variants,
                  "Comma-separated pipeline variants: rect-rows, cull-rows, rect-tile, cull-tile, cull-tile-radix, "
-                 "cull-tile-counting, cull-tile-counting-CHUNKS; a -color suffix leaves the depth outputs out")
+                 "cull-tile-counting, cull-tile-counting-CHUNKS; a -slices-N suffix slices frames over N Gaussians, "
+                 "a -color suffix leaves the depth outputs out")
       ->capture_default_str();
   app.add_flag("!--no-cpu", cpu, "Skip the CPU reference row");
   CLI11_PARSE(app, argc, argv);
@@ -168,9 +179,9 @@ int main(int argc, char** argv) {
   std::printf("icube-bench-splat: device %s, subgroup %u, CPU %s (%u CPUs), LP_NUM_THREADS=%s\n",
               ctx.info().name.c_str(), ctx.subgroup_size(), bench::cpu_model().c_str(), bench::online_cpus(),
               bench::env_or_unset("LP_NUM_THREADS").c_str());
-  std::printf("%10s %10s %18s %7s %8s %8s %8s %8s %8s %8s %8s %9s %11s %8s %9s %9s\n", "gaussians", "size", "variant",
-              "fps", "min ms", "med ms", "CPU ms", "pre ms", "dsort ms", "tsort ms", "blend ms", "blend min", "instances",
-              "B/Gauss", "other CPU", "max diff");
+  std::printf("%10s %10s %26s %7s %8s %8s %8s %8s %8s %8s %8s %9s %11s %6s %8s %9s %9s\n", "gaussians", "size",
+              "variant", "fps", "min ms", "med ms", "CPU ms", "pre ms", "dsort ms", "tsort ms", "blend ms", "blend min",
+              "instances", "slices", "B/Gauss", "other CPU", "max diff");
   std::vector<std::unique_ptr<splat::SplatRendererGpu>> renderers;
   for (const Variant& v : vars) renderers.push_back(std::make_unique<splat::SplatRendererGpu>(ctx, v.v));
   for (const size_t n : parse_list<size_t>(gaussians)) {
@@ -222,12 +233,12 @@ int main(int argc, char** argv) {
       const double other = bench::other_cpu_seconds(c0, bench::cpu_times_now());
       for (size_t k = 0; k < V; ++k) {
         const double bytes_per = static_cast<double>(g.bytes() + t[k].frame_bytes) / static_cast<double>(n);
-        std::printf("%10zu %10s %18s %7.2f %8.1f %8.1f %8.1f %8.1f %8.1f %8.1f %8.1f %9.1f %11llu %8.0f %8.1fs %9.2g\n",
+        std::printf("%10zu %10s %26s %7.2f %8.1f %8.1f %8.1f %8.1f %8.1f %8.1f %8.1f %9.1f %11llu %6u %8.0f %8.1fs %9.2g\n",
                     n, sz.c_str(), vars[k].name.c_str(), 1000.0 / median(wall[k]),
                     *std::min_element(wall[k].begin(), wall[k].end()), median(wall[k]), median(own[k]), median(pre[k]),
                     median(dsort[k]), median(sort[k]), median(blend[k]),
                     *std::min_element(blend[k].begin(), blend[k].end()),
-                    static_cast<unsigned long long>(t[k].instances), bytes_per, other, diff[k]);
+                    static_cast<unsigned long long>(t[k].instances), t[k].slices, bytes_per, other, diff[k]);
       }
       std::fflush(stdout);
     }

@@ -39,7 +39,8 @@ SplatFrameBuffers::SplatFrameBuffers(gpu::Context& ctx)
 
 uint64_t SplatFrameBuffers::bytes() const {
   uint64_t s = 0;
-  for (const gpu::Buffer* b : {&proj, &records, &rects, &bin_records, &depth_keys, &order, &values, &ranges, &rgba, &depth, &sky})
+  for (const gpu::Buffer* b : {&proj, &records, &rects, &bin_records, &depth_keys, &order, &values, &ranges, &rgba, &depth,
+                               &sky, &carry_color, &carry_depth, &slice.gaussians, &slice.sh})
     s += b->valid() ? b->size() : 0;
   if (depth_sort_scratch)
     s += depth_sort_scratch->keys.size() + depth_sort_scratch->values.size() + depth_sort_scratch->histogram.size() +
@@ -60,6 +61,7 @@ SplatRendererGpu::SplatRendererGpu(gpu::Context& ctx, SplatGpuVariant variant)
                 (variant.binning == TileBinning::Auto && ctx.info().type == VK_PHYSICAL_DEVICE_TYPE_CPU)),
       depth_sort_(ctx, kernels::KeyWidth::Bits32),
       counting_binning_(ctx),
+      slicer_(ctx),
       f_(std::make_unique<SplatFrameBuffers>(ctx)),
       t1_(std::make_unique<gpu::GpuTimer>(ctx, 4)),
       t2_(std::make_unique<gpu::GpuTimer>(ctx, 4)) {}
@@ -112,6 +114,20 @@ GpuGaussians SplatRendererGpu::upload(const GaussianCloud& cloud) {
   return g;
 }
 
+uint64_t SplatRendererGpu::gaussians_per_pass() const {
+  const uint64_t limit = ctx_.info().max_storage_buffer_range;
+  const uint64_t widest = std::max<uint64_t>({sizeof(shader::SplatProjected), sizeof(shader::SplatBlendRecord),
+                                              sizeof(shader::SplatGaussian), sizeof(shader::SplatBinRecord), 16});
+  const uint64_t device = std::min<uint64_t>({limit / widest, ctx_.info().max_texel_buffer_elements / 3,
+                                              depth_sort_.max_elements(), UINT32_MAX / 4});
+  return variant_.max_pass_gaussians ? std::min(device, variant_.max_pass_gaussians) : device;
+}
+
+uint64_t SplatRendererGpu::instances_per_pass() const {
+  return std::min<uint64_t>({ctx_.info().max_storage_buffer_range / 4, ctx_.info().max_texel_buffer_elements,
+                             f_->binning.max_instances()});
+}
+
 SplatFramePlan SplatRendererGpu::plan(const GpuGaussians& g, const render::Camera& cam, const SplatOptions& opts) {
   SplatFramePlan p;
   p.gaussians = &g;
@@ -126,26 +142,24 @@ SplatFramePlan SplatRendererGpu::plan(const GpuGaussians& g, const render::Camer
   SplatFrameBuffers& f = *f_;
   const uint64_t limit = ctx_.info().max_storage_buffer_range;
   const uint64_t texel_limit = ctx_.info().max_texel_buffer_elements;  // texels of one texel-buffer view
-  if (n * sizeof(shader::SplatProjected) > limit)
-    throw std::invalid_argument("splat: " + std::to_string(n) + " Gaussians exceed one storage binding");
-  if (n * 3 > texel_limit)
-    throw std::invalid_argument("splat: " + std::to_string(n) + " Gaussians exceed one texel-buffer view of blend records");
   if (W * H * 16 > limit)
-    throw std::invalid_argument("splat: a " + std::to_string(W) + "x" + std::to_string(H) +
-                                " image exceeds one storage binding");
+    throw std::invalid_argument("splat: a " + std::to_string(W) + "x" + std::to_string(H) + " image (" +
+                                std::to_string(W * H * 16 >> 20) + " MiB of RGBA floats) exceeds one storage binding (" +
+                                std::to_string(limit >> 20) + " MiB); render at most " +
+                                std::to_string(limit / 16 / std::max<uint64_t>(W, 1)) + " rows at this width");
   if (p.frame.grid_x > 0xFFFFu || p.frame.grid_y > 0xFFFFu)  // SplatBinRecord packs tile coordinates in 16 bits
     throw std::invalid_argument("splat: a " + std::to_string(W) + "x" + std::to_string(H) +
                                 " image has more than 65,535 tile columns or rows");
-  if (n > depth_sort_.max_elements())
-    throw std::invalid_argument("splat: " + std::to_string(n) + " Gaussians exceed the radix sort limit of " +
-                                std::to_string(depth_sort_.max_elements()));
-  gpu::ensure_capacity(ctx_, f.proj, n * sizeof(shader::SplatProjected), "splat-proj");
-  gpu::ensure_capacity(ctx_, f.records, n * sizeof(shader::SplatBlendRecord), "splat-blend-records");
-  gpu::ensure_capacity(ctx_, f.rects, n * 16, "splat-rects");
-  gpu::ensure_capacity(ctx_, f.bin_records, n * sizeof(shader::SplatBinRecord), "splat-bin-records");
-  gpu::ensure_capacity(ctx_, f.depth_keys, n * 4, "splat-depth-keys");
-  gpu::ensure_capacity(ctx_, f.order, n * 4, "splat-order");
-  f.binning.reserve_items(n);
+  p.sliced = n > gaussians_per_pass();
+  if (!p.sliced) {
+    gpu::ensure_capacity(ctx_, f.proj, n * sizeof(shader::SplatProjected), "splat-proj");
+    gpu::ensure_capacity(ctx_, f.records, n * sizeof(shader::SplatBlendRecord), "splat-blend-records");
+    gpu::ensure_capacity(ctx_, f.rects, n * 16, "splat-rects");
+    gpu::ensure_capacity(ctx_, f.bin_records, n * sizeof(shader::SplatBinRecord), "splat-bin-records");
+    gpu::ensure_capacity(ctx_, f.depth_keys, n * 4, "splat-depth-keys");
+    gpu::ensure_capacity(ctx_, f.order, n * 4, "splat-order");
+    f.binning.reserve_items(n);
+  }
   gpu::ensure_capacity(ctx_, f.ranges, uint64_t{p.tiles} * 8, "splat-ranges");
   gpu::ensure_capacity(ctx_, f.rgba, W * H * 16, "splat-rgba");
   // splat_blend_rows always writes depth; splat_blend only with opts.depth.
@@ -160,7 +174,7 @@ SplatFramePlan SplatRendererGpu::plan(const GpuGaussians& g, const render::Camer
     f.sky = std::move(sky);
     f.sky_image = opts.sky.image;
   }
-  if (n > 0 && (!f.depth_sort_scratch || f.depth_sort_scratch->capacity < n))
+  if (n > 0 && !p.sliced && (!f.depth_sort_scratch || f.depth_sort_scratch->capacity < n))
     f.depth_sort_scratch = std::make_unique<kernels::RadixSortScratch>(ctx_, n + n / 2, kernels::KeyWidth::Bits32);
 
   shader::SplatBlendParams& bp = p.blend;
@@ -196,6 +210,7 @@ SplatFramePlan SplatRendererGpu::plan(const GpuGaussians& g, const render::Camer
 }
 
 void SplatRendererGpu::record_preprocess(gpu::CommandList& cmd, const SplatFramePlan& p) {
+  if (p.sliced) throw std::logic_error("splat: a frame over one pass is rendered in depth slices by render()");
   const uint64_t n = p.n;
   SplatFrameBuffers& f = *f_;
   t1_->reset(cmd);
@@ -255,9 +270,10 @@ uint64_t SplatRendererGpu::read_instances(SplatFramePlan& p) {
   const uint64_t texel_limit = ctx_.info().max_texel_buffer_elements;
   p.chunks = counting_ && inst > 0 ? counting_binning_.chunks_for(inst, p.tiles, variant_.bin_chunks) : 0u;
   p.counting = p.chunks > 0;  // else radix (also when the counters would not fit one binding)
-  if (inst * 4 > limit || inst > texel_limit || (!p.counting && inst > f.binning.max_instances()))
-    throw std::runtime_error("splat: " + std::to_string(inst) + " tile instances exceed one storage binding, one " +
-                             "texel-buffer view or the radix sort limit of " + std::to_string(f.binning.max_instances()));
+  if (inst * 4 > limit || inst > texel_limit || (!p.counting && inst > f.binning.max_instances())) {
+    p.sliced = true;  // render() blends the frame in depth slices
+    return inst;
+  }
   gpu::ensure_capacity(ctx_, f.values, std::max<uint64_t>(inst, 1) * 4, "splat-values");
   if (!p.counting) f.binning.reserve_instances(inst);
   return inst;
@@ -305,6 +321,7 @@ void SplatRendererGpu::record_blend(gpu::CommandList& cmd, const SplatFramePlan&
     cmd.barrier(gpu::deps::kTransferToCompute);  // zeroed status before the blend counts into it
   }
   const int tb = t2_->begin(cmd, "blend");
+  if (p.blend.carry & SPLAT_CARRY_IN) cmd.barrier(gpu::deps::kComputeToCompute);  // the nearer slice's blend wrote the state
   std::vector<gpu::BufferBinding> bindings = {
       f.ranges.binding(0, uint64_t{p.tiles} * 8),
       inst > 0 ? instance_values(p).texel_binding(VK_FORMAT_R32_UINT, 0, inst * 4) : gpu::null_binding(),
@@ -315,7 +332,12 @@ void SplatRendererGpu::record_blend(gpu::CommandList& cmd, const SplatFramePlan&
       p.opts.sky.kind == SkyKind::Equirect
           ? f.sky.texel_binding(VK_FORMAT_R32_UINT, 0, p.opts.sky.image->rgba.size() & ~size_t{3})
           : gpu::null_binding()};
-  if (tile_blend) bindings.push_back(f.blend_status.binding(0, 4));
+  if (tile_blend) {
+    bindings.push_back(f.blend_status.binding(0, 4));
+    const bool carry = p.blend.carry != 0;
+    bindings.push_back(carry ? f.carry_color.binding(0, pixels * 16) : gpu::null_binding());
+    bindings.push_back(carry && p.opts.depth ? f.carry_depth.binding(0, pixels * 8) : gpu::null_binding());
+  }
   cmd.dispatch(p.opts.depth ? blend_ : blend_color_, {uint64_t{p.tiles} * kBlendInvocationsPerTile}, p.blend, bindings);
   t2_->end(cmd, tb);
   if (tile_blend) {
@@ -348,16 +370,19 @@ bool SplatRendererGpu::finish(SplatFramePlan& p) {
   return true;
 }
 
-SplatImage SplatRendererGpu::render(const GpuGaussians& g, const render::Camera& cam, const SplatOptions& opts,
-                                    SplatTimings* timings, SplatDebug* debug, bool download) {
-  const auto t0 = std::chrono::steady_clock::now();
-  SplatFramePlan p = plan(g, cam, opts);
-  // Submission 1: preprocess, depth sort, tiles touched in depth order, scan, total to the host.
-  ctx_.submit_and_wait([&](gpu::CommandList& cmd) { record_preprocess(cmd, p); });
-  const double pre_ms = p.n > 0 ? t1_->milliseconds(0) : 0.0;
-  const double depth_sort_ms = p.n > 0 ? t1_->milliseconds(1) : 0.0;
+void SplatRendererGpu::run_preprocess(SplatFramePlan& p, PassTimes& t, bool after_gather) {
+  ctx_.submit_and_wait([&](gpu::CommandList& cmd) {
+    if (after_gather) cmd.barrier(gpu::deps::kComputeToCompute);  // preprocess reads the gathered slice
+    record_preprocess(cmd, p);
+  });
+  if (p.n > 0) {
+    t.preprocess_ms += t1_->milliseconds(0);
+    t.depth_sort_ms += t1_->milliseconds(1);
+  }
   read_instances(p);
-  // Submission 2: binning by tile, blend.
+}
+
+void SplatRendererGpu::run_bin_blend(SplatFramePlan& p, PassTimes& t) {
   auto bin_and_blend = [&](gpu::CommandList& cmd) {
     record_bin(cmd, p);
     record_blend(cmd, p);
@@ -369,6 +394,62 @@ SplatImage SplatRendererGpu::render(const GpuGaussians& g, const render::Camera&
     f_->binning.reserve_instances(p.instances);
     ctx_.submit_and_wait(bin_and_blend);
     finish(p);
+  }
+  t.sort_ms += t2_->milliseconds(0);
+  t.blend_ms += t2_->milliseconds(1);
+  t.instances += p.instances;
+  t.fallback = t.fallback || p.fallback;
+}
+
+uint32_t SplatRendererGpu::run_slices(const GpuGaussians& g, const render::Camera& cam, const SplatOptions& opts,
+                                      PassTimes& t) {
+  if (!variant_.tile_blend)
+    throw std::invalid_argument("splat: a frame over one pass (depth slices) needs the tile blend (SplatGpuVariant::tile_blend)");
+  SplatFrameBuffers& f = *f_;
+  const SplatFrame frame = make_frame(cam, opts, g.origin);
+  const std::vector<DepthSlice> slices =
+      slicer_.plan(g, frame, opts.depth_key_bits, gaussians_per_pass(), instances_per_pass());
+  const uint64_t pixels = uint64_t{cam.K.width} * cam.K.height;
+  if (slices.size() > 1) {
+    gpu::ensure_capacity(ctx_, f.carry_color, pixels * 16, "splat-carry-color");
+    if (opts.depth) gpu::ensure_capacity(ctx_, f.carry_depth, pixels * 8, "splat-carry-depth");
+  }
+  const size_t passes = std::max<size_t>(slices.size(), 1);  // no visible Gaussian: one pass of none (the sky)
+  for (size_t k = 0; k < passes; ++k) {
+    if (slices.empty()) {
+      f.slice.count = 0;
+      f.slice.origin = g.origin;
+      f.slice.sh_degree = g.sh_degree;
+      f.slice.sh_stride = g.sh_stride;
+    } else {
+      slicer_.gather(g, slices[k], f.slice);
+    }
+    SplatFramePlan q = plan(f.slice, cam, opts);
+    q.blend.carry = (k > 0 ? SPLAT_CARRY_IN : 0u) | (k + 1 < passes ? SPLAT_CARRY_OUT : 0u);
+    run_preprocess(q, t, true);
+    if (q.sliced)
+      throw std::logic_error("splat: depth slice " + std::to_string(k) + " of " + std::to_string(q.n) + " Gaussians made " +
+                             std::to_string(q.instances) + " tile instances, over one pass");
+    run_bin_blend(q, t);
+  }
+  return static_cast<uint32_t>(slices.size());
+}
+
+SplatImage SplatRendererGpu::render(const GpuGaussians& g, const render::Camera& cam, const SplatOptions& opts,
+                                    SplatTimings* timings, SplatDebug* debug, bool download) {
+  const auto t0 = std::chrono::steady_clock::now();
+  SplatFramePlan p = plan(g, cam, opts);
+  PassTimes pt;
+  // One pass: submission 1 (preprocess, depth sort, tiles touched in depth order, scan, total to
+  // the host), submission 2 (binning by tile, blend). A frame whose Gaussians (plan) or tile
+  // instances (read_instances) exceed one pass: depth slices.
+  if (!p.sliced) run_preprocess(p, pt, false);
+  uint32_t slices = 0;
+  if (p.sliced) {
+    if (debug) throw std::invalid_argument("splat: stage-by-stage debug output is for frames of one pass");
+    slices = run_slices(g, cam, opts, pt);
+  } else {
+    run_bin_blend(p, pt);
   }
 
   const SplatFrameBuffers& f = *f_;
@@ -401,14 +482,15 @@ SplatImage SplatRendererGpu::render(const GpuGaussians& g, const render::Camera&
     }
   }
   if (timings) {
-    timings->preprocess_ms = pre_ms;
-    timings->depth_sort_ms = depth_sort_ms;
-    timings->sort_ms = t2_->milliseconds(0);
-    timings->blend_ms = t2_->milliseconds(1);
-    timings->instances = inst;
-    timings->binning_chunks = p.counting ? p.chunks : 0;
-    timings->binning_fallback = p.fallback;
-    timings->frame_bytes = f.bytes() + counting_binning_.bytes();
+    timings->preprocess_ms = pt.preprocess_ms;
+    timings->depth_sort_ms = pt.depth_sort_ms;
+    timings->sort_ms = pt.sort_ms;
+    timings->blend_ms = pt.blend_ms;
+    timings->instances = p.sliced ? pt.instances : inst;
+    timings->binning_chunks = p.counting && !p.sliced ? p.chunks : 0;
+    timings->binning_fallback = pt.fallback;
+    timings->slices = slices;
+    timings->frame_bytes = f.bytes() + counting_binning_.bytes() + slicer_.bytes();
     timings->wall_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   }
   return img;

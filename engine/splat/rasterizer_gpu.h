@@ -54,12 +54,13 @@
 // Positions are uploaded relative to a scene origin (the bounding-box centre,
 // in double) and the camera position is split against the same origin, so
 // scenes far from the world origin render like scenes at it.
-// Limits: Gaussians, their projections and the instance keys each fit one
-// storage binding (lavapipe: 2.7 M Gaussians, 33.5 M instances) and one
-// texel-buffer view (maxTexelBufferElements: 3 texels per blend record, one
-// per instance); larger frames, and images of more than 65,535 tile columns or
-// rows (SplatBinRecord packs tile coordinates in 16 bits), fail with a clear
-// message.
+// Limits: one pass takes the Gaussians whose per-Gaussian buffers and instance
+// keys each fit one storage binding and one texel-buffer view (lavapipe: 2.79 M
+// Gaussians, 33.5 M instances; gaussians_per_pass, instances_per_pass); render()
+// blends a larger frame in depth slices of at most that size (depth_slices.h),
+// the same image, so the Gaussians are limited by device memory. Images of more
+// than 65,535 tile columns or rows (SplatBinRecord packs tile coordinates in 16
+// bits) or whose RGBA floats exceed one binding fail with a clear message.
 // Tests: tests/splat/test_splat.cpp, tests/splat/test_splat_stages.cpp; benchmark: bench/bench_splat.cpp.
 #pragma once
 
@@ -67,6 +68,7 @@
 #include "gpu/commands.h"
 #include "prefix_scan.h"
 #include "radix_sort.h"
+#include "splat/depth_slices.h"
 #include "splat/gaussians.h"
 #include "splat/splat_frame.h"
 #include "splat/tile_binning_gpu.h"
@@ -107,6 +109,7 @@ struct SplatTimings {
   uint64_t frame_bytes = 0;  // per-frame GPU buffers currently allocated
   uint32_t binning_chunks = 0;    // counting binning: its chunk count C (0: the radix path binned the frame)
   bool binning_fallback = false;  // the counting walks were cut short and the radix path re-binned the frame
+  uint32_t slices = 0;            // depth slices the frame was blended in (depth_slices.h; 0: one pass)
 };
 
 // Intermediate results for tests.
@@ -143,6 +146,9 @@ struct SplatGpuVariant {
   // on CPU devices, the subgroup intrinsics on GPUs; tests force each (Shuffles needs a
   // subgroup of at most 16 lanes that divides the blend's 16 invocations per tile).
   kernels::SubgroupOps votes = kernels::SubgroupOps::Auto;
+  // Caps gaussians_per_pass() (0: the device's limits): frames over it are blended in depth
+  // slices; the image does not depend on it (benchmarks and tests check slicings against each other).
+  uint64_t max_pass_gaussians = 0;
 };
 
 // The per-frame device buffers, grown on demand (gpu::ensure_capacity) and reused frame to
@@ -162,6 +168,8 @@ struct SplatFrameBuffers {
   gpu::Buffer incomplete;   // counting path: != 0 when a walk was cut short
   gpu::Buffer blend_status; // blocks over the blend's loop budget
   gpu::Buffer readback;     // host-visible: [0] instances, [1] incomplete, [2] blend status
+  gpu::Buffer carry_color, carry_depth;  // a frame in depth slices: each pixel's blend state between slices
+  GpuGaussians slice;       // a frame in depth slices: the current slice's Gaussians
   std::shared_ptr<const SkyImage> sky_image;  // the image currently in `sky`
   std::unique_ptr<kernels::RadixSortScratch> depth_sort_scratch;
   TileRadixBinning binning;  // depth-ordered counts -> offsets -> total; radix path: keys/values -> sort -> ranges
@@ -179,6 +187,9 @@ struct SplatFramePlan {
   bool counting = false;     // this frame bins with the counting sort (record_bin)
   uint32_t chunks = 0;       // its chunk count
   bool fallback = false;     // the counting walks were cut short and the frame was re-binned (radix)
+  // The frame's Gaussians (plan) or tile instances (read_instances) exceed one pass: render()
+  // blends it in depth slices (depth_slices.h); the stages refuse it.
+  bool sliced = false;
   shader::SplatBlendParams blend{};
 };
 
@@ -199,13 +210,21 @@ class SplatRendererGpu {
                     SplatTimings* timings = nullptr, SplatDebug* debug = nullptr, bool download = true);
 
   // ---- the stages, for callers that record into their own command lists ----
-  // Checks the frame against the device limits and sizes the per-Gaussian buffers (host only).
+  // The most Gaussians and tile instances one pass takes on this device (one storage binding per
+  // per-Gaussian and per-instance buffer, one texel view); render() blends larger frames in
+  // depth slices of at most these sizes.
+  uint64_t gaussians_per_pass() const;
+  uint64_t instances_per_pass() const;
+
+  // Checks the frame against the device limits and sizes the per-Gaussian buffers (host only);
+  // a frame over one pass is marked p.sliced and sizes nothing per Gaussian.
   SplatFramePlan plan(const GpuGaussians& g, const render::Camera& cam, const SplatOptions& opts);
   // preprocess -> depth sort -> tiles touched in depth order -> scan -> instance total copied
   // to the host. The caller submits and waits before read_instances.
   void record_preprocess(gpu::CommandList& cmd, const SplatFramePlan& p);
   // The instance total of the completed preprocess submission; sizes the binning buffers and
-  // picks the frame's binning path (p.counting, p.chunks).
+  // picks the frame's binning path (p.counting, p.chunks), or marks p.sliced when the instances
+  // exceed one pass.
   uint64_t read_instances(SplatFramePlan& p);
   // Binning by tile (counting sort or the radix path) into buffers().ranges and the instance
   // list, then a barrier for the blend.
@@ -221,6 +240,19 @@ class SplatRendererGpu {
   const gpu::Buffer& instance_values(const SplatFramePlan& p) const;
 
  private:
+  // Timings accumulated over a frame's submissions.
+  struct PassTimes {
+    double preprocess_ms = 0, depth_sort_ms = 0, sort_ms = 0, blend_ms = 0;
+    uint64_t instances = 0;
+    bool fallback = false;
+  };
+  // Submission 1 of a planned pass (preprocess -> instance total).
+  void run_preprocess(SplatFramePlan& p, PassTimes& t, bool after_gather);
+  // Submission 2 (binning + blend), again with the radix path when the counting walks were cut short.
+  void run_bin_blend(SplatFramePlan& p, PassTimes& t);
+  // A frame over one pass: its depth slices one after another into buffers().rgba / depth.
+  uint32_t run_slices(const GpuGaussians& g, const render::Camera& cam, const SplatOptions& opts, PassTimes& t);
+
   gpu::Context& ctx_;
   gpu::Program& counts_;
   gpu::Program& duplicate_;
@@ -231,6 +263,7 @@ class SplatRendererGpu {
   bool counting_;  // the resolved TileBinning
   kernels::RadixSort depth_sort_;
   TileBinningGpu counting_binning_;
+  DepthSlicer slicer_;
   std::unique_ptr<SplatFrameBuffers> f_;
   std::unique_ptr<gpu::GpuTimer> t1_, t2_;  // preprocess + depth sort; binning + blend
 };

@@ -130,7 +130,7 @@ struct SplatRangesParams {
 #define SPLAT_SKY_GRADIENT 1u    // zenith / horizon / ground by the world z of the ray
 #define SPLAT_SKY_EQUIRECT 2u    // equirectangular RGBA8 image (engine/splat/sky.h)
 
-// 120 bytes. Sky model (engine/splat/sky.h): pixel ray direction in world axes
+// 124 bytes. Sky model (engine/splat/sky.h): pixel ray direction in world axes
 // d = normalize(M · (u + o, v + o, 1)), M = R_c2w · K⁻¹ (row-major m00..m22).
 struct SplatBlendParams {
   uint width, height, grid_x, grid_y;
@@ -146,6 +146,27 @@ struct SplatBlendParams {
   // in the status word (0 = no budget). lavapipe ends every loop of an invocation once its
   // loops have made 65,535 iterations in all, so the host sets SPLAT_BLEND_LOOP_BUDGET there.
   uint loop_budget;
+  // Depth slices (engine/splat/depth_slices.h): SPLAT_CARRY_IN starts every pixel from the
+  // previous slice's state in the carry buffers instead of empty; SPLAT_CARRY_OUT stores the
+  // state there for the next slice instead of writing the image. 0 = a whole frame.
+  uint carry;
+};
+
+#define SPLAT_CARRY_IN 1u
+#define SPLAT_CARRY_OUT 2u
+
+// splat/slice_keys.comp, splat/slice_histogram.comp, splat/slice_flags.comp and
+// splat/slice_gather.comp (a frame in depth slices, engine/splat/depth_slices.h). The slice
+// key of a Gaussian is its depth sort key, SPLAT_SLICE_CULLED when preprocess culls it.
+#define SPLAT_SLICE_CULLED 0xFFFFFFFFu
+struct SplatSliceParams {
+  uint n;               // Gaussians in this window
+  uint key_lo, key_hi;  // keys in [key_lo, key_hi]: the slice (flags, gather) or the histogram's range
+  uint shift;           // histogram: bucket = (key - key_lo) >> shift
+  uint sh_texels;       // gather: vec4 texels per Gaussian's SH row
+  uint dst_first;       // gather: slice rank of the destination bindings' first Gaussian
+  uint bucket_first;    // histogram: the bound window of buckets [bucket_first, + bucket_count)
+  uint bucket_count;
 };
 
 ICUBE_SHADER_NAMESPACE_END
@@ -173,18 +194,21 @@ ICUBE_CHECK_LAYOUT(SplatPreprocessParams, lim_x_pos, 80);
 ICUBE_CHECK_LAYOUT(SplatPreprocessParams, near_z, 96);
 ICUBE_CHECK_LAYOUT(SplatPreprocessParams, width, 112);
 ICUBE_CHECK_SIZE(SplatDuplicateParams, 16);
+ICUBE_CHECK_SIZE(SplatSliceParams, 32);
+ICUBE_CHECK_LAYOUT(SplatSliceParams, dst_first, 20);
 ICUBE_CHECK_SIZE(SplatBinParams, 32);
 ICUBE_CHECK_LAYOUT(SplatBinParams, chunks, 8);
 ICUBE_CHECK_LAYOUT(SplatBinParams, tiles, 20);
 ICUBE_CHECK_LAYOUT(SplatBinParams, instances, 24);
 ICUBE_CHECK_SIZE(SplatRangesParams, 16);
 ICUBE_CHECK_SIZE(SplatToRgba8Params, 16);
-ICUBE_CHECK_SIZE(SplatBlendParams, 120);
+ICUBE_CHECK_SIZE(SplatBlendParams, 124);
 ICUBE_CHECK_LAYOUT(SplatBlendParams, pixel_offset, 16);
 ICUBE_CHECK_LAYOUT(SplatBlendParams, sky_h, 28);
 ICUBE_CHECK_LAYOUT(SplatBlendParams, bg_r, 32);
 ICUBE_CHECK_LAYOUT(SplatBlendParams, gnd_r, 68);
 ICUBE_CHECK_LAYOUT(SplatBlendParams, m00, 80);
 ICUBE_CHECK_LAYOUT(SplatBlendParams, loop_budget, 116);
+ICUBE_CHECK_LAYOUT(SplatBlendParams, carry, 120);
 
 #endif

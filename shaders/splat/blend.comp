@@ -45,7 +45,8 @@
 // lavapipe's subgroupBallot / subgroupAny are scalar loops over the lanes; GPUs
 // (SPLAT_LANES = 0) use the intrinsics. No shared memory or barriers (slow on
 // lavapipe). The spec constant SPLAT_DEPTH = false leaves the depth outputs
-// out (SplatOptions::depth).
+// out (SplatOptions::depth). A frame in depth slices (p.carry) starts each
+// pixel from the nearer slices' state and passes its own on (bindings 7, 8).
 // Numerics: per Gaussian (once per batch entry and lane) A = −½·a·log2e,
 // B = −b·log2e, C = −½·c·log2e and log2 o; per pixel q = dx·(A·dx + B·dy) +
 // C·dy² + log2 o (= log2(o·e^power); the dy terms once per Gaussian and lane),
@@ -89,6 +90,11 @@ layout(std430, binding = 4) writeonly buffer Depth { vec2 depth[]; };
 layout(binding = 5) uniform usamplerBuffer sky_texels;  // R32_UINT: RGBA8 sky texels
 // Tiles whose loops reached p.loop_budget (see below); zeroed by the host before the blend.
 layout(std430, binding = 6) buffer Status { uint status; };
+// A frame in depth slices (p.carry, engine/splat/depth_slices.h): each pixel's blend state
+// between slices, (C, T) and (Σ depth·w, median). Nearer slices blend first, so the pixel sees
+// the whole frame's Gaussians in the same order and the same operations as in one pass.
+layout(std430, binding = 7) buffer CarryColor { vec4 carry_color[]; };
+layout(std430, binding = 8) buffer CarryDepth { vec2 carry_depth[]; };
 
 vec3 sky_texel(int x, int y) { return unpackUnorm4x8(texelFetch(sky_texels, int(uint(y) * p.sky_w + uint(x))).x).xyz; }
 vec4 record(uint t) { return uintBitsToFloat(texelFetch(records, int(t))); }
@@ -258,6 +264,17 @@ void main() {
     wz[j] = 0.0;
     median[j] = 0.0;
     C[j] = vec3(0.0);
+    const uint u = u0 + uint(j);
+    if ((p.carry & SPLAT_CARRY_IN) != 0u && u < p.width && v < p.height) {
+      const uint pix = v * p.width + u;
+      const vec4 c = carry_color[pix];
+      C[j] = c.xyz;
+      T[j] = c.w;
+      if (SPLAT_DEPTH) {
+        wz[j] = carry_depth[pix].x;
+        median[j] = carry_depth[pix].y;
+      }
+    }
   }
   const uvec2 range = ranges[tile];
   // Loop iterations of this invocation (all lanes run the loops together: uniform exits). With
@@ -325,6 +342,11 @@ void main() {
     const uint u = u0 + uint(j);
     if (u >= p.width) break;
     const uint pix = v * p.width + u;
+    if ((p.carry & SPLAT_CARRY_OUT) != 0u) {  // a nearer slice: the state for the next one
+      carry_color[pix] = vec4(C[j], T[j]);
+      if (SPLAT_DEPTH) carry_depth[pix] = vec2(wz[j], median[j]);
+      continue;
+    }
     const float t = abs(T[j]);
     rgba[pix] = vec4(C[j] + t * splat_sky(float(u) + p.pixel_offset, py), 1.0 - t);
     // median[j] holds the depth of the last Gaussian blended while T > 0.5: the one whose blend
