@@ -37,6 +37,7 @@
 #include <CLI/CLI.hpp>
 
 #include <cmath>
+#include <unistd.h>
 #include <optional>
 #include <cstdio>
 #include <map>
@@ -163,6 +164,29 @@ struct RandomWeightsArgs {
   double scale_factor = 0.0;
 };
 
+// The model's parameters and the memory random-weights needs (every tensor as float32, and its
+// copy for the file), checked against this machine's memory before anything is allocated.
+void check_random_weights_size(const std::vector<nn::ParamSpec>& specs, const std::string& config, bool vae) {
+  double params = 0.0;
+  for (const nn::ParamSpec& s : specs) {
+    double n = 1.0;
+    for (const int64_t d : s.shape) n *= static_cast<double>(d);
+    params += n;
+  }
+  const double need = params * 4.0 * 2.0;
+  const long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGESIZE);
+  const double have = pages > 0 && page > 0 ? static_cast<double>(pages) * static_cast<double>(page) : 0.0;
+  if (have > 0.0 && need > 0.8 * have) {
+    char text[320];
+    std::snprintf(text, sizeof(text),
+                  "%s: %.3g parameters need ~%.3g GiB to generate and write (float32 and the file's copy), over 80 %% "
+                  "of this machine's %.1f GiB; reduce %s",
+                  config.c_str(), params, need / double(1ull << 30), have / double(1ull << 30),
+                  vae ? "the VAE's channel counts (its config's channel keys)" : "model_channels (or channel_mult, num_res_blocks)");
+    throw std::invalid_argument(text);
+  }
+}
+
 void cmd_random_weights(const RandomWeightsArgs& a) {
   run_command([&](scene::Diagnostics&) {
     if (a.model.empty() == a.vae_model.empty()) throw std::invalid_argument("give --model (a UNet) or --vae-model (a VAE)");
@@ -171,6 +195,7 @@ void cmd_random_weights(const RandomWeightsArgs& a) {
     const std::vector<nn::ParamSpec> specs = a.model.empty()
                                                  ? nn::vae_param_specs(nn::load_vae_config(a.vae_model), nn::VaePart::All)
                                                  : nn::UNetReference(nn::load_unet_config(a.model)).parameters();
+    check_random_weights_size(specs, a.model.empty() ? a.vae_model : a.model, a.model.empty());
     std::vector<nn::TensorToWrite> tensors;
     uint64_t params = 0;
     for (const auto& [name, w] : nn::random_weights(specs, a.seed)) {

@@ -8,6 +8,7 @@
 #include <nlohmann/json.hpp>
 
 #include <functional>
+#include <stdexcept>
 #include <map>
 
 namespace icube::nn {
@@ -15,6 +16,21 @@ namespace icube::nn {
 using json = nlohmann::json;
 
 UNetConfig infinicube_diffusion_config() { return UNetConfig{}; }
+
+void check_unet_grid(const UNetConfig& c, int64_t X, int64_t Y, int64_t Z) {
+  const int64_t m = c.grid_multiple();
+  const int64_t dims[3] = {X, Y, Z};
+  for (int a = 0; a < 3; ++a) {
+    if (dims[a] >= m && dims[a] % m == 0) continue;
+    const int64_t down = dims[a] / m * m, up = (dims[a] / m + 1) * m;
+    throw std::invalid_argument(
+        "UNet: input grid " + std::to_string(X) + "x" + std::to_string(Y) + "x" + std::to_string(Z) + ": axis " +
+        "XYZ"[a] + " (" + std::to_string(dims[a]) + ") must be a positive multiple of " + std::to_string(m) +
+        " (the model halves the grid " + std::to_string(c.channel_mult.size() - 1) + " times, channel_mult has " +
+        std::to_string(c.channel_mult.size()) + " levels); pad or crop it to " +
+        (down > 0 ? std::to_string(down) + " or " : std::string()) + std::to_string(up));
+  }
+}
 
 UNetConfig parse_unet_config(const std::string& text, const std::string& source) {
   json j;

@@ -38,7 +38,14 @@ struct UNetConfig {
 
   int outputs() const { return out_channels < 0 ? in_channels : out_channels; }
   int time_embed_dim() const { return 4 * model_channels; }
+  // Every axis of the input grid is a multiple of this: the model halves it once per level
+  // after the first (len(channel_mult) - 1 times).
+  int64_t grid_multiple() const { return int64_t{1} << (channel_mult.empty() ? 0 : channel_mult.size() - 1); }
 };
+
+// Throws std::invalid_argument when an axis of the X x Y x Z input grid is not a multiple of
+// c.grid_multiple(), naming the axis, the rule and the nearest sizes that follow it.
+void check_unet_grid(const UNetConfig& c, int64_t X, int64_t Y, int64_t Z);
 
 // Parses JSON text; `source` names the file in errors.
 UNetConfig parse_unet_config(const std::string& json_text, const std::string& source);

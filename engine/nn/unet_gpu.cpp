@@ -268,6 +268,7 @@ CpuTensor UNetGpu::forward(const CpuTensor& x, const std::vector<int64_t>& t, co
     throw std::invalid_argument("UNet: input " + x.shape_text() + " is not [B, " + std::to_string(c.in_channels) + ", X, Y, Z]");
   if (static_cast<int64_t>(t.size()) != x.dim(0))
     throw std::invalid_argument("UNet: " + std::to_string(t.size()) + " timesteps for a batch of " + std::to_string(x.dim(0)));
+  check_unet_grid(c, x.dim(2), x.dim(3), x.dim(4));
   m.alive.clear();
   m.pool.reset();
   const CpuTensor t_emb = cpu::timestep_embedding(t, c.model_channels);

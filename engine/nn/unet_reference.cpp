@@ -360,6 +360,7 @@ CpuTensor UNetReference::forward(const CpuTensor& x, const std::vector<int64_t>&
                                 ", X, Y, Z]");
   if (static_cast<int64_t>(t.size()) != x.dim(0))
     throw std::invalid_argument("UNet: " + std::to_string(t.size()) + " timesteps for a batch of " + std::to_string(x.dim(0)));
+  check_unet_grid(config_, x.dim(2), x.dim(3), x.dim(4));
   const CpuTensor t_emb = cpu::timestep_embedding(t, config_.model_channels);
   const CpuTensor emb = cpu::linear(cpu::silu(cpu::linear(t_emb, w("time_embed.0.weight"), &w("time_embed.0.bias"))),
                                     w("time_embed.2.weight"), &w("time_embed.2.bias"));

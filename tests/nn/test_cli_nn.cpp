@@ -8,6 +8,8 @@
 #include "gpu_test_context.h"
 #include "nn/layers_cpu.h"
 #include "nn/safetensors.h"
+#include "nn/unet_config.h"
+#include "nn/unet_reference.h"
 #include "scene/atomic_file.h"
 #include "world/npy.h"
 
@@ -94,4 +96,33 @@ TEST_CASE("cli: icube nn forward reproduces unet_small and dumps its layers; bad
   r = test::run_icube("nn info '" + dir + "/weights.safetensors' --model infinicube-diffusion", tmp.path);
   CHECK(r.code != 0);
   CHECK(r.output.find("tensor 'time_embed.0.weight': shape [128, 32], the model needs [768, 192]") != std::string::npos);
+}
+
+TEST_CASE("cli: icube nn random-weights checks the model's size before allocating; the UNet states its grid rule") {
+  test::TempDir tmp("cli-nn-random-size");
+  // The released structure with a million channels: ~1e13 parameters, refused by name at once.
+  const std::string cfg = (tmp.path / "huge.json").string();
+  scene::write_file_atomic(cfg, R"({"unet_kwargs": {"image_size": 64, "num_input_channels": 16, "out_channels": 8,
+    "model_channels": 1000000, "num_res_blocks": 1, "attention_resolutions": [], "channel_mult": [1, 1, 1, 1],
+    "num_heads": 4, "use_scale_shift_norm": true, "resblock_updown": true, "legacy": true, "dropout": 0.0}})");
+  const std::string out = (tmp.path / "w.safetensors").string();
+  const test::CliRun r = test::run_icube("nn random-weights --model '" + cfg + "' -o '" + out + "'", tmp.path);
+  CHECK(r.code != 0);
+  CHECK(r.output.find("huge.json: ") != std::string::npos);
+  CHECK(r.output.find("parameters need") != std::string::npos);
+  CHECK(r.output.find("reduce model_channels") != std::string::npos);
+  CHECK(r.output.find("bad_alloc") == std::string::npos);
+  CHECK(!std::filesystem::exists(out));
+  // A grid that the model's downsampling does not divide: the rule and the nearest sizes.
+  const nn::UNetConfig c = nn::load_unet_config("infinicube-diffusion-tiny");
+  CHECK(c.grid_multiple() == 8);
+  CHECK_NOTHROW(nn::check_unet_grid(c, 8, 16, 64));
+  CHECK_THROWS_WITH(nn::check_unet_grid(c, 7, 8, 8),
+                    doctest::Contains("input grid 7x8x8: axis X (7) must be a positive multiple of 8 (the model halves "
+                                      "the grid 3 times, channel_mult has 4 levels); pad or crop it to 8"));
+  CHECK_THROWS_WITH(nn::check_unet_grid(c, 8, 8, 12), doctest::Contains("axis Z (12) must be a positive multiple of 8"));
+  CHECK_THROWS_WITH(nn::check_unet_grid(c, 8, 8, 12), doctest::Contains("pad or crop it to 8 or 16"));
+  // Through the reference forward: the check comes before any layer.
+  nn::UNetReference ref(c);
+  CHECK_THROWS_WITH(ref.forward(nn::CpuTensor({1, 16, 7, 8, 8}), {10}), doctest::Contains("must be a positive multiple of 8"));
 }
