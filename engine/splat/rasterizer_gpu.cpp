@@ -18,7 +18,7 @@ constexpr uint32_t kLocal = 64;  // non-cooperative kernels: any multiple of the
 constexpr uint64_t kBlendInvocationsPerTile = SPLAT_TILE_PIXELS / SPLAT_BLEND_PIXELS;  // splat/blend.comp
 
 gpu::SpecConstants local_size() { return gpu::SpecConstants{}.set(0, kLocal /* local_size_x */); }
-gpu::SpecConstants blend_spec(const gpu::Context& ctx, kernels::SubgroupOps votes, bool depth) {
+gpu::SpecConstants blend_spec(const gpu::Context& ctx, kernels::SubgroupOps votes, bool depth, bool carry = false) {
   // Ballots and votes by constant-index shuffles need the whole (at most 16-lane) subgroup
   // inside the tile's workgroup.
   const uint32_t sg = ctx.subgroup_size();
@@ -26,7 +26,8 @@ gpu::SpecConstants blend_spec(const gpu::Context& ctx, kernels::SubgroupOps vote
   return gpu::SpecConstants{}
       .set(0, static_cast<uint32_t>(kBlendInvocationsPerTile) /* local_size_x: one tile per workgroup */)
       .set(1, depth /* SPLAT_DEPTH */)
-      .set(2, kernels::shuffle_lanes(ctx, votes, fits, "splat blend") /* SPLAT_LANES */);
+      .set(2, kernels::shuffle_lanes(ctx, votes, fits, "splat blend") /* SPLAT_LANES */)
+      .set(3, carry /* SPLAT_CARRY */);
 }
 
 }  // namespace
@@ -338,7 +339,11 @@ void SplatRendererGpu::record_blend(gpu::CommandList& cmd, const SplatFramePlan&
     bindings.push_back(carry ? f.carry_color.binding(0, pixels * 16) : gpu::null_binding());
     bindings.push_back(carry && p.opts.depth ? f.carry_depth.binding(0, pixels * 8) : gpu::null_binding());
   }
-  cmd.dispatch(p.opts.depth ? blend_ : blend_color_, {uint64_t{p.tiles} * kBlendInvocationsPerTile}, p.blend, bindings);
+  // Slices: the pipeline with the carried state (made on first use); one pass: without it.
+  gpu::Program& blend = p.blend.carry != 0 ? ctx_.program("splat/blend", blend_spec(ctx_, variant_.votes, p.opts.depth, true))
+                        : p.opts.depth     ? blend_
+                                           : blend_color_;
+  cmd.dispatch(blend, {uint64_t{p.tiles} * kBlendInvocationsPerTile}, p.blend, bindings);
   t2_->end(cmd, tb);
   if (tile_blend) {
     cmd.barrier(gpu::deps::kComputeToTransfer);  // the copy reads the blend's status

@@ -45,8 +45,9 @@
 // lavapipe's subgroupBallot / subgroupAny are scalar loops over the lanes; GPUs
 // (SPLAT_LANES = 0) use the intrinsics. No shared memory or barriers (slow on
 // lavapipe). The spec constant SPLAT_DEPTH = false leaves the depth outputs
-// out (SplatOptions::depth). A frame in depth slices (p.carry) starts each
-// pixel from the nearer slices' state and passes its own on (bindings 7, 8).
+// out (SplatOptions::depth). A frame in depth slices (SPLAT_CARRY, p.carry)
+// starts each pixel from the nearer slices' state and passes its own on
+// (bindings 7, 8).
 // Numerics: per Gaussian (once per batch entry and lane) A = −½·a·log2e,
 // B = −b·log2e, C = −½·c·log2e and log2 o; per pixel q = dx·(A·dx + B·dy) +
 // C·dy² + log2 o (= log2(o·e^power); the dy terms once per Gaussian and lane),
@@ -78,6 +79,9 @@ layout(constant_id = 1) const bool SPLAT_DEPTH = true;
 // and subgroupAny are scalar loops over the lanes with a store and a branch per lane). 0 (GPUs):
 // subgroupBallot / subgroupAny.
 layout(constant_id = 2) const uint SPLAT_LANES = 0;
+// true: a frame in depth slices (p.carry says in and out); false (one pass) leaves the carry
+// code out, so one-pass frames run the same code as before slices existed.
+layout(constant_id = 3) const bool SPLAT_CARRY = false;
 layout(push_constant) uniform Push { SplatBlendParams p; };
 layout(std430, binding = 0) readonly buffer Ranges { uvec2 ranges[]; };
 // Divergent (per-lane) loads go through texel buffers: on lavapipe a texel fetch is a
@@ -265,7 +269,7 @@ void main() {
     median[j] = 0.0;
     C[j] = vec3(0.0);
     const uint u = u0 + uint(j);
-    if ((p.carry & SPLAT_CARRY_IN) != 0u && u < p.width && v < p.height) {
+    if (SPLAT_CARRY && (p.carry & SPLAT_CARRY_IN) != 0u && u < p.width && v < p.height) {
       const uint pix = v * p.width + u;
       const vec4 c = carry_color[pix];
       C[j] = c.xyz;
@@ -342,7 +346,7 @@ void main() {
     const uint u = u0 + uint(j);
     if (u >= p.width) break;
     const uint pix = v * p.width + u;
-    if ((p.carry & SPLAT_CARRY_OUT) != 0u) {  // a nearer slice: the state for the next one
+    if (SPLAT_CARRY && (p.carry & SPLAT_CARRY_OUT) != 0u) {  // a nearer slice: the state for the next one
       carry_color[pix] = vec4(C[j], T[j]);
       if (SPLAT_DEPTH) carry_depth[pix] = vec2(wz[j], median[j]);
       continue;
