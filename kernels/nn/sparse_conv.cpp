@@ -93,10 +93,15 @@ void SparseConv3d::record(gpu::CommandList& cmd, const SparseConvShape& s, const
   constexpr uint64_t kMaxChannelsPerDispatch = 2048;
   const uint64_t usable = window_elements(ctx_, max_binding_bytes_);
   const uint64_t ci_window = std::min(usable / N, kMaxChannelsPerDispatch);
-  const uint64_t co_window = usable / N / NN_CONV_CO_TILE * NN_CONV_CO_TILE;
+  // Output windows of whole vec4 weight columns (co_begin a multiple of 4; the kernel stores only
+  // co_count channels of its 8-channel tile), so the largest grid one binding allows has 4 output
+  // channel planes in it: 8.4 M rows on lavapipe, a whole 256 x 256 x 128 chunk.
+  constexpr uint64_t kCoStep = 4;
+  const uint64_t co_window = usable / N / kCoStep * kCoStep;
   if (ci_window == 0 || co_window == 0)
-    throw std::invalid_argument("sparse conv: " + std::to_string(NN_CONV_CO_TILE) + " channels of " + std::to_string(N) +
-                                " rows exceed one storage binding");
+    throw std::invalid_argument("sparse conv: " + std::to_string(kCoStep) + " channels of " + std::to_string(N) +
+                                " rows exceed one storage binding (at most " + std::to_string(usable / kCoStep) +
+                                " rows on this device); use fewer voxels per chunk");
   // Row windows when the kernel map exceeds one binding (they write disjoint rows of y: no barrier
   // between them), then output and input channel windows as Conv3d.
   const uint64_t row_window = kmap_window_rows(ctx_);

@@ -142,6 +142,10 @@ TEST_CASE("sparse conv gpu: channel windows when the features exceed one binding
   // 2 KiB bindings: 40 rows x 12 channels run as windows of 8 output and 12 input channels.
   check_conv(test::random_sparse_grid(31, {-5, -5, -5}, {10, 10, 10}, 40), 30, 20, true, 1.0f, 32, 2048);
   check_conv(test::random_sparse_grid(34, {-5, -5, -5}, {10, 10, 10}, 40), 30, 20, true, 1.0f, 35, 2048, true);  // SiLU on the last window
+  // A binding of under 8 channel planes (40 rows x 4 channels of the window fit, not 8): windows of
+  // 4 output channels (the case of a 7.3 M-row decoded chunk on lavapipe's 128 MiB).
+  check_conv(test::random_sparse_grid(36, {-5, -5, -5}, {10, 10, 10}, 40), 9, 13, true, 1.0f, 37, 4 * 40 * 4 + 64);
+  check_conv(test::random_sparse_grid(38, {-5, -5, -5}, {10, 10, 10}, 40), 6, 5, true, 1.0f, 39, 4 * 40 * 4 + 64, true);
   const nn::SparseGrid g = test::random_sparse_grid(33, {0, 0, 0}, {4, 4, 4}, 10);
   gpu::Context& ctx = test::gpu_context();
   kernels::nn::SparseConv3d conv(ctx);
