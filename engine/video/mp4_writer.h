@@ -26,6 +26,9 @@ struct Mp4Options {
   double crf = 23.5;
   bool upstream_tuning = true;  // the g/bf/sc_threshold/qcomp/psy-rd/aq/me options above
   int threads = 0;              // x264 threads, 0 = automatic
+  // The same frames give the same bytes: x264's macroblock-tree rate control off (it does not
+  // repeat itself from run to run); a little larger files at the same CRF.
+  bool deterministic = true;
 };
 
 // Sets libav's log level to errors only (once per process); the writer and reader call it.
