@@ -133,7 +133,7 @@ SplatFramePlan SplatRendererGpu::plan(const GpuGaussians& g, const render::Camer
   SplatFramePlan p;
   p.gaussians = &g;
   p.opts = opts;
-  p.frame = make_frame(cam, opts, g.origin);
+  p.frame = make_frame(cam, opts, g.origin, band_of_ ? &band_of_->K : nullptr);
   validate_sky(opts.sky);
   p.width = cam.K.width;
   p.height = cam.K.height;
@@ -411,7 +411,7 @@ uint32_t SplatRendererGpu::run_slices(const GpuGaussians& g, const render::Camer
   if (!variant_.tile_blend)
     throw std::invalid_argument("splat: a frame over one pass (depth slices) needs the tile blend (SplatGpuVariant::tile_blend)");
   SplatFrameBuffers& f = *f_;
-  const SplatFrame frame = make_frame(cam, opts, g.origin);
+  const SplatFrame frame = make_frame(cam, opts, g.origin, band_of_ ? &band_of_->K : nullptr);
   const std::vector<DepthSlice> slices =
       slicer_.plan(g, frame, opts.depth_key_bits, gaussians_per_pass(), instances_per_pass());
   const uint64_t pixels = uint64_t{cam.K.width} * cam.K.height;
@@ -440,8 +440,60 @@ uint32_t SplatRendererGpu::run_slices(const GpuGaussians& g, const render::Camer
   return static_cast<uint32_t>(slices.size());
 }
 
+SplatImage SplatRendererGpu::render_bands(const GpuGaussians& g, const render::Camera& cam, const SplatOptions& opts,
+                                          SplatTimings* timings, SplatDebug* debug, bool download) {
+  const auto t0 = std::chrono::steady_clock::now();
+  const uint64_t W = cam.K.width, H = cam.K.height, limit = ctx_.info().max_storage_buffer_range;
+  if (!download)
+    throw std::invalid_argument("splat: a " + std::to_string(W) + "x" + std::to_string(H) +
+                                " image exceeds one storage binding and is rendered in bands: download it");
+  if (debug) throw std::invalid_argument("splat: stage-by-stage debug output is for frames of one pass");
+  const uint64_t rows = limit / 16 / W / SPLAT_TILE * SPLAT_TILE;  // whole tile rows of RGBA floats per band
+  if (rows == 0)
+    throw std::invalid_argument("splat: one row of 16x16 tiles of a " + std::to_string(W) +
+                                "-pixel-wide image exceeds one storage binding (" + std::to_string(limit) +
+                                " bytes); render at most " + std::to_string(limit / 16 / SPLAT_TILE) + " pixels wide");
+  SplatImage img;
+  img.width = cam.K.width;
+  img.height = cam.K.height;
+  img.rgba.assign(W * H * 4, 0.0f);
+  if (opts.depth) img.depth.assign(W * H * 2, 0.0f);
+  SplatTimings sum;
+  for (uint64_t y0 = 0; y0 < H; y0 += rows) {
+    render::Camera band = cam;  // rows [y0, y0 + h): the principal point moved up by y0
+    band.K.height = static_cast<uint32_t>(std::min(rows, H - y0));
+    band.K.cy = cam.K.cy - static_cast<double>(y0);
+    SplatTimings t;
+    band_of_ = &cam;  // the Jacobian clamp of the whole image
+    SplatImage b;
+    try {
+      b = render(g, band, opts, &t, nullptr, true);
+    } catch (...) {
+      band_of_ = nullptr;
+      throw;
+    }
+    band_of_ = nullptr;
+    std::copy(b.rgba.begin(), b.rgba.end(), img.rgba.begin() + static_cast<ptrdiff_t>(y0 * W * 4));
+    if (opts.depth) std::copy(b.depth.begin(), b.depth.end(), img.depth.begin() + static_cast<ptrdiff_t>(y0 * W * 2));
+    sum.preprocess_ms += t.preprocess_ms;
+    sum.depth_sort_ms += t.depth_sort_ms;
+    sum.sort_ms += t.sort_ms;
+    sum.blend_ms += t.blend_ms;
+    sum.instances += t.instances;
+    sum.slices += t.slices;
+    sum.binning_fallback = sum.binning_fallback || t.binning_fallback;
+    sum.frame_bytes = std::max(sum.frame_bytes, t.frame_bytes);
+    ++sum.bands;
+  }
+  sum.wall_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  if (timings) *timings = sum;
+  return img;
+}
+
 SplatImage SplatRendererGpu::render(const GpuGaussians& g, const render::Camera& cam, const SplatOptions& opts,
                                     SplatTimings* timings, SplatDebug* debug, bool download) {
+  if (uint64_t{cam.K.width} * cam.K.height * 16 > ctx_.info().max_storage_buffer_range)
+    return render_bands(g, cam, opts, timings, debug, download);
   const auto t0 = std::chrono::steady_clock::now();
   SplatFramePlan p = plan(g, cam, opts);
   PassTimes pt;

@@ -58,9 +58,10 @@
 // keys each fit one storage binding and one texel-buffer view (lavapipe: 2.79 M
 // Gaussians, 33.5 M instances; gaussians_per_pass, instances_per_pass); render()
 // blends a larger frame in depth slices of at most that size (depth_slices.h),
-// the same image, so the Gaussians are limited by device memory. Images of more
-// than 65,535 tile columns or rows (SplatBinRecord packs tile coordinates in 16
-// bits) or whose RGBA floats exceed one binding fail with a clear message.
+// the same image, so the Gaussians are limited by device memory. An image whose
+// RGBA floats exceed one binding is rendered in bands of tile rows (downloaded
+// images only). Images of more than 65,535 tile columns or rows (SplatBinRecord
+// packs tile coordinates in 16 bits) fail with a clear message.
 // Tests: tests/splat/test_splat.cpp, tests/splat/test_splat_stages.cpp; benchmark: bench/bench_splat.cpp.
 #pragma once
 
@@ -110,6 +111,7 @@ struct SplatTimings {
   uint32_t binning_chunks = 0;    // counting binning: its chunk count C (0: the radix path binned the frame)
   bool binning_fallback = false;  // the counting walks were cut short and the radix path re-binned the frame
   uint32_t slices = 0;            // depth slices the frame was blended in (depth_slices.h; 0: one pass)
+  uint32_t bands = 0;             // bands of tile rows an image over one binding was rendered in (0: whole)
 };
 
 // Intermediate results for tests.
@@ -250,6 +252,11 @@ class SplatRendererGpu {
   void run_preprocess(SplatFramePlan& p, PassTimes& t, bool after_gather);
   // Submission 2 (binning + blend), again with the radix path when the counting walks were cut short.
   void run_bin_blend(SplatFramePlan& p, PassTimes& t);
+  // An image whose RGBA floats exceed one binding: bands of whole tile rows, each a frame of its
+  // own with the principal point moved (the same pixels up to float rounding of the projected
+  // means, ~1e-5 px), stitched on the host.
+  SplatImage render_bands(const GpuGaussians& g, const render::Camera& cam, const SplatOptions& opts,
+                          SplatTimings* timings, SplatDebug* debug, bool download);
   // A frame over one pass: its depth slices one after another into buffers().rgba / depth.
   uint32_t run_slices(const GpuGaussians& g, const render::Camera& cam, const SplatOptions& opts, PassTimes& t);
 
@@ -264,6 +271,7 @@ class SplatRendererGpu {
   kernels::RadixSort depth_sort_;
   TileBinningGpu counting_binning_;
   DepthSlicer slicer_;
+  const render::Camera* band_of_ = nullptr;  // render_bands: the whole image a band belongs to
   std::unique_ptr<SplatFrameBuffers> f_;
   std::unique_ptr<gpu::GpuTimer> t1_, t2_;  // preprocess + depth sort; binning + blend
 };

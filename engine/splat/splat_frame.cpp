@@ -10,7 +10,8 @@
 
 namespace icube::splat {
 
-SplatFrame make_frame(const render::Camera& cam, const SplatOptions& opts, const glm::dvec3& origin) {
+SplatFrame make_frame(const render::Camera& cam, const SplatOptions& opts, const glm::dvec3& origin,
+                      const render::PinholeIntrinsics* clamp_image) {
   render::validate_camera(cam);
   if (opts.depth_key_bits != 32 && opts.depth_key_bits != 16)
     throw std::invalid_argument("splat: depth_key_bits must be 32 or 16, not " + std::to_string(opts.depth_key_bits));
@@ -35,11 +36,12 @@ SplatFrame make_frame(const render::Camera& cam, const SplatOptions& opts, const
   p.fy = static_cast<float>(K.fy);
   p.cx = static_cast<float>(K.cx);
   p.cy = static_cast<float>(K.cy);
-  const double tan_x = 0.5 * K.width / K.fx, tan_y = 0.5 * K.height / K.fy;
-  p.lim_x_pos = static_cast<float>((K.width - K.cx) / K.fx + 0.3 * tan_x);
-  p.lim_x_neg = static_cast<float>(K.cx / K.fx + 0.3 * tan_x);
-  p.lim_y_pos = static_cast<float>((K.height - K.cy) / K.fy + 0.3 * tan_y);
-  p.lim_y_neg = static_cast<float>(K.cy / K.fy + 0.3 * tan_y);
+  const render::PinholeIntrinsics& C = clamp_image ? *clamp_image : K;
+  const double tan_x = 0.5 * C.width / C.fx, tan_y = 0.5 * C.height / C.fy;
+  p.lim_x_pos = static_cast<float>((C.width - C.cx) / C.fx + 0.3 * tan_x);
+  p.lim_x_neg = static_cast<float>(C.cx / C.fx + 0.3 * tan_x);
+  p.lim_y_pos = static_cast<float>((C.height - C.cy) / C.fy + 0.3 * tan_y);
+  p.lim_y_neg = static_cast<float>(C.cy / C.fy + 0.3 * tan_y);
   p.near_z = static_cast<float>(opts.near_z);
   p.far_z = static_cast<float>(std::min(opts.far_z, 3.0e38));
   p.eps2d = opts.eps2d;

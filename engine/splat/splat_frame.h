@@ -47,7 +47,10 @@ struct SplatFrame {
 };
 // `origin`: the scene origin the GPU positions are relative to (the CPU reference passes 0 and
 // uses double camera-relative positions instead).
-SplatFrame make_frame(const render::Camera& cam, const SplatOptions& opts, const glm::dvec3& origin);
+// `clamp_image`: the image whose frustum the Jacobian clamp follows (default cam.K); a band of a
+// larger image (SplatRendererGpu) passes the whole image's, so its Gaussians project as there.
+SplatFrame make_frame(const render::Camera& cam, const SplatOptions& opts, const glm::dvec3& origin,
+                      const render::PinholeIntrinsics* clamp_image = nullptr);
 
 struct SplatImage {
   uint32_t width = 0, height = 0;

@@ -5,8 +5,9 @@
 // of several thousand Gaussians rendered in slices against the same frames in one pass on the
 // uncapped device: the same RGBA and depth bit for bit (SH degrees 1 and 3, 16-bit keys, depth
 // off, a gradient sky, 100 km from the origin, a frame sliced for its tile instances alone,
-// every Gaussian behind the camera), any slicing of one frame the same image, and a key shared
-// by more Gaussians than a pass refused by name.
+// every Gaussian behind the camera), any slicing of one frame the same image, an image over one
+// binding rendered in bands of tile rows (within float rounding), and a key shared by more
+// Gaussians than a pass refused by name.
 #include <doctest/doctest.h>
 
 #include "gpu_test_context.h"
@@ -16,6 +17,7 @@
 #include "splat/sky.h"
 #include "test_splat_util.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -220,6 +222,39 @@ TEST_CASE("depth slices gpu: a frame of few Gaussians with more tile instances t
   CHECK(r.t_whole.instances > kCap / 4);
   CHECK(r.t_sliced.slices >= 2);
   check_same(r, o);
+}
+
+TEST_CASE("depth slices gpu: an image over one binding is rendered in bands of tile rows") {
+  // 100 x 90 px = 144,000 bytes of RGBA floats: bands of 32 rows (the last 26), sliced too.
+  const render::Camera cam = test::look_at_camera({0.0, -9.0, 1.5}, {0.0, 0.0, 0.0}, 100, 90, 80.0, 3.5, -1.0);
+  const splat::GaussianCloud cloud = test::random_cloud(17, 3001, 1, glm::dvec3(0.0), 3.0, -4.0, -1.5);
+  splat::SplatOptions o;
+  o.sky = splat::sky_gradient();
+  const SliceRun r = render_both(cloud, cam, o);
+  CHECK(r.t_sliced.bands == 3);
+  CHECK(r.t_sliced.slices >= 2);
+  CHECK(r.t_whole.bands == 0);
+  // The bands move the principal point by whole tile rows: the projected means round differently
+  // in the last bits, so the pixels agree within float rounding, not bit for bit.
+  size_t bad = 0;
+  double worst = 0.0;
+  for (size_t i = 0; i < r.whole.rgba.size(); ++i) {
+    const double d = std::fabs(double(r.sliced.rgba[i]) - double(r.whole.rgba[i]));
+    worst = std::max(worst, d);
+    if (d > 1e-4 + 1e-4 * std::fabs(double(r.whole.rgba[i])) && ++bad <= 5)
+      MESSAGE("rgba[" << i << "]: bands " << r.sliced.rgba[i] << ", whole " << r.whole.rgba[i]);
+  }
+  for (size_t i = 0; i < r.whole.depth.size(); ++i)
+    if (std::fabs(double(r.sliced.depth[i]) - double(r.whole.depth[i])) > 1e-3 + 1e-4 * std::fabs(double(r.whole.depth[i])))
+      ++bad;
+  MESSAGE("bands vs one image: max |rgba difference| " << worst);
+  CHECK(bad == 0);
+  splat::SplatRendererGpu capped(capped_context());
+  CHECK_THROWS_WITH(capped.render(capped.upload(cloud), cam, o, nullptr, nullptr, false),
+                    doctest::Contains("is rendered in bands: download it"));
+  render::Camera wide = cam;
+  wide.K.width = 300;  // 300 x 16 px x 16 B > 64 KiB: not even one tile row fits
+  CHECK_THROWS_WITH(capped.render(capped.upload(cloud), wide, o), doctest::Contains("render at most 256 pixels wide"));
 }
 
 TEST_CASE("depth slices gpu: more Gaussians at one depth than a pass takes are refused by name") {
