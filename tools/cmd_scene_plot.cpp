@@ -169,7 +169,8 @@ void add_scene_plot_commands(CLI::App& scene_cmd) {
                "write the scene with 10 Hz ego poses and a front camera as icube scene JSON");
   add_input_options(*route, ra->file, ra->record);
   route->add_option("-o,--output", ra->output, "Output path of the scene JSON")->required()->type_name("scene.json");
-  route->add_option("--length", ra->route.length_m, "Drive length in metres (less if the lanes end first)")
+  route->add_option("--length", ra->route.length_m,
+                    "Drive length in metres (less only if no drive that long exists from the start lane)")
       ->type_name("M")
       ->check(CLI::Range(0.1, 1.0e6))
       ->capture_default_str();
@@ -186,9 +187,10 @@ void add_scene_plot_commands(CLI::App& scene_cmd) {
   route->add_option("--plot", ra->plot_output, "Also draw the route to this PNG (boxes at the middle of the drive)")
       ->type_name("route.png");
   route->footer(
-      "Lanes connect through their exit lanes and, where a map has no links, when one ends within 0.5 m of "
-      "another's start with headings within 30 degrees. The camera is the Waymo-FRONT-like preset at 832x480, "
-      "1.8 m above the lane centre line.");
+      "Lanes connect through their exit lanes (OpenDRIVE: road, lane and junction links) and, where a lane has "
+      "none, when it ends within 0.5 m of another's start with headings within 30 degrees. The drive is planned "
+      "ahead: the start lane and every fork are drawn among the lanes from which the rest of the length can still "
+      "be driven. The camera is the Waymo-FRONT-like preset at 832x480, 1.8 m above the lane centre line.");
   route->callback([ra, start] { cmd_route(*ra, start->count() > 0); });
 }
 

@@ -117,6 +117,110 @@ std::vector<double> smooth(const std::vector<double>& v, double step, double sig
   return out;
 }
 
+double link_gap(const Lane& from, const Lane& to) { return glm::length(to.points.front() - from.points.back()); }
+
+// Strongly connected components of the lane graph, each listed before every
+// component that leads to it (Tarjan's algorithm, without recursion: a chain
+// of thousands of lanes would overflow the stack).
+std::vector<std::vector<size_t>> components_sinks_first(const std::vector<std::vector<size_t>>& succ) {
+  constexpr size_t kUnseen = static_cast<size_t>(-1);
+  const size_t n = succ.size();
+  std::vector<size_t> index(n, kUnseen), low(n, 0), stack;
+  std::vector<bool> on_stack(n, false);
+  std::vector<std::pair<size_t, size_t>> calls;  // lane, next successor to visit
+  std::vector<std::vector<size_t>> out;
+  size_t counter = 0;
+  auto open = [&](size_t v) {
+    index[v] = low[v] = counter++;
+    stack.push_back(v);
+    on_stack[v] = true;
+    calls.emplace_back(v, 0);
+  };
+  for (size_t root = 0; root < n; ++root) {
+    if (index[root] != kUnseen) continue;
+    open(root);
+    while (!calls.empty()) {
+      const size_t v = calls.back().first;
+      if (calls.back().second < succ[v].size()) {
+        const size_t w = succ[v][calls.back().second++];
+        if (index[w] == kUnseen) open(w);
+        else if (on_stack[w]) low[v] = std::min(low[v], index[w]);
+        continue;
+      }
+      calls.pop_back();
+      if (!calls.empty()) low[calls.back().first] = std::min(low[calls.back().first], low[v]);
+      if (low[v] != index[v]) continue;
+      std::vector<size_t>& component = out.emplace_back();
+      size_t w;
+      do {
+        w = stack.back();
+        stack.pop_back();
+        on_stack[w] = false;
+        component.push_back(w);
+      } while (w != v);
+    }
+  }
+  return out;
+}
+
+// For every lane, the longest drive (metres, capped at `cap`) that starts at
+// its first point: its own length, then the gap to a successor's first point
+// and that successor's reach. A lane on a cycle can be driven round for ever
+// and reaches the cap.
+std::vector<double> drivable_reach(const std::vector<Lane>& lanes, const std::vector<std::vector<size_t>>& succ,
+                                   double cap) {
+  std::vector<double> reach(lanes.size(), 0.0);
+  for (const std::vector<size_t>& component : components_sinks_first(succ)) {
+    const size_t v = component.front();
+    const bool cycle = component.size() > 1 || std::find(succ[v].begin(), succ[v].end(), v) != succ[v].end();
+    if (cycle) {
+      for (size_t w : component) reach[w] = cap;
+      continue;
+    }
+    double beyond = 0.0;  // successors lie in components already done
+    for (size_t w : succ[v]) beyond = std::max(beyond, link_gap(lanes[v], lanes[w]) + reach[w]);
+    reach[v] = std::min(cap, polyline_length(lanes[v].points) + beyond);
+  }
+  return reach;
+}
+
+constexpr double kReachSlack = 1e-6;  // metres of rounding allowed when comparing reaches
+
+// The lane to drive after `cur`: seeded among the successors from which the
+// remaining metres can still be driven, else among those that go furthest.
+size_t choose_successor(const std::vector<Lane>& lanes, size_t cur, const std::vector<size_t>& next,
+                        const std::vector<double>& reach, double remaining, uint64_t& rng) {
+  std::vector<double> via(next.size());
+  double furthest = 0.0;
+  for (size_t k = 0; k < next.size(); ++k) {
+    via[k] = link_gap(lanes[cur], lanes[next[k]]) + reach[next[k]];
+    furthest = std::max(furthest, via[k]);
+  }
+  const double needed = std::min(remaining, furthest) - kReachSlack;
+  std::vector<size_t> fit;
+  for (size_t k = 0; k < next.size(); ++k)
+    if (via[k] >= needed) fit.push_back(next[k]);
+  return fit[pick(rng, fit.size())];
+}
+
+// The lanes a drive may start on: car lanes (any lanes when the map has none)
+// from which the whole length can be driven, else those that go furthest.
+std::vector<size_t> start_candidates(const std::vector<Lane>& lanes, const std::vector<double>& reach, double length) {
+  std::vector<size_t> pool;
+  for (size_t i = 0; i < lanes.size(); ++i)
+    if (usable(lanes[i]) && lanes[i].type != LaneType::BikeLane) pool.push_back(i);
+  if (pool.empty())
+    for (size_t i = 0; i < lanes.size(); ++i)
+      if (usable(lanes[i])) pool.push_back(i);
+  double furthest = 0.0;
+  for (size_t i : pool) furthest = std::max(furthest, reach[i]);
+  const double needed = std::min(length, furthest) - kReachSlack;
+  std::vector<size_t> out;
+  for (size_t i : pool)
+    if (reach[i] >= needed) out.push_back(i);
+  return out;
+}
+
 }  // namespace
 
 std::vector<std::vector<size_t>> lane_successors(const Map& map, const RouteOptions& options) {
@@ -139,12 +243,8 @@ std::vector<std::vector<size_t>> lane_successors(const Map& map, const RouteOpti
   for (size_t j = 0; j < n; ++j)
     if (ok[j]) starts.emplace(key(lanes[j].points.front().x, lanes[j].points.front().y), j);
   const double cos_limit = std::cos(options.connect_angle_deg * std::numbers::pi / 180.0);
-  for (size_t i = 0; i < n; ++i) {
-    if (!ok[i]) continue;
-    for (int64_t id : lanes[i].exit_lanes) {
-      auto it = by_id.find(id);
-      if (it != by_id.end() && ok[it->second]) succ[i].push_back(it->second);
-    }
+  // Lanes starting near lane i's end, heading the same way.
+  auto add_nearby_starts = [&](size_t i, std::vector<size_t>& out) {
     const glm::dvec3 end = lanes[i].points.back();
     const glm::dvec2 dir = end_direction(lanes[i].points, true);
     for (int ox = -1; ox <= 1; ++ox)
@@ -154,9 +254,17 @@ std::vector<std::vector<size_t>> lane_successors(const Map& map, const RouteOpti
           const size_t j = it->second;
           if (j == i || glm::length(lanes[j].points.front() - end) > options.connect_distance_m) continue;
           if (glm::dot(dir, end_direction(lanes[j].points, false)) < cos_limit) continue;
-          succ[i].push_back(j);
+          out.push_back(j);
         }
       }
+  };
+  for (size_t i = 0; i < n; ++i) {
+    if (!ok[i]) continue;
+    for (int64_t id : lanes[i].exit_lanes) {
+      auto it = by_id.find(id);
+      if (it != by_id.end() && ok[it->second]) succ[i].push_back(it->second);
+    }
+    if (succ[i].empty()) add_nearby_starts(i, succ[i]);
     std::sort(succ[i].begin(), succ[i].end());
     succ[i].erase(std::unique(succ[i].begin(), succ[i].end()), succ[i].end());
   }
@@ -168,6 +276,7 @@ Scene sample_route(const Scene& in, const RouteOptions& options, RouteReport* re
   const std::string file = source_name(in);
   const std::vector<Lane>& lanes = in.map.lanes;
   const std::vector<std::vector<size_t>> succ = lane_successors(in.map, options);
+  const std::vector<double> reach = drivable_reach(lanes, succ, options.length_m);
   uint64_t rng = options.seed;
 
   // Start lane.
@@ -179,29 +288,17 @@ Scene sample_route(const Scene& in, const RouteOptions& options, RouteReport* re
       throw InputError(file, "", "lane " + std::to_string(*options.start_lane) + " has fewer than two distinct points");
     cur = static_cast<size_t>(it - lanes.begin());
   } else {
-    // Prefer car lanes that lead somewhere, then any car lane, then any lane.
-    std::vector<size_t> tiers[3];
-    for (size_t i = 0; i < lanes.size(); ++i) {
-      if (!usable(lanes[i])) continue;
-      const bool car = lanes[i].type != LaneType::BikeLane;
-      if (car && !succ[i].empty()) tiers[0].push_back(i);
-      if (car) tiers[1].push_back(i);
-      tiers[2].push_back(i);
-    }
-    const std::vector<size_t>* from = nullptr;
-    for (const auto& t : tiers)
-      if (!t.empty()) {
-        from = &t;
-        break;
-      }
-    if (!from)
+    const std::vector<size_t> from = start_candidates(lanes, reach, options.length_m);
+    if (from.empty())
       throw InputError(file, "",
                        lanes.empty() ? "no lanes to drive along: the map has no lane centre lines"
                                      : "no lanes to drive along: no lane centre line has two distinct points");
-    cur = (*from)[pick(rng, from->size())];
+    cur = from[pick(rng, from.size())];
   }
+  const size_t start_index = cur;
 
-  // Walk the lane graph until the path is long enough or ends.
+  // Walk the lane graph until the path is long enough or ends, at every fork
+  // towards a lane from which the rest of the length can be driven.
   Path path;
   std::vector<std::pair<int64_t, double>> driven;  // lane id, arc length where it starts
   auto take = [&](size_t lane) {
@@ -216,7 +313,7 @@ Scene sample_route(const Scene& in, const RouteOptions& options, RouteReport* re
       dead_end = true;
       break;
     }
-    cur = succ[cur][pick(rng, succ[cur].size())];
+    cur = choose_successor(lanes, cur, succ[cur], reach, options.length_m - path.length(), rng);
     take(cur);
   }
 
@@ -285,6 +382,7 @@ Scene sample_route(const Scene& in, const RouteOptions& options, RouteReport* re
   rep.length_m = driven_len;
   rep.poses = n;
   rep.dead_end = dead_end;
+  rep.longest_possible_m = reach[start_index];
   if (!dead_end && path.length() < options.length_m) {
     char buf[200];
     std::snprintf(buf, sizeof buf, "stopped after %zu lanes at %.1f m of the requested %.1f m (the lanes are very short)",
@@ -292,9 +390,13 @@ Scene sample_route(const Scene& in, const RouteOptions& options, RouteReport* re
     rep.notes.push_back(buf);
   }
   if (dead_end) {
-    char buf[200];
-    std::snprintf(buf, sizeof buf, "stopped at a dead end after %.1f m of the requested %.1f m: lane %lld has no successor",
-                  driven_len, options.length_m, static_cast<long long>(driven.back().first));
+    char buf[320];
+    std::snprintf(buf, sizeof buf,
+                  "stopped at a dead end after %.1f m of the requested %.1f m: lane %lld has no successor; the longest "
+                  "drive the lanes allow from lane %lld is %.1f m%s",
+                  driven_len, options.length_m, static_cast<long long>(driven.back().first),
+                  static_cast<long long>(lanes[start_index].id), reach[start_index],
+                  options.start_lane ? "" : " (no start lane leads further)");
     rep.notes.insert(rep.notes.begin(), buf);
   }
   if (report) *report = std::move(rep);

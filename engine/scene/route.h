@@ -1,12 +1,24 @@
 // Synthetic ego drives along the lane graph (`icube scene route`), for maps
 // that come without an ego trajectory (OpenDRIVE).
 //
-// Lane graph: a lane's successors are its exit_lanes (Waymo) plus every lane
-// whose first point lies within `connect_distance_m` of its last point with a
-// start heading within `connect_angle_deg` of its end heading (OpenDRIVE
-// lanes carry no links here). A seeded RNG picks the start lane (unless one
-// is given) and the branch at every fork. The drive stops at the requested
-// length or at a dead end.
+// Lane graph: a lane's successors are its exit_lanes (Waymo's links;
+// OpenDRIVE road, lane and junction links with a geometric fallback, see
+// opendrive/lane_topology.h). A lane without usable exit lanes continues
+// into every lane whose first point lies within `connect_distance_m` of its
+// last point with a start heading within `connect_angle_deg` of its end
+// heading.
+//
+// Planning: every lane's reach is the longest drive from its first point
+// (lane lengths plus the gaps bridged between lanes), capped at the
+// requested length; a lane on a cycle of the graph can be driven round for
+// ever and reaches the cap. A seeded RNG (SplitMix64, the same on every
+// platform) picks the start lane, unless one is given, among the car lanes
+// (any lanes on maps without them) that reach the requested length, else
+// among those that reach furthest; and at every fork one of the successors
+// from which the rest of the length can still be driven, else one of those
+// that go furthest. So a drive stops short (at a dead end) only when no
+// drive of the requested length exists from its start lane, and
+// RouteReport::longest_possible_m says how long the longest one is.
 //
 // The output is a copy of the scene with Scene::timestamps at `rate_hz`
 // (0, 0.1, 0.2, ... s), one ego pose per timestamp spaced speed/rate metres
@@ -51,6 +63,10 @@ struct RouteReport {
   double length_m = 0.0;       // arc length from the first to the last pose
   size_t poses = 0;
   bool dead_end = false;       // stopped early: the last lane has no successor
+  // The longest drive the lane graph allows from the start lane (lane lengths
+  // plus the gaps bridged between lanes), capped at the requested length: below
+  // it only when no drive of the requested length exists from that lane.
+  double longest_possible_m = 0.0;
   std::vector<std::string> notes;  // one-line remarks for the user (dead end, dropped tracks, ...)
 };
 

@@ -1,14 +1,21 @@
 // Synthetic ego drives along the lane graph (engine/scene/route.h): a
 // straight-arc-straight lane chain with known tangents, forks, dead ends,
-// proximity links, errors, the output scene's fields, and a 300 m drive on
-// CARLA Town01 when ../shared/data is present.
+// look-ahead at forks and start lanes, loops, proximity links, OpenDRIVE lane
+// links, errors, the output scene's fields, and on the maps of ../shared/data
+// when present a 300 m drive on CARLA Town01 and 1 km drives on every
+// OpenDRIVE map.
 #include <doctest/doctest.h>
 
 #include "gpu_test_context.h"
 #include "scene/route.h"
 #include "scene/scene_load.h"
+#include "test_opendrive_util.h"
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <map>
 #include <numbers>
 #include <set>
 
@@ -166,7 +173,80 @@ TEST_CASE("route: a dead end stops the drive and says so") {
   CHECK(rep.length_m == doctest::Approx(std::floor(total)));
   CHECK(out.ego.size() == 213);
   REQUIRE_FALSE(rep.notes.empty());
-  CHECK(rep.notes[0] == "stopped at a dead end after 212.0 m of the requested 1000.0 m: lane 3 has no successor");
+  CHECK(rep.notes[0] ==
+        "stopped at a dead end after 212.0 m of the requested 1000.0 m: lane 3 has no successor; the longest drive "
+        "the lanes allow from lane 1 is 212.8 m");
+  CHECK(rep.longest_possible_m == doctest::Approx(total).epsilon(1e-6));
+}
+
+TEST_CASE("route: forks look ahead and take a branch that still reaches the length") {
+  // From lane 1 (50 m): lane 2 leads on for 162.8 m (arc + lane 3), lane 5 for 100 m.
+  const Scene s = chain(true);
+  for (uint64_t seed = 0; seed < 32; ++seed) {
+    CAPTURE(seed);
+    RouteOptions o = from_lane(1, 200.0);
+    o.seed = seed;
+    RouteReport rep;
+    sample_route(s, o, &rep);
+    CHECK(rep.lanes == std::vector<int64_t>{1, 2, 3});  // lane 5 ends 50 m short
+    CHECK_FALSE(rep.dead_end);
+    CHECK(rep.length_m == doctest::Approx(200.0));
+    CHECK(rep.longest_possible_m == doctest::Approx(200.0));  // capped at the request
+    // No branch is long enough for 1 km: the one that goes furthest.
+    o.length_m = 1000.0;
+    sample_route(s, o, &rep);
+    CHECK(rep.lanes == std::vector<int64_t>{1, 2, 3});
+    CHECK(rep.dead_end);
+    CHECK(rep.longest_possible_m == doctest::Approx(50.0 + kR * kPi / 2 + 100.0).epsilon(1e-6));
+  }
+}
+
+TEST_CASE("route: the seeded start lane is one from which the whole length can be driven") {
+  // Only lane 1 leads 200 m (lanes 2, 3, 4, 5: 163, 100, 50, 100 m).
+  for (uint64_t seed = 0; seed < 32; ++seed) {
+    RouteOptions o;
+    o.length_m = 200.0;
+    o.seed = seed;
+    RouteReport rep;
+    sample_route(chain(true), o, &rep);
+    CHECK(rep.lanes.front() == 1);
+    CHECK(rep.length_m == doctest::Approx(200.0));
+  }
+  // No lane leads 1 km: a start of the longest drive, and the note says no start leads further.
+  RouteOptions o;
+  o.length_m = 1000.0;
+  RouteReport rep;
+  sample_route(chain(true), o, &rep);
+  CHECK(rep.lanes.front() == 1);
+  REQUIRE_FALSE(rep.notes.empty());
+  CHECK(rep.notes[0].find("from lane 1 is 212.8 m (no start lane leads further)") != std::string::npos);
+}
+
+TEST_CASE("route: lanes on a loop drive round it for the whole length") {
+  // A 100 m square of four 25 m lanes, each linked to the next, and a 30 m spur into it.
+  Scene s;
+  s.provenance.source_file = "loop.xodr";
+  const glm::dvec3 c[4] = {{0, 0, 0}, {25, 0, 0}, {25, 25, 0}, {0, 25, 0}};
+  for (int k = 0; k < 4; ++k) s.map.lanes.push_back(lane(10 + k, straight(c[k], c[(k + 1) % 4], 25), {10 + (k + 1) % 4}));
+  s.map.lanes.push_back(lane(20, straight({-30, 0, 0}, {0, 0, 0}, 30), {10}));
+  for (uint64_t seed = 1; seed <= 10; ++seed) {
+    RouteOptions o;
+    o.length_m = 1000.0;
+    o.seed = seed;
+    RouteReport rep;
+    sample_route(s, o, &rep);
+    CHECK_FALSE(rep.dead_end);
+    CHECK(rep.length_m == doctest::Approx(1000.0));
+    CHECK(rep.longest_possible_m == doctest::Approx(1000.0));
+    CHECK(rep.lanes.size() >= 40);  // round the square ten times
+  }
+  // Without the link that closes the square, the spur and the square are a 130 m dead end.
+  s.map.lanes[3].exit_lanes.clear();
+  RouteReport rep;
+  sample_route(s, from_lane(20, 1000.0), &rep);
+  CHECK(rep.dead_end);
+  CHECK(rep.longest_possible_m == doctest::Approx(130.0));
+  CHECK(rep.lanes == std::vector<int64_t>{20, 10, 11, 12, 13});
 }
 
 TEST_CASE("route: lanes without links connect by endpoint distance and heading") {
@@ -184,6 +264,60 @@ TEST_CASE("route: lanes without links connect by endpoint distance and heading")
   RouteOptions wide;
   wide.connect_distance_m = 1.0;
   CHECK(lane_successors(m, wide)[0] == std::vector<size_t>{1, 2, 4, 5});
+  // A lane with exit lanes follows them alone.
+  m.lanes[0].exit_lanes = {3};
+  CHECK(lane_successors(m, wide)[0] == std::vector<size_t>{2});
+}
+
+TEST_CASE("route: OpenDRIVE lane links join lanes whose ends lie apart, in both directions of travel") {
+  using namespace icube::test::odr_util;
+  // Road a runs +x from (0, 0); road b runs -x from (200.8, 0), so their ENDS meet, 0.8 m apart: too far
+  // for the geometric links (10 cm in the reader, 0.5 m in the route). The lane links say a's right lane
+  // continues in b's left lane (both driving +x) and b's right lane in a's left lane (both driving -x).
+  auto section = [](int left_next, int right_next) {
+    auto side_lane = [](int id, int next) {
+      return "<lane id=\"" + std::to_string(id) + "\" type=\"driving\" level=\"false\"><link><successor id=\"" +
+             std::to_string(next) + "\"/></link><width sOffset=\"0\" a=\"3.5\" b=\"0\" c=\"0\" d=\"0\"/></lane>";
+    };
+    return "<laneSection s=\"0\"><left>" + side_lane(1, left_next) +
+           "</left><center><lane id=\"0\" type=\"none\"/></center><right>" + side_lane(-1, right_next) +
+           "</right></laneSection>";
+  };
+  auto geometry = [](double x, double hdg) {
+    char g[160];
+    std::snprintf(g, sizeof g, "<geometry s=\"0\" x=\"%.17g\" y=\"0\" hdg=\"%.17g\" length=\"100\"><line/></geometry>", x,
+                  hdg);
+    return std::string(g);
+  };
+  auto meets_end_of = [](const std::string& other) {
+    return "<link><successor elementType=\"road\" elementId=\"" + other + "\" contactPoint=\"end\"/></link>";
+  };
+  const Scene s = parse(document(road_xml("a", 100.0, geometry(0.0, 0.0), section(-1, 1), meets_end_of("b")) +
+                                 road_xml("b", 100.0, geometry(200.8, kPi), section(-1, 1), meets_end_of("a"))));
+  auto starting_at = [&](double x, double y) -> const Lane* {
+    for (const Lane& l : s.map.lanes)
+      if (glm::length(l.points.front() - glm::dvec3(x, y, 0.0)) < 1e-6) return &l;
+    return nullptr;
+  };
+  const Lane* a_right = starting_at(0.0, -1.75);
+  const Lane* b_left = starting_at(100.8, -1.75);
+  const Lane* b_right = starting_at(200.8, 1.75);
+  const Lane* a_left = starting_at(100.0, 1.75);
+  REQUIRE((a_right && b_left && b_right && a_left));
+  CHECK(a_right->exit_lanes == std::vector<int64_t>{b_left->id});
+  CHECK(b_left->entry_lanes == std::vector<int64_t>{a_right->id});
+  CHECK(b_right->exit_lanes == std::vector<int64_t>{a_left->id});
+  CHECK(b_left->exit_lanes.empty());
+  CHECK(a_left->exit_lanes.empty());
+  RouteReport rep;
+  sample_route(s, from_lane(a_right->id, 150.0), &rep);
+  CHECK_FALSE(rep.dead_end);
+  CHECK(rep.lanes == std::vector<int64_t>{a_right->id, b_left->id});
+  RouteOptions far;
+  far.length_m = 1000.0;
+  sample_route(s, far, &rep);
+  CHECK(rep.dead_end);
+  CHECK(rep.longest_possible_m == doctest::Approx(200.8).epsilon(1e-9));
 }
 
 TEST_CASE("route: no lanes, an unknown start lane and bad options are clear errors") {
@@ -248,4 +382,60 @@ TEST_CASE("route: a 300 m drive on CARLA Town01") {
   CHECK(max_step <= 1.0 + 1e-9);
   CHECK(min_step > 0.9);
   CHECK(max_turn < 15.0 * kPi / 180.0);  // no jumps or U-turns between 1 m steps
+}
+
+// Maps on which no drive reaches 1 km, and why. Lanes have no U-turns, so a
+// single road without links to itself is driven once, end to end.
+const std::map<std::string, const char*> kMapsShorterThan1km = {
+    {"esmini/crest-curve.xodr", "one 400 m road"},
+    {"esmini/fabriksgatan.xodr", "four arms that end in the open round one junction, 688 m of road in all, no loop"},
+    {"esmini/four_lanes_with_offset.xodr", "one 100 m road"},
+    {"esmini/jolengatan.xodr", "one 794 m road"},
+    {"esmini/lane_width_and_offset.xodr", "one 10 m road"},
+    {"esmini/offset.xodr", "one 100 m road"},
+    {"esmini/straight_500_superelevation_elevation.xodr", "one 500 m road"},
+    {"esmini/two_plus_one.xodr", "one 500 m road"},
+};
+
+TEST_CASE("route: 1 km drives on every OpenDRIVE map, seeds 1 to 10") {
+  // Closed networks (the CARLA towns, the velodrome) and single roads over 1 km (e6mini, curves_elevation)
+  // must give every seed its full kilometre; on the maps above every seed drives the longest route there is.
+  const std::string data = icube::test::test_data_dir();
+  if (data.empty()) return;  // skipped (or failed under ICUBE_REQUIRE_DATA=1)
+  std::vector<std::string> maps;
+  for (const char* dir : {"carla", "esmini"}) {
+    const std::filesystem::path folder = std::filesystem::path(data) / "maps/opendrive" / dir;
+    if (!std::filesystem::is_directory(folder)) continue;
+    for (const auto& e : std::filesystem::directory_iterator(folder))
+      if (e.path().extension() == ".xodr") maps.push_back(std::string(dir) + "/" + e.path().filename().string());
+  }
+  std::sort(maps.begin(), maps.end());
+  REQUIRE(maps.size() >= 3);  // at least the CARLA towns
+  for (const std::string& rel : maps) {
+    CAPTURE(rel);
+    const Scene town = load_scene(data + "/maps/opendrive/" + rel);
+    const auto short_map = kMapsShorterThan1km.find(rel);
+    double longest = -1.0;
+    for (uint64_t seed = 1; seed <= 10; ++seed) {
+      CAPTURE(seed);
+      RouteOptions o;
+      o.length_m = 1000.0;
+      o.seed = seed;
+      RouteReport rep;
+      sample_route(town, o, &rep);
+      if (short_map == kMapsShorterThan1km.end()) {
+        CHECK_FALSE(rep.dead_end);
+        CHECK(rep.length_m == doctest::Approx(1000.0));
+        CHECK(rep.longest_possible_m == doctest::Approx(1000.0));
+        continue;
+      }
+      const std::string why = short_map->second;
+      CAPTURE(why);
+      CHECK(rep.dead_end);
+      CHECK(rep.longest_possible_m < 1000.0);
+      CHECK(rep.length_m > rep.longest_possible_m - 1.0);  // driven to the end, within one 1 m step
+      if (longest < 0.0) longest = rep.longest_possible_m;
+      CHECK(rep.longest_possible_m == doctest::Approx(longest));  // every seed starts on a lane of the longest drive
+    }
+  }
 }

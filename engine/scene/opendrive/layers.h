@@ -49,9 +49,25 @@ bool join_polyline(std::vector<glm::dvec3>& a, const std::vector<glm::dvec3>& b,
 void emit_road_lines(const Road& road, const std::vector<SectionSamples>& samples, Map& map, int64_t& next_id);
 void emit_road_edges(const Road& road, const std::vector<SectionSamples>& samples,
                      const std::vector<std::string>& drivable_types, Map& map, int64_t& next_id);
-void emit_lanes(const Road& road, size_t road_ordinal, const std::vector<SectionSamples>& samples, Map& map);
+// Where a lane centre line of the map lies on its road: the lane sections
+// (indices into Road::sections) and OpenDRIVE lane ids of its first and last
+// part in +s order, and whether it drives against +s.
+struct LaneSpan {
+  size_t road = 0;  // index in Document::roads
+  size_t first_section = 0;
+  int first_lane = 0;
+  size_t last_section = 0;
+  int last_lane = 0;
+  bool backwards = false;
+};
 
-// entry_lanes / exit_lanes from geometry: B follows A when B starts within
+// Appends the road's lanes to map.lanes and one LaneSpan per lane to `spans`
+// (kept parallel to map.lanes).
+void emit_lanes(const Road& road, size_t road_ordinal, const std::vector<SectionSamples>& samples, Map& map,
+                std::vector<LaneSpan>& spans);
+
+// entry_lanes / exit_lanes from geometry, the fallback for lanes the map's
+// topology (lane_topology.h) gave no exit: B follows A when B starts within
 // 10 cm of A's end with a heading change below 60°.
 void link_lanes(Map& map);
 

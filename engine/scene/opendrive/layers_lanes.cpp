@@ -31,10 +31,10 @@ void add_unique(std::vector<int64_t>& v, int64_t id) {
 
 }  // namespace
 
-void emit_lanes(const Road& road, size_t road_ordinal, const std::vector<SectionSamples>& samples, Map& map) {
+void emit_lanes(const Road& road, size_t road_ordinal, const std::vector<SectionSamples>& samples, Map& map,
+                std::vector<LaneSpan>& spans) {
   const size_t first = map.lanes.size();
-  std::vector<bool> backwards;     // per emitted lane: drives against +s
-  std::vector<int> source_id;      // OpenDRIVE lane id of the lane's last section
+  spans.resize(first);
   std::vector<size_t> prev_map;    // lane index in the previous section -> map index (or npos)
   constexpr size_t npos = static_cast<size_t>(-1);
   struct Adjacent {
@@ -61,29 +61,29 @@ void emit_lanes(const Road& road, size_t road_ordinal, const std::vector<Section
       size_t target = npos;
       int best_rank = 3;
       for (size_t q = first; q < map.lanes.size(); ++q) {
-        if (backwards[q - first] != back || map.lanes[q].type != out.type) continue;
+        if (spans[q].backwards != back || map.lanes[q].type != out.type) continue;
         if (std::find(prev_map.begin(), prev_map.end(), q) == prev_map.end()) continue;
         if (glm::length(map.lanes[q].points.back() - out.points.front()) > 0.05) continue;
-        const int sid = source_id[q - first];
+        const int sid = spans[q].last_lane;
         const int rank = lane.has_predecessor && lane.predecessor == sid ? 0 : sid == lane.id ? 1 : 2;
         if (rank < best_rank) best_rank = rank, target = q;
       }
       if (target != npos && join_polyline(map.lanes[target].points, out.points, 0.05)) {
-        source_id[target - first] = lane.id;
+        spans[target].last_section = ss.section;
+        spans[target].last_lane = lane.id;
         cur_map[j] = target;
         continue;
       }
       out.id = lane_feature_id(road_ordinal, ss.section, lane.id);
       cur_map[j] = map.lanes.size();
       map.lanes.push_back(std::move(out));
-      backwards.push_back(back);
-      source_id.push_back(lane.id);
+      spans.push_back({road_ordinal, ss.section, lane.id, ss.section, lane.id, back});
     }
     // Neighbours: adjacent centre lanes with the same driving direction.
     for (size_t j = 0; j + 1 < sec.lanes.size(); ++j) {
       const size_t a = cur_map[j], b = cur_map[j + 1];  // a lies on the +t side of b
-      if (a == npos || b == npos || backwards[a - first] != backwards[b - first]) continue;
-      adjacent.push_back(backwards[a - first] ? Adjacent{b, a} : Adjacent{a, b});
+      if (a == npos || b == npos || spans[a].backwards != spans[b].backwards) continue;
+      adjacent.push_back(spans[a].backwards ? Adjacent{b, a} : Adjacent{a, b});
     }
     prev_map = std::move(cur_map);
   }
@@ -92,7 +92,7 @@ void emit_lanes(const Road& road, size_t road_ordinal, const std::vector<Section
     add_unique(map.lanes[adj.left].right_neighbors, map.lanes[adj.right].id);
   }
   for (size_t q = first; q < map.lanes.size(); ++q)
-    if (backwards[q - first]) std::reverse(map.lanes[q].points.begin(), map.lanes[q].points.end());
+    if (spans[q].backwards) std::reverse(map.lanes[q].points.begin(), map.lanes[q].points.end());
 }
 
 void link_lanes(Map& map) {
@@ -117,7 +117,7 @@ void link_lanes(Map& map) {
     if (map.lanes[i].points.size() >= 2) starts[key(map.lanes[i].points.front(), 0, 0)].push_back(i);
   for (size_t a = 0; a < map.lanes.size(); ++a) {
     const std::vector<glm::dvec3>& pa = map.lanes[a].points;
-    if (pa.size() < 2) continue;
+    if (pa.size() < 2 || !map.lanes[a].exit_lanes.empty()) continue;  // linked by the map's topology
     const glm::dvec2 da = direction(pa, true);
     for (long dx = -1; dx <= 1; ++dx)
       for (long dy = -1; dy <= 1; ++dy) {

@@ -1,13 +1,16 @@
 // read_opendrive / parse_opendrive (scene/opendrive_reader.h): parse the
 // document, sample every road, derive lanes, road lines and road edges
 // (per road, or from the union of drivable areas inside junctions), link
-// lanes, and fill provenance. Rejects maps that would need more than
-// options.max_points samples, and roads whose geometry evaluates to non-finite points
-// or to points more than kMaxCoordinate from the origin.
+// lanes (by the document's road, lane and junction links, lane_topology.h,
+// then by geometry for lanes left without an exit), and fill provenance.
+// Rejects maps that would need more than options.max_points samples, and
+// roads whose geometry evaluates to non-finite points or to points more than
+// kMaxCoordinate from the origin.
 #include "scene/opendrive_reader.h"
 
 #include "scene/atomic_file.h"
 #include "scene/opendrive/junction_edges.h"
+#include "scene/opendrive/lane_topology.h"
 #include "scene/opendrive/layers.h"
 #include "scene/opendrive/reference_line.h"
 #include "scene/opendrive/road_sampling.h"
@@ -120,6 +123,7 @@ Scene parse_opendrive(const char* xml, size_t size, const std::string& file, con
   }
 
   int64_t next_line = 1, next_edge = 1;
+  std::vector<odr::LaneSpan> lane_spans;  // parallel to scene.map.lanes
   for (size_t i = 0; i < doc.roads.size(); ++i) {
     const odr::Road& road = doc.roads[i];
     const odr::ReferenceLine line = [&] {
@@ -134,7 +138,7 @@ Scene parse_opendrive(const char* xml, size_t size, const std::string& file, con
     const std::vector<odr::SectionSamples> samples = odr::sample_road(road, line, options.sample_step);
     check_points(file, road, samples);
     odr::emit_road_lines(road, samples, scene.map, next_line);
-    odr::emit_lanes(road, i, samples, scene.map);
+    odr::emit_lanes(road, i, samples, scene.map, lane_spans);
     if (union_edges && road.in_junction())
       odr::drivable_quads(road, samples, options.drivable_lane_types, -1, 0.0, areas[area(road.junction)].connecting);
     else
@@ -148,6 +152,7 @@ Scene parse_opendrive(const char* xml, size_t size, const std::string& file, con
     const double budget = std::min(4.0e6, 3.2e7 / static_cast<double>(std::max<size_t>(used, 1)));
     for (const odr::JunctionArea& a : areas) odr::junction_union_edges(a, scene.map, next_edge, file, diag, budget);
   }
+  odr::link_lanes_by_topology(doc, lane_spans, scene.map);
   odr::link_lanes(scene.map);
   return scene;
 }
