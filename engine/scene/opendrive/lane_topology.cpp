@@ -107,16 +107,6 @@ void junction_contacts(const Document& doc, const std::map<std::string, size_t>&
     }
 }
 
-// Horizontal unit direction at a polyline's start or end (zero when degenerate).
-glm::dvec2 end_direction(const std::vector<glm::dvec3>& pts, bool at_end) {
-  glm::dvec2 d(0.0);
-  const size_t n = pts.size();
-  for (size_t i = 1; i < n && glm::length(d) < 1e-6; ++i)
-    d = at_end ? glm::dvec2(pts[n - i] - pts[n - i - 1]) : glm::dvec2(pts[i] - pts[i - 1]);
-  const double len = glm::length(d);
-  return len > 0.0 ? d / len : d;
-}
-
 void add_unique(std::vector<int64_t>& v, int64_t id) {
   if (std::find(v.begin(), v.end(), id) == v.end()) v.push_back(id);
 }
@@ -128,7 +118,7 @@ void link(Map& map, size_t a, size_t b) {
   if (from.points.size() < 2 || to.points.size() < 2) return;
   if (glm::length(to.points.front() - from.points.back()) > kMaxTopologyGap) return;
   const double cos_limit = std::cos(kMaxTopologyTurnDeg * 3.14159265358979323846 / 180.0);
-  if (glm::dot(end_direction(from.points, true), end_direction(to.points, false)) < cos_limit - 1e-12) return;
+  if (glm::dot(lane_end_direction(from.points, true), lane_end_direction(to.points, false)) < cos_limit - 1e-12) return;
   add_unique(from.exit_lanes, to.id);
   add_unique(to.entry_lanes, from.id);
 }

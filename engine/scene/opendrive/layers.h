@@ -70,5 +70,8 @@ void emit_lanes(const Road& road, size_t road_ordinal, const std::vector<Section
 // topology (lane_topology.h) gave no exit: B follows A when B starts within
 // 10 cm of A's end with a heading change below 60°.
 void link_lanes(Map& map);
+// Horizontal unit direction at a lane centre line's start or end (the first non-degenerate
+// segment; zero when every segment is degenerate).
+glm::dvec2 lane_end_direction(const std::vector<glm::dvec3>& pts, bool at_end);
 
 }  // namespace icube::scene::odr

@@ -95,6 +95,15 @@ void emit_lanes(const Road& road, size_t road_ordinal, const std::vector<Section
     if (spans[q].backwards) std::reverse(map.lanes[q].points.begin(), map.lanes[q].points.end());
 }
 
+glm::dvec2 lane_end_direction(const std::vector<glm::dvec3>& pts, bool at_end) {
+  glm::dvec2 d(0.0);
+  const size_t n = pts.size();
+  for (size_t i = 1; i < n && glm::length(d) < 1e-6; ++i)
+    d = at_end ? glm::dvec2(pts[n - i] - pts[n - i - 1]) : glm::dvec2(pts[i] - pts[i - 1]);
+  const double len = glm::length(d);
+  return len > 0.0 ? d / len : d;
+}
+
 void link_lanes(Map& map) {
   constexpr double kJoin = 0.10;
   constexpr double kCell = 1.0;
@@ -104,21 +113,13 @@ void link_lanes(Map& map) {
     const long gy = static_cast<long>(std::floor(p.y / kCell)) + dy;
     return (static_cast<uint64_t>(static_cast<uint32_t>(gx)) << 32) | static_cast<uint32_t>(gy);
   };
-  auto direction = [](const std::vector<glm::dvec3>& pts, bool at_end) {
-    glm::dvec2 d(0.0);
-    const size_t n = pts.size();
-    for (size_t i = 1; i < n && glm::length(d) < 1e-6; ++i)
-      d = at_end ? glm::dvec2(pts[n - i] - pts[n - i - 1]) : glm::dvec2(pts[i] - pts[i - 1]);
-    const double len = glm::length(d);
-    return len > 0.0 ? d / len : d;
-  };
   std::unordered_map<uint64_t, std::vector<size_t>> starts;
   for (size_t i = 0; i < map.lanes.size(); ++i)
     if (map.lanes[i].points.size() >= 2) starts[key(map.lanes[i].points.front(), 0, 0)].push_back(i);
   for (size_t a = 0; a < map.lanes.size(); ++a) {
     const std::vector<glm::dvec3>& pa = map.lanes[a].points;
     if (pa.size() < 2 || !map.lanes[a].exit_lanes.empty()) continue;  // linked by the map's topology
-    const glm::dvec2 da = direction(pa, true);
+    const glm::dvec2 da = lane_end_direction(pa, true);
     for (long dx = -1; dx <= 1; ++dx)
       for (long dy = -1; dy <= 1; ++dy) {
         auto it = starts.find(key(pa.back(), dx, dy));
@@ -127,7 +128,7 @@ void link_lanes(Map& map) {
           if (b == a) continue;
           const std::vector<glm::dvec3>& pb = map.lanes[b].points;
           if (glm::length(pb.front() - pa.back()) > kJoin) continue;
-          if (glm::dot(da, direction(pb, false)) < cos_limit) continue;
+          if (glm::dot(da, lane_end_direction(pb, false)) < cos_limit) continue;
           add_unique(map.lanes[a].exit_lanes, map.lanes[b].id);
           add_unique(map.lanes[b].entry_lanes, map.lanes[a].id);
         }
