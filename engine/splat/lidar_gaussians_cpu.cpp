@@ -31,6 +31,18 @@ LidarGaussian lidar_gaussian(const glm::dvec3& mean, const glm::vec3& scale, con
   return g;
 }
 
+GaussianCloud lidar_range_subset(const GaussianCloud& cloud, const glm::dvec3& sensor, double max_range) {
+  GaussianCloud out;
+  out.sh_degree = cloud.sh_degree;
+  const size_t stride = size_t{cloud.sh_coeffs()} * 3;
+  for (size_t i = 0; i < cloud.size(); ++i) {
+    const LidarGaussian g = lidar_gaussian(cloud.positions[i], cloud.scales[i], cloud.rotations[i], cloud.opacities[i], 0.0f);
+    if (g.r_cut <= 0.0 || glm::length(cloud.positions[i] - sensor) - (1.01 * g.r_cut + 1e-3) > max_range) continue;
+    out.add(cloud.positions[i], cloud.scales[i], cloud.rotations[i], cloud.opacities[i], &cloud.sh[i * stride]);
+  }
+  return out;
+}
+
 std::vector<float> lidar_gaussian_intensity(const GaussianCloud& cloud) {
   std::vector<float> out(cloud.size(), 0.0f);
   const size_t stride = size_t{cloud.sh_coeffs()} * 3;

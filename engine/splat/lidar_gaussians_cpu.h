@@ -78,6 +78,12 @@ struct LidarGaussian {
 
 LidarGaussian lidar_gaussian(const glm::dvec3& mean, const glm::vec3& scale, const glm::vec4& q_wxyz, float opacity,
                              float intensity);
+// The Gaussians of `cloud` that can give a sensor at `sensor` a return within `max_range`: those
+// with |μ − sensor| − r_cut <= max_range (t* >= |m| − r_cut, see the header comment; r_cut
+// taken 1 % + 1 mm larger for rounding), in their order. The others never contribute, so a
+// scan of the subset is the scan of the whole set, and a set over the GPU caster's limit fits.
+GaussianCloud lidar_range_subset(const GaussianCloud& cloud, const glm::dvec3& sensor, double max_range);
+
 // Per-Gaussian intensity (see the header comment); size() values in [0, 1].
 std::vector<float> lidar_gaussian_intensity(const GaussianCloud& cloud);
 

@@ -615,3 +615,27 @@ TEST_CASE("lidar gaussians: a splat scene's moving object, composed per frame") 
     CHECK(hits[0].count == 0);  // behind the sensor
   }
 }
+
+TEST_CASE("lidar gaussians: the range subset drops only Gaussians no ray within range can reach (the same sweep)") {
+  // 6,000 Gaussians in a 60 m box around the sensor, max range 12 m: most are out of reach.
+  render::LidarModel m = small_model(16, -25.0, 10.0, 180);
+  m.max_range = 12.0;
+  const splat::GaussianCloud c = test::random_cloud(41, 6000, 1, glm::dvec3(0.0, 0.0, 0.0), 30.0, -1.5, 0.3);
+  const glm::dmat4 pose = pose_at(glm::dvec3(0.5, -1.0, 0.2), 21.0, -3.0);
+  const splat::GaussianCloud near = splat::lidar_range_subset(c, glm::dvec3(pose[3]), m.max_range);
+  MESSAGE(near.size() << " of " << c.size() << " Gaussians within reach");
+  CHECK(near.size() < c.size() / 4);
+  CHECK(near.size() > 20);
+  CHECK(near.sh_degree == c.sh_degree);
+  const auto all = splat::cast_lidar_gaussians_cpu(c, splat::lidar_gaussian_intensity(c), m, pose, 2);
+  const auto sub = splat::cast_lidar_gaussians_cpu(near, splat::lidar_gaussian_intensity(near), m, pose, 2);
+  REQUIRE(all.size() == sub.size());
+  size_t bad = 0, hits = 0;
+  for (size_t r = 0; r < all.size(); ++r) {
+    hits += all[r].count > 0;
+    if (std::memcmp(&all[r], &sub[r], sizeof(all[r])) != 0 && ++bad <= 5)
+      MESSAGE("ray " << r << ": all " << all[r].alpha << "/" << all[r].count << ", subset " << sub[r].alpha << "/" << sub[r].count);
+  }
+  CHECK(hits > all.size() / 10);
+  CHECK(bad == 0);
+}
