@@ -1,6 +1,7 @@
 // A splatting frame in depth slices; see depth_slices.h.
 #include "splat/depth_slices.h"
 
+#include "splat/rasterizer_cpu.h"
 #include "splat/rasterizer_gpu.h"
 
 #include <algorithm>
@@ -66,6 +67,41 @@ std::vector<DepthSlice> plan_depth_slices(const SliceHistogram& h, uint64_t max_
   return out;
 }
 
+void slice_keys_cpu(const std::vector<shader::SplatProjected>& proj, uint32_t grid_x, uint32_t grid_y,
+                    uint32_t key_bits, std::vector<uint32_t>& keys, std::vector<uint32_t>& tiles) {
+  keys.assign(proj.size(), SPLAT_SLICE_CULLED);
+  tiles.assign(proj.size(), 0u);
+  for (size_t i = 0; i < proj.size(); ++i) {
+    const shader::SplatProjected& g = proj[i];
+    if (g.radius <= 0.0f) continue;  // culled (preprocess_cpu zeroes it)
+    keys[i] = depth_sort_key(g.depth, key_bits);
+    tiles[i] = tile_rect(g.mean_x, g.mean_y, g.radius, grid_x, grid_y).area();
+  }
+}
+
+SliceHistogram slice_histogram_cpu(const std::vector<uint32_t>& keys, const std::vector<uint32_t>& tiles,
+                                   uint32_t key_lo, uint32_t key_hi, uint32_t shift) {
+  SliceHistogram h;
+  h.key_lo = key_lo;
+  h.key_hi = key_hi;
+  h.shift = shift;
+  h.buckets.assign(((uint64_t{key_hi} - key_lo) >> shift) + 1, SliceBucket{});
+  for (size_t i = 0; i < keys.size(); ++i) {
+    if (keys[i] == SPLAT_SLICE_CULLED || keys[i] < key_lo || keys[i] > key_hi) continue;
+    SliceBucket& b = h.buckets[(keys[i] - key_lo) >> shift];
+    ++b.gaussians;
+    b.tiles += tiles[i];
+  }
+  return h;
+}
+
+std::vector<uint32_t> slice_members_cpu(const std::vector<uint32_t>& keys, const DepthSlice& s) {
+  std::vector<uint32_t> out;
+  for (size_t i = 0; i < keys.size(); ++i)
+    if (keys[i] != SPLAT_SLICE_CULLED && keys[i] >= s.key_lo && keys[i] <= s.key_hi) out.push_back(static_cast<uint32_t>(i));
+  return out;
+}
+
 DepthSlicer::DepthSlicer(gpu::Context& ctx)
     : ctx_(ctx),
       keys_(ctx.program("splat/slice_keys", local_size())),
@@ -82,6 +118,11 @@ uint64_t DepthSlicer::bytes() const {
   for (const gpu::Buffer* b : {&keys_buf_, &tiles_buf_, &ranks_, &scan_scratch_, &hist_buf_, &readback_})
     s += b->valid() ? b->size() : 0;
   return s;
+}
+
+void DepthSlicer::download_keys(std::vector<uint32_t>& keys, std::vector<uint32_t>& tiles) const {
+  keys = n_ ? gpu::download_vector<uint32_t>(ctx_, keys_buf_, n_) : std::vector<uint32_t>{};
+  tiles = n_ ? gpu::download_vector<uint32_t>(ctx_, tiles_buf_, n_) : std::vector<uint32_t>{};
 }
 
 std::vector<gpu::ElementWindow> DepthSlicer::windows(const GpuGaussians& g) const {

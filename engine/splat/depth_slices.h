@@ -16,8 +16,8 @@
 // PrefixScan over the frame (the member's place in the slice) -> splat_slice_gather (rows and
 // SH rows copied into the slice's buffers), then the rasterizer's one-pass stages on the slice.
 // Every binding is a window of at most one storage binding; the frame's size is limited by
-// device memory (the input, 8 bytes + 3 × 4 bytes of keys, areas, flags and places per
-// Gaussian, and one slice's copy).
+// device memory (the input, 12 bytes per Gaussian of keys, areas and flags/places, and one
+// slice's copy).
 //
 // Shaders: shaders/splat/slice_{keys,histogram,flags,gather}.comp. Tests:
 // tests/splat/test_depth_slices.cpp. Benchmark: bench/bench_splat.cpp (3 M and 10 M Gaussians).
@@ -65,6 +65,16 @@ struct SliceHistogram {
 std::vector<DepthSlice> plan_depth_slices(const SliceHistogram& h, uint64_t max_gaussians, uint64_t max_tiles,
                                           const std::function<SliceHistogram(uint32_t, uint32_t)>& refine);
 
+// CPU references of the slice kernels, from the CPU rasterizer's projections (preprocess_cpu):
+// splat_slice_keys (each Gaussian's depth sort key or SPLAT_SLICE_CULLED, its rect area),
+// splat_slice_histogram (the buckets of keys [h_lo, h_hi] at `shift`, as SliceHistogram) and
+// splat_slice_flags + scan + splat_slice_gather (the members of a slice, in index order).
+void slice_keys_cpu(const std::vector<shader::SplatProjected>& proj, uint32_t grid_x, uint32_t grid_y,
+                    uint32_t key_bits, std::vector<uint32_t>& keys, std::vector<uint32_t>& tiles);
+SliceHistogram slice_histogram_cpu(const std::vector<uint32_t>& keys, const std::vector<uint32_t>& tiles,
+                                   uint32_t key_lo, uint32_t key_hi, uint32_t shift);
+std::vector<uint32_t> slice_members_cpu(const std::vector<uint32_t>& keys, const DepthSlice& s);
+
 class DepthSlicer {
  public:
   explicit DepthSlicer(gpu::Context& ctx);
@@ -79,6 +89,8 @@ class DepthSlicer {
   void gather(const GpuGaussians& g, const DepthSlice& s, GpuGaussians& out);
 
   uint64_t bytes() const;  // device memory held
+  // The planned frame's keys and rect areas (splat_slice_keys' output; tests).
+  void download_keys(std::vector<uint32_t>& keys, std::vector<uint32_t>& tiles) const;
 
  private:
   // The histogram of keys [key_lo, key_hi] in at most 2^bucket_bits_ buckets.

@@ -1,5 +1,6 @@
 // A splatting frame in depth slices (engine/splat/depth_slices.h, shaders/splat/slice_*.comp,
-// splat/blend.comp's carried state): the slice planner on hand-made histograms (limits,
+// splat/blend.comp's carried state): the kernels slice_keys, slice_histogram, slice_flags and
+// slice_gather one by one against their CPU references; the slice planner on hand-made histograms (limits,
 // refinement of an over-full bucket, a key shared by too many Gaussians), and on the GPU, with
 // storage bindings capped at 64 KiB (1,365 Gaussians and 16,384 tile instances per pass), frames
 // of several thousand Gaussians rendered in slices against the same frames in one pass on the
@@ -136,6 +137,83 @@ TEST_CASE("depth slices: an over-full bucket is refined; a key shared by more Ga
   CHECK(s[1].gaussians == 6);
   CHECK_THROWS_WITH(splat::plan_depth_slices(histogram(7, 7, 0, {{9, 9}}), 6, 100, refine),
                     doctest::Contains("9 Gaussians (9 tiles) share one depth sort key (7)"));
+}
+
+TEST_CASE("depth slices gpu, kernel by kernel: slice_keys, slice_histogram, slice_flags + scan + slice_gather "
+          "against their CPU references") {
+  gpu::Context& ctx = test::gpu_context();
+  const render::Camera cam = test::look_at_camera({0.0, -9.0, 1.5}, {0.0, 0.0, 0.0}, 61, 47, 55.0, 1.5, -2.0);
+  // Many Gaussians behind the camera or outside the view (culled), odd count, SH 2 (a 28-float SH stride).
+  const splat::GaussianCloud cloud = test::random_cloud(9, 2003, 2, glm::dvec3(0.0, -4.0, 0.0), 6.0, -4.0, -1.5);
+  splat::SplatRendererGpu r(ctx);
+  const splat::GpuGaussians g = r.upload(cloud);
+  const splat::SplatOptions o;
+  const splat::SplatFrame frame = splat::make_frame(cam, o, g.origin);
+  splat::DepthSlicer slicer(ctx);
+  const std::vector<splat::DepthSlice> slices = slicer.plan(g, frame, 32, 150, uint64_t{1} << 40);
+  std::vector<uint32_t> keys, tiles, ck, ct;
+  slicer.download_keys(keys, tiles);
+  // splat_slice_keys against slice_keys_cpu (preprocess_cpu's projections): the same culling and
+  // rect areas but where a radius lands on a float-rounding step, keys within 1e-5 of the depth.
+  splat::slice_keys_cpu(splat::preprocess_cpu(cloud, cam, o), frame.grid_x, frame.grid_y, 32, ck, ct);
+  REQUIRE(keys.size() == ck.size());
+  size_t culled = 0, key_bad = 0, tile_diff = 0;
+  for (size_t i = 0; i < keys.size(); ++i) {
+    culled += keys[i] == SPLAT_SLICE_CULLED;
+    if ((keys[i] == SPLAT_SLICE_CULLED) != (ck[i] == SPLAT_SLICE_CULLED)) {
+      if (++key_bad <= 5) MESSAGE("Gaussian " << i << ": GPU key " << keys[i] << ", CPU key " << ck[i]);
+      continue;
+    }
+    if (keys[i] == SPLAT_SLICE_CULLED) continue;
+    float zg, zc;
+    std::memcpy(&zg, &keys[i], 4);
+    std::memcpy(&zc, &ck[i], 4);
+    if (std::fabs(zg - zc) > 1e-5f * zc && ++key_bad <= 5) MESSAGE("Gaussian " << i << ": GPU depth " << zg << ", CPU " << zc);
+    tile_diff += tiles[i] != ct[i];
+  }
+  CHECK(culled > 100);
+  CHECK(culled < keys.size() * 3 / 4);
+  CHECK(key_bad == 0);
+  CHECK(tile_diff <= keys.size() / 200);
+  // splat_slice_histogram through the plan: every slice holds what the CPU histogram of the GPU's
+  // keys puts in its key range, the slices in key order, disjoint, each within the limit.
+  const splat::SliceHistogram h = splat::slice_histogram_cpu(keys, tiles, 0, SPLAT_SLICE_CULLED - 1, 16);
+  uint64_t visible = 0;
+  for (const splat::SliceBucket& b : h.buckets) visible += b.gaussians;
+  CHECK(visible == keys.size() - culled);
+  REQUIRE(slices.size() >= 4);
+  uint64_t covered = 0;
+  for (size_t k = 0; k < slices.size(); ++k) {
+    CAPTURE(k);
+    const splat::DepthSlice& sl = slices[k];
+    if (k > 0) CHECK(sl.key_lo > slices[k - 1].key_hi);
+    const splat::SliceHistogram in = splat::slice_histogram_cpu(keys, tiles, sl.key_lo, sl.key_hi, 31);
+    CHECK(in.buckets[0].gaussians == sl.gaussians);
+    CHECK(in.buckets[0].tiles == sl.tiles);
+    CHECK(sl.gaussians <= 150);
+    covered += sl.gaussians;
+  }
+  CHECK(covered == visible);
+  // splat_slice_flags + PrefixScan + splat_slice_gather: each slice's rows and SH rows are the
+  // input's rows of its members (slice_members_cpu), in index order, bit for bit.
+  std::vector<shader::SplatGaussian> rows;
+  std::vector<float> sh;
+  splat::pack_gaussians(cloud, g.origin, g.sh_stride, rows, sh);
+  splat::GpuGaussians out;
+  for (const splat::DepthSlice& sl : slices) {
+    slicer.gather(g, sl, out);
+    const std::vector<uint32_t> members = splat::slice_members_cpu(keys, sl);
+    REQUIRE(out.count == members.size());
+    const auto got_rows = gpu::download_vector<shader::SplatGaussian>(ctx, out.gaussians, out.count);
+    const auto got_sh = gpu::download_vector<float>(ctx, out.sh, size_t{out.count} * g.sh_stride);
+    size_t bad = 0;
+    for (size_t j = 0; j < members.size(); ++j) {
+      const bool row_ok = std::memcmp(&got_rows[j], &rows[members[j]], sizeof(shader::SplatGaussian)) == 0;
+      const bool sh_ok = std::memcmp(&got_sh[j * g.sh_stride], &sh[size_t{members[j]} * g.sh_stride], g.sh_stride * 4) == 0;
+      if ((!row_ok || !sh_ok) && ++bad <= 5) MESSAGE("slice place " << j << " (Gaussian " << members[j] << ") differs");
+    }
+    CHECK(bad == 0);
+  }
 }
 
 TEST_CASE("depth slices gpu: frames over one pass (64 KiB bindings) equal one pass bit for bit") {
