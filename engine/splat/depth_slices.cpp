@@ -148,26 +148,23 @@ SliceHistogram DepthSlicer::histogram(uint32_t key_lo, uint32_t key_hi) {
   h.shift = key_bits > bucket_bits_ ? key_bits - bucket_bits_ : 0u;
   const uint64_t buckets = ((keys - 1) >> h.shift) + 1;
   h.buckets.assign(buckets, SliceBucket{});
-  const uint64_t per_window = std::min<uint64_t>(buckets, uint64_t{1} << bucket_bits_);
   gpu::ensure_capacity(ctx_, hist_buf_, buckets * kHistWords * 4, "splat-slice-hist");
   gpu::ensure_capacity(ctx_, readback_, buckets * kHistWords * 4, "splat-slice-readback", gpu::MemoryUsage::Readback);
   ctx_.submit_and_wait([&](gpu::CommandList& cmd) {
     cmd.fill_buffer(hist_buf_.binding(0, buckets * kHistWords * 4), 0u);
     cmd.barrier(gpu::deps::kTransferToCompute);  // zeroed buckets before the atomics
-    for (uint64_t b0 = 0; b0 < buckets; b0 += per_window) {
-      const uint64_t nb = std::min(per_window, buckets - b0);
-      for (const gpu::ElementWindow& w : windows_) {
-        shader::SplatSliceParams sp{};
-        sp.n = static_cast<uint32_t>(w.count);
-        sp.key_lo = key_lo;
-        sp.key_hi = key_hi;
-        sp.shift = h.shift;
-        sp.bucket_first = static_cast<uint32_t>(b0);
-        sp.bucket_count = static_cast<uint32_t>(nb);
-        cmd.dispatch(hist_, {w.count}, sp,
-                     {keys_buf_.binding(w.first * 4, w.count * 4), tiles_buf_.binding(w.first * 4, w.count * 4),
-                      hist_buf_.binding(b0 * kHistWords * 4, nb * kHistWords * 4)});
-      }
+    // bucket_bits_ keeps every bucket in one binding: one bucket window, [0, buckets).
+    for (const gpu::ElementWindow& w : windows_) {
+      shader::SplatSliceParams sp{};
+      sp.n = static_cast<uint32_t>(w.count);
+      sp.key_lo = key_lo;
+      sp.key_hi = key_hi;
+      sp.shift = h.shift;
+      sp.bucket_first = 0;
+      sp.bucket_count = static_cast<uint32_t>(buckets);
+      cmd.dispatch(hist_, {w.count}, sp,
+                   {keys_buf_.binding(w.first * 4, w.count * 4), tiles_buf_.binding(w.first * 4, w.count * 4),
+                    hist_buf_.binding(0, buckets * kHistWords * 4)});
     }
     cmd.barrier(gpu::deps::kComputeToTransfer);  // the copy reads the buckets
     cmd.copy_buffer(hist_buf_.binding(0, buckets * kHistWords * 4), readback_.binding(0, buckets * kHistWords * 4));
