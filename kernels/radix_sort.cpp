@@ -47,7 +47,15 @@ RadixSort::RadixSort(gpu::Context& ctx, KeyWidth width, SubgroupOps ops)
 }
 
 uint64_t RadixSort::max_elements() const {
-  return std::min<uint64_t>(ctx_.info().max_storage_buffer_range / key_bytes(width_), UINT32_MAX);
+  // Keys and values go in windows of whole tiles; the digit-major histogram (256 words per tile,
+  // scanned in windows) is bound whole.
+  const uint64_t by_histogram = ctx_.info().max_storage_buffer_range / (kRadixSize * 4) * kTileElements;
+  return std::min<uint64_t>({by_histogram, uint64_t{UINT32_MAX} - kTileElements});
+}
+
+std::vector<gpu::ElementWindow> RadixSort::windows(uint64_t n) const {
+  // Whole tiles of keys (the wider array); the values' windows cover the same elements.
+  return gpu::storage_windows(ctx_.info(), n, key_bytes(width_), kTileElements);
 }
 
 void RadixSort::record(CommandList& cmd, const Buffer& keys, const Buffer& values, uint64_t n,
@@ -57,8 +65,10 @@ void RadixSort::record(CommandList& cmd, const Buffer& keys, const Buffer& value
   const uint32_t total_bits = kb * 8;
   if (key_bits == 0 || key_bits > total_bits) key_bits = total_bits;
   if (n > max_elements())
-    throw std::invalid_argument("radix sort: " + std::to_string(n) + " keys exceed one storage binding (max " +
-                                std::to_string(max_elements()) + " on " + ctx_.info().name + ")");
+    throw std::invalid_argument("radix sort: " + std::to_string(n) + " keys are more than one sort takes (" +
+                                std::to_string(max_elements()) + " on " + ctx_.info().name +
+                                ": its histogram must fit one storage binding); sort fewer by " +
+                                std::to_string(n - max_elements()));
   if (n > scratch.capacity) throw std::invalid_argument("radix sort: scratch capacity is smaller than n");
   if (scratch.width != width_) throw std::invalid_argument("radix sort: scratch was made for another key width");
   if (keys.size() < n * kb || values.size() < n * 4) throw std::invalid_argument("radix sort: buffers smaller than n");
@@ -66,6 +76,7 @@ void RadixSort::record(CommandList& cmd, const Buffer& keys, const Buffer& value
   const uint64_t tiles = tiles_for(n);
   const uint64_t hist_n = kRadixSize * tiles;
   const uint32_t passes = (key_bits + 7) / 8;
+  const std::vector<gpu::ElementWindow> win = windows(n);
   const Buffer* src_k = &keys;
   const Buffer* src_v = &values;
   const Buffer* dst_k = &scratch.keys;
@@ -77,13 +88,25 @@ void RadixSort::record(CommandList& cmd, const Buffer& keys, const Buffer& value
   for (uint32_t pass = 0; pass < passes; ++pass) {
     params.shift = pass * 8;
     params.digit_mask = (1u << std::min(8u, key_bits - pass * 8)) - 1u;
-    cmd.dispatch(count_, {threads_for_tiles(ctx_, tiles)}, params, {src_k->binding(0, n * kb), hist});
+    for (const gpu::ElementWindow& s : win) {
+      params.tile_first = static_cast<uint32_t>(s.first / kTileElements);
+      cmd.dispatch(count_, {threads_for_tiles(ctx_, tiles_for(s.count))}, params,
+                   {src_k->binding(s.first * kb, s.count * kb), hist});
+    }
     cmd.barrier(gpu::deps::kComputeToCompute);  // the scan reads the histogram
     scan_.record(cmd, scratch.histogram, scratch.histogram, hist_n, ScanKind::Exclusive, &scratch.scan_scratch);
     cmd.barrier(gpu::deps::kComputeToCompute);  // the scatter reads the digit offsets
-    cmd.dispatch(scatter_, {threads_for_tiles(ctx_, tiles)}, params,
-                 {src_k->binding(0, n * kb), src_v->binding(0, n * 4), hist, dst_k->binding(0, n * kb),
-                  dst_v->binding(0, n * 4)});
+    // Every source window scatters into every destination window (a tile's keys land anywhere);
+    // the dispatches write disjoint elements, so they need no barriers between them.
+    for (const gpu::ElementWindow& s : win)
+      for (const gpu::ElementWindow& d : win) {
+        params.tile_first = static_cast<uint32_t>(s.first / kTileElements);
+        params.dst_first = static_cast<uint32_t>(d.first);
+        params.dst_count = static_cast<uint32_t>(d.count);
+        cmd.dispatch(scatter_, {threads_for_tiles(ctx_, tiles_for(s.count))}, params,
+                     {src_k->binding(s.first * kb, s.count * kb), src_v->binding(s.first * 4, s.count * 4), hist,
+                      dst_k->binding(d.first * kb, d.count * kb), dst_v->binding(d.first * 4, d.count * 4)});
+      }
     // The next pass reads the scattered keys and rewrites the histogram.
     cmd.barrier(gpu::deps::kComputeToCompute);
     std::swap(src_k, dst_k);

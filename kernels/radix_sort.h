@@ -11,9 +11,12 @@
 // word, float depth bits in the low word (positive floats order like their bits).
 // Pass key_bits = 32 + bits(tile id) to skip empty high digits.
 //
-// Limits: keys of one array must fit one storage binding (n <= 33.5M for
-// 32-bit and 16.7M for 64-bit keys on lavapipe's 128 MiB); larger inputs fail
-// with a clear message.
+// Arrays over one storage binding are sorted in windows of whole tiles: each pass
+// counts per source window and scatters once per (source, destination) window
+// pair, each dispatch writing only its destination window (the same sort; S x D
+// scatter reads where S = D windows). Limits: the digit-major histogram (1 KiB
+// per 4096-element tile) must fit one binding (537 M keys at 128 MiB) and n <
+// 2^32 - 4096; larger inputs fail with a clear message before any work.
 //
 // Shaders: shaders/radix_count{32,64}.comp, shaders/radix_scatter{32,64}.comp.
 // Tests: tests/primitives/test_radix_sort.cpp. Benchmark: bench/bench_primitives.cpp.
@@ -52,6 +55,8 @@ class RadixSort {
   KeyWidth width() const { return width_; }
   // Largest n one sort accepts on this device.
   uint64_t max_elements() const;
+  // The element windows the keys and values of an n-element sort are bound in (one when they fit).
+  std::vector<gpu::ElementWindow> windows(uint64_t n) const;
 
   // Records a stable sort of (keys, values)[0..n) by the low `key_bits` bits
   // of the key (0 = all bits); the result is left in `keys`/`values`.

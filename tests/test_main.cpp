@@ -4,11 +4,13 @@
 #define DOCTEST_CONFIG_IMPLEMENT
 #include <doctest/doctest.h>
 
+#include "capped_context.h"
 #include "gpu_test_context.h"
 
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
+#include <map>
 #include <memory>
 #include <string>
 
@@ -63,6 +65,17 @@ gpu::Context& gpu_context() {
                 g_context->info().name.c_str(), g_context->subgroup_size());
   }
   return *g_context;
+}
+
+gpu::Context& capped_gpu_context(uint64_t max_storage_binding) {
+  static std::map<uint64_t, std::unique_ptr<gpu::Context>> contexts;
+  std::unique_ptr<gpu::Context>& c = contexts[max_storage_binding];
+  if (!c) {
+    gpu::ContextOptions opts = gpu::ContextOptions::from_env();
+    opts.max_storage_binding = max_storage_binding;
+    c = make_validated_context(opts);
+  }
+  return *c;
 }
 
 namespace {

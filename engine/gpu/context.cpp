@@ -29,12 +29,28 @@ bool instance_layer_present(const char* name) {
     if (std::strcmp(l.layerName, name) == 0) return true;
   return false;
 }
+
+// "4096", "64K", "2M", "1G" (powers of 1024) → bytes; anything else names the variable.
+uint64_t env_bytes(const char* name) {
+  const char* v = std::getenv(name);
+  if (!v || !*v) return 0;
+  char* end = nullptr;
+  const unsigned long long n = std::strtoull(v, &end, 10);
+  uint64_t scale = 1;
+  if (*end == 'K' || *end == 'k') scale = 1ull << 10, ++end;
+  else if (*end == 'M' || *end == 'm') scale = 1ull << 20, ++end;
+  else if (*end == 'G' || *end == 'g') scale = 1ull << 30, ++end;
+  if (end == v || *end != '\0' || n == 0)
+    throw std::invalid_argument(std::string(name) + "=" + v + ": expected a positive byte count such as 65536, 64K or 2M");
+  return uint64_t(n) * scale;
+}
 }  // namespace
 
 ContextOptions ContextOptions::from_env() {
   ContextOptions o;
   o.validation = env_flag("ICUBE_VALIDATION");
   if (const char* d = std::getenv("ICUBE_DEVICE")) o.device = d;
+  o.max_storage_binding = env_bytes("ICUBE_MAX_STORAGE_BINDING");
   return o;
 }
 

@@ -35,7 +35,7 @@ struct ContextOptions {
   std::vector<const char*> extra_instance_extensions;
   std::vector<const char*> extra_device_extensions;  // e.g. VK_KHR_swapchain for the viewer
 
-  // Reads ICUBE_VALIDATION (1/0) and ICUBE_DEVICE.
+  // Reads ICUBE_VALIDATION (1/0), ICUBE_DEVICE and ICUBE_MAX_STORAGE_BINDING (bytes; K/M/G suffixes).
   static ContextOptions from_env();
 };
 

@@ -13,8 +13,9 @@ layout(std430, binding = 1) writeonly buffer Hist { uint hist[]; };
 shared uint counts[RADIX_SIZE];
 
 void main() {
-  uint tile = icube_group_linear();
+  uint tile = p.tile_first + icube_group_linear();
   if (tile >= p.num_tiles) return;
+  const uint window_base = p.tile_first * TILE;  // element index of keys[0] (the bound window)
   uint lane = gl_SubgroupInvocationID;
   for (uint d = lane; d < RADIX_SIZE; d += gl_SubgroupSize) counts[d] = 0u;
   subgroupBarrier();
@@ -24,7 +25,7 @@ void main() {
   for (uint base = begin; base < end; base += gl_SubgroupSize) {
     uint i = base + lane;
     bool valid = i < end;
-    uint d = valid ? key_digit(keys[i], p.shift) & p.digit_mask : 0u;
+    uint d = valid ? key_digit(keys[i - window_base], p.shift) & p.digit_mask : 0u;
     uvec4 match = match_digit(d, valid);
     if (valid && subgroupBallotFindMSB(match) == lane) counts[d] += subgroupBallotBitCount(match);
     subgroupBarrier();  // the next batch's leader for d may be another lane

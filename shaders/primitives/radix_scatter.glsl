@@ -16,8 +16,9 @@ layout(std430, binding = 4) writeonly buffer ValuesOut { uint values_out[]; };
 shared uint next_slot[RADIX_SIZE];
 
 void main() {
-  uint tile = icube_group_linear();
+  uint tile = p.tile_first + icube_group_linear();
   if (tile >= p.num_tiles) return;
+  const uint window_base = p.tile_first * TILE;  // element index of keys_in[0] (the bound window)
   uint lane = gl_SubgroupInvocationID;
   for (uint d = lane; d < RADIX_SIZE; d += gl_SubgroupSize) next_slot[d] = offsets[d * p.num_tiles + tile];
   subgroupBarrier();
@@ -31,8 +32,8 @@ void main() {
     uint value = 0u;
     uint d = 0u;
     if (valid) {
-      key = keys_in[i];
-      value = values_in[i];
+      key = keys_in[i - window_base];
+      value = values_in[i - window_base];
       d = key_digit(key, p.shift) & p.digit_mask;
     }
     uvec4 match = match_digit(d, valid);
@@ -43,9 +44,12 @@ void main() {
     uint slot = is_leader ? next_slot[d] : 0u;
     uint group_base = subgroupShuffle(slot, leader);
     if (valid) {
-      uint dst = group_base + subgroupBallotExclusiveBitCount(match);
-      keys_out[dst] = key;
-      values_out[dst] = value;
+      // Destinations outside the bound window are written by this tile's dispatch for their window.
+      const uint dst = group_base + subgroupBallotExclusiveBitCount(match) - p.dst_first;
+      if (dst < p.dst_count) {
+        keys_out[dst] = key;
+        values_out[dst] = value;
+      }
     }
     if (is_leader) next_slot[d] = slot + subgroupBallotBitCount(match);
     subgroupBarrier();  // the next batch's leader for d may be another lane

@@ -22,12 +22,21 @@ struct ReduceParams {
   uint pad1;
 };
 
-// radix_count* / radix_scatter*: one workgroup (one subgroup) per tile.
+// radix_count* / radix_scatter*: one workgroup (one subgroup) per tile of a source window.
+// Arrays over one storage binding are bound in windows: workgroup g handles tile
+// tile_first + g, whose keys sit at index - tile_first * TILE of the bound source window;
+// the scatter writes only destinations in [dst_first, dst_first + dst_count), at
+// dst - dst_first of the bound destination window (one dispatch per source x destination
+// window; one of each when the arrays fit one binding).
 struct RadixParams {
-  uint n;          // elements
+  uint n;          // elements of the whole array
   uint shift;      // bit position of the digit within the key (0..63)
   uint num_tiles;  // tiles in the whole array (histogram is digit-major: [256][num_tiles])
   uint digit_mask; // 0xff, or fewer bits on the last pass when sorting by the low key_bits only
+  uint tile_first; // first tile of the bound source window
+  uint dst_first;  // scatter: first element of the bound destination window
+  uint dst_count;  // scatter: elements of the bound destination window
+  uint pad0;
 };
 
 // iota: out[i] = start + i * step for i < n.
@@ -45,7 +54,9 @@ ICUBE_CHECK_LAYOUT(ScanParams, tile_base, 4);
 ICUBE_CHECK_LAYOUT(ScanParams, has_prefix, 12);
 ICUBE_CHECK_SIZE(ReduceParams, 16);
 ICUBE_CHECK_LAYOUT(ReduceParams, out_base, 4);
-ICUBE_CHECK_SIZE(RadixParams, 16);
+ICUBE_CHECK_SIZE(RadixParams, 32);
+ICUBE_CHECK_LAYOUT(RadixParams, tile_first, 16);
+ICUBE_CHECK_LAYOUT(RadixParams, dst_count, 24);
 ICUBE_CHECK_LAYOUT(RadixParams, shift, 4);
 ICUBE_CHECK_LAYOUT(RadixParams, num_tiles, 8);
 ICUBE_CHECK_LAYOUT(RadixParams, digit_mask, 12);

@@ -6,6 +6,7 @@
 // LP_NATIVE_VECTOR_WIDTH 128, 256 and 512 (subgroup sizes 4, 8, 16).
 #include <doctest/doctest.h>
 
+#include "capped_context.h"
 #include "gpu_test_context.h"
 #include "radix_sort.h"
 
@@ -127,7 +128,9 @@ TEST_SUITE("subgroup-sensitive") {
   TEST_CASE("radix sort rejects inputs it cannot hold") {
     gpu::Context& ctx = test::gpu_context();
     kernels::RadixSort sort(ctx, KeyWidth::Bits64);
-    CHECK(sort.max_elements() == ctx.info().max_storage_buffer_range / 8);
+    // The histogram (1 KiB per 4096-key tile) bounds one sort, not the keys' binding.
+    CHECK(sort.max_elements() ==
+          std::min<uint64_t>(ctx.info().max_storage_buffer_range / 1024 * 4096, uint64_t{UINT32_MAX} - 4096));
     gpu::Buffer k(ctx, 64), v(ctx, 64);
     kernels::RadixSortScratch scratch(ctx, 4, KeyWidth::Bits64);
     ctx.submit_and_wait([&](gpu::CommandList& cmd) {
@@ -136,9 +139,33 @@ TEST_SUITE("subgroup-sensitive") {
       CHECK_THROWS_WITH_AS(sort.record(cmd, k, v, 8, narrow), doctest::Contains("another key width"),
                            std::invalid_argument);
       CHECK_THROWS_WITH_AS(sort.record(cmd, k, v, sort.max_elements() + 1, scratch),
-                           doctest::Contains("exceed one storage binding"), std::invalid_argument);
+                           doctest::Contains("more than one sort takes"), std::invalid_argument);
     });
     std::vector<uint32_t> a = {3, 1}, b = {0};
     CHECK_THROWS_AS(kernels::radix_sort_cpu(a, b), std::invalid_argument);
+  }
+
+  // 32 KiB bindings: 4096 64-bit keys (one tile) or 8192 32-bit keys per window; the histogram
+  // of up to 32 tiles fits. Every pass counts per window and scatters window x window.
+  TEST_CASE("radix sort over one storage binding: windowed keys and values, the same stable sort") {
+    gpu::Context& capped = test::capped_gpu_context(32u << 10);
+    kernels::RadixSort sort64(capped, KeyWidth::Bits64), sort32(capped, KeyWidth::Bits32);
+    CHECK(sort64.windows(30011).size() == 8);
+    CHECK(sort32.windows(100003).size() == 13);
+    for (uint64_t n : {uint64_t{4095}, uint64_t{4097}, uint64_t{30011}}) {
+      CAPTURE(n);
+      check_sort(capped, splat_keys(n, static_cast<uint32_t>(n) + 11, 1200));
+      check_sort(capped, splat_keys(n, static_cast<uint32_t>(n) + 12, 3), 32 + 2);  // heavy ties, partial bits
+    }
+    check_sort(capped, random_keys32(100003, 13));
+    check_sort(capped, random_keys32(100003, 14, 7));  // ties: stability across windows
+    // 33 tiles of histogram pass 32 KiB: refused by name before any work.
+    gpu::Buffer k(capped, 8 * 135168), v(capped, 4 * 135168);
+    kernels::RadixSortScratch scratch(capped, 135168, KeyWidth::Bits64);
+    CHECK(sort64.max_elements() == 131072);
+    capped.submit_and_wait([&](gpu::CommandList& cmd) {
+      CHECK_THROWS_WITH_AS(sort64.record(cmd, k, v, 135168, scratch), doctest::Contains("sort fewer by 4096"),
+                           std::invalid_argument);
+    });
   }
 }
