@@ -11,15 +11,6 @@
 
 namespace icube::kernels::nn {
 
-namespace {
-
-void check_fits(const gpu::Context& ctx, const char* what, uint64_t elements, const gpu::Buffer& b) {
-  require_one_binding(ctx, "nn elementwise", what, elements);
-  require_buffer("nn elementwise", what, elements * 4, b);
-}
-
-}  // namespace
-
 Elementwise::Elementwise(gpu::Context& ctx)
     : ctx_(ctx), elementwise_(ctx.program("nn/elementwise")), resample_(ctx.program("nn/resample")) {}
 
@@ -31,18 +22,33 @@ void Elementwise::run(gpu::CommandList& cmd, uint32_t op, const gpu::Buffer& a, 
   require_buffer("nn elementwise", "elementwise output", count * 4, y);
   shader::ElementwiseParams pc{static_cast<uint32_t>(count), op, channels, static_cast<uint32_t>(tokens), 0, 0, 0, 0};
   const uint64_t fit = window_elements(ctx_, max_binding_bytes_);
-  const bool fits = a_count <= fit && count <= fit;
-  if (fits || op == NN_EW_GEGLU) {  // GEGLU is not windowed (8^3 tokens in the UNet): one binding
-    if (!fits) check_fits(ctx_, "geglu input", a_count, a);
+  if (a_count <= fit && count <= fit) {
     cmd.dispatch(elementwise_, gpu::Threads{count}, pc,
                  {a.binding(0, a_count * 4), b ? b->binding(0, count * 4) : gpu::null_binding(), y.binding(0, count * 4)});
     return;
   }
-  // SiLU and add: flat windows, element i of every operand in the same window.
+  if (op == NN_EW_GEGLU) {
+    // Per batch element: the value half (a) and the gate half (b) of the input, each windowed with
+    // the output as y = a * gelu(b).
+    const uint64_t per = uint64_t{channels} * tokens, batch = count / per;
+    for (uint64_t n = 0; n < batch; ++n)
+      run_flat(cmd, NN_EW_GATE_GELU, a, 2 * n * per, &a, (2 * n + 1) * per, y, n * per, per);
+    return;
+  }
+  run_flat(cmd, op, a, 0, b, 0, y, 0, count);
+}
+
+void Elementwise::run_flat(gpu::CommandList& cmd, uint32_t op, const gpu::Buffer& a, uint64_t a_first,
+                           const gpu::Buffer* b, uint64_t b_first, const gpu::Buffer& y, uint64_t y_first,
+                           uint64_t count) {
+  // Element i of every operand in the same window; windows write disjoint outputs (no barrier).
+  const uint64_t fit = window_elements(ctx_, max_binding_bytes_);
+  shader::ElementwiseParams pc{0, op, 0, 0, 0, 0, 0, 0};
   for (uint64_t first = 0; first < count; first += fit) {
     const uint64_t n = std::min(fit, count - first);
-    const ElementWindow aw = element_window(ctx_, a, first, n), yw = element_window(ctx_, y, first, n);
-    const ElementWindow bw = b ? element_window(ctx_, *b, first, n) : ElementWindow{gpu::null_binding(), 0};
+    const ElementWindow aw = element_window(ctx_, a, a_first + first, n);
+    const ElementWindow yw = element_window(ctx_, y, y_first + first, n);
+    const ElementWindow bw = b ? element_window(ctx_, *b, b_first + first, n) : ElementWindow{gpu::null_binding(), 0};
     pc.count = static_cast<uint32_t>(n);
     pc.a_offset = aw.offset;
     pc.b_offset = bw.offset;
@@ -88,9 +94,33 @@ void Elementwise::resample(gpu::CommandList& cmd, uint32_t op, const gpu::Buffer
   const uint64_t plane_in = in / planes, plane_out = out / planes;
   const uint64_t fit = window_elements(ctx_, max_binding_bytes_);
   const uint64_t per_window = std::min<uint64_t>(fit / std::max(plane_in, plane_out), planes);
-  if (per_window == 0)
-    throw std::invalid_argument("nn resample: one plane of " + std::to_string(std::max(plane_in, plane_out) * 4) +
-                                " bytes exceeds one storage binding");
+  if (per_window == 0) {
+    // A plane over one binding: slabs of whole x slices ([x][y][z], z fastest), each a smaller volume
+    // of the same op: output slices [o0, o0 + k) from input slices [2 o0, 2 o0 + 2k) (pooling) or
+    // [o0 / 2, ...) (upsampling).
+    const bool pool = op == NN_RS_AVGPOOL2;
+    const uint64_t yz_in = uint64_t{sy} * sz, yz_out = pool ? uint64_t{sy / 2} * (sz / 2) : 4 * yz_in;
+    const uint64_t out_x = pool ? sx / 2 : 2 * uint64_t{sx};
+    // k output slices need k * yz_out outputs and 2k (pooling) or k/2 (upsampling, k even) input slices.
+    uint64_t k = pool ? std::min(fit / yz_out, fit / (2 * yz_in)) : std::min(fit / yz_out, 2 * (fit / yz_in)) / 2 * 2;
+    if (k == 0)
+      throw std::invalid_argument("nn resample: one x slice of " + std::to_string(sy) + "x" + std::to_string(sz) +
+                                  " exceeds one storage binding (" + std::to_string(fit * 4) +
+                                  " bytes): reduce the volume's y x z extent");
+    for (uint64_t p0 = 0; p0 < planes; ++p0)
+      for (uint64_t o0 = 0; o0 < out_x; o0 += k) {
+        const uint64_t kk = std::min(k, out_x - o0);
+        const uint64_t i0 = pool ? 2 * o0 : o0 / 2, ni = pool ? 2 * kk : kk / 2;
+        const ElementWindow xw = element_window(ctx_, x, p0 * plane_in + i0 * yz_in, ni * yz_in);
+        const ElementWindow yw = element_window(ctx_, y, p0 * plane_out + o0 * yz_out, kk * yz_out);
+        pc.planes = 1;
+        pc.size_x = static_cast<uint32_t>(ni);
+        pc.x_offset = xw.offset;
+        pc.y_offset = yw.offset;
+        cmd.dispatch(resample_, gpu::Threads{kk * yz_out}, pc, {xw.binding, yw.binding});
+      }
+    return;
+  }
   for (uint64_t p0 = 0; p0 < planes; p0 += per_window) {
     const uint64_t n = std::min(per_window, planes - p0);
     const ElementWindow xw = element_window(ctx_, x, p0 * plane_in, n * plane_in);

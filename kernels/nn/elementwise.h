@@ -1,8 +1,10 @@
 // The network's small element-wise kernels: SiLU, add, GEGLU's gating
 // (shaders/nn/elementwise.comp) and the UNet's resampling, 2x2x2 average
 // pooling and nearest x2 upsampling (shaders/nn/resample.comp). No barrier
-// inside. SiLU, add and the resampling run in windows (flat ranges; whole
-// planes) when a tensor exceeds one storage binding; GEGLU's input must fit one.
+// inside. When a tensor exceeds one storage binding they run in windows: SiLU and add
+// over flat ranges, GEGLU per batch element over flat ranges of its value and gate
+// halves, the resampling over whole planes or, for a plane over one binding, slabs
+// of whole x slices.
 // CPU references: nn::cpu::silu / add / gelu / avg_pool2 / upsample2.
 // Tests: tests/nn/test_elementwise_gpu.cpp.
 #pragma once
@@ -34,6 +36,9 @@ class Elementwise {
  private:
   void run(gpu::CommandList& cmd, uint32_t op, const gpu::Buffer& a, uint64_t a_count, const gpu::Buffer* b,
            uint64_t count, uint32_t channels, uint64_t tokens, const gpu::Buffer& y);
+  // Flat windows of y[y_first + i] = op(a[a_first + i], b[b_first + i]), i < count.
+  void run_flat(gpu::CommandList& cmd, uint32_t op, const gpu::Buffer& a, uint64_t a_first, const gpu::Buffer* b,
+                uint64_t b_first, const gpu::Buffer& y, uint64_t y_first, uint64_t count);
   void resample(gpu::CommandList& cmd, uint32_t op, const gpu::Buffer& x, uint32_t planes, uint32_t sx, uint32_t sy,
                 uint32_t sz, const gpu::Buffer& y);
   gpu::Context& ctx_;

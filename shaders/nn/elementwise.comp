@@ -1,7 +1,9 @@
 #version 460
 #extension GL_GOOGLE_include_directive : require
 // elementwise: SiLU, add, or GEGLU's gating (ElementwiseParams.op, see
-// shared/nn_params.h), one thread per output element, float32. GELU is the
+// shared/nn_params.h), one thread per output element, float32. NN_EW_GEGLU reads
+// both halves of each batch element from binding A; NN_EW_GATE_GELU, the same gating
+// over windows, reads the value from A and the gate from B at the same index. GELU is the
 // exact form x/2 (1 + erf(x/sqrt 2)) (F.gelu's default); GLSL has no erf, so
 // erf_f evaluates its Taylor series below |x| = 2 and erfc's continued
 // fraction above, to about 3e-7 absolute; far negative inputs use erfc
@@ -59,6 +61,8 @@ void main() {
     y_out[p.y_offset + i] = v / (1.0 + exp(-v));
   } else if (p.op == NN_EW_ADD) {
     y_out[p.y_offset + i] = a_in[p.a_offset + i] + b_in[p.b_offset + i];
+  } else if (p.op == NN_EW_GATE_GELU) {
+    y_out[p.y_offset + i] = a_in[p.a_offset + i] * gelu_f(b_in[p.b_offset + i]);
   } else {
     const uint per_batch = p.channels * p.tokens;
     const uint b = i / per_batch, r = i % per_batch;

@@ -29,8 +29,10 @@ std::vector<float> sweep(size_t n, uint32_t seed) {
 }  // namespace
 
 TEST_CASE("nn elementwise gpu: SiLU, add, GEGLU against the CPU reference") {
-  // 0: the device's binding limit; 1000 B: SiLU and add in windows of 246 elements (off the alignment).
-  for (const uint64_t limit : {uint64_t{0}, uint64_t{1000}}) {
+  // 0: the device's binding limit; 1000 B: SiLU, add and GEGLU (per batch element, its value and
+  // gate halves of 185 elements) in windows of 246 elements (off the alignment); 400 B: windows of
+  // 96 elements, two per GEGLU half.
+  for (const uint64_t limit : {uint64_t{0}, uint64_t{1000}, uint64_t{400}}) {
   CAPTURE(limit);
   gpu::Context& ctx = test::gpu_context();
   kernels::nn::Elementwise ew(ctx);
@@ -71,9 +73,11 @@ TEST_CASE("nn elementwise gpu: SiLU, add, GEGLU against the CPU reference") {
 }
 
 TEST_CASE("nn elementwise gpu: average pooling and nearest upsampling are exact") {
-  // 0: the device's binding limit; 2000 B: windows of whole planes (one upsampled plane is 4,480 B,
-  // so the upsampling cannot window: checked below; pooling runs 4 planes of 140 inputs a window).
-  for (const uint64_t limit : {uint64_t{0}, uint64_t{2400}}) {
+  // 0: the device's binding limit. 2400 B: pooling in windows of whole planes (140 inputs = 560 B
+  // a plane); an upsampled plane (4,480 B) does not fit, so upsampling runs in slabs of 4 output x
+  // slices. 300 B: a pooled plane's input does not fit either: pooling in slabs of one output x
+  // slice; one upsampled x slice (448 B) exceeds the binding, refused by name.
+  for (const uint64_t limit : {uint64_t{0}, uint64_t{2400}, uint64_t{300}}) {
   CAPTURE(limit);
   gpu::Context& ctx = test::gpu_context();
   kernels::nn::Elementwise ew(ctx);
@@ -84,22 +88,21 @@ TEST_CASE("nn elementwise gpu: average pooling and nearest upsampling are exact"
   gpu::Buffer xb = gpu::upload_vector(ctx, x.data);
   const nn::CpuTensor pool = nn::cpu::avg_pool2(x), up = nn::cpu::upsample2(x);
   gpu::Buffer pb(ctx, pool.data.size() * 4), ub(ctx, up.data.size() * 4);
-  ew.set_max_binding_bytes(limit == 0 ? 0 : 6000);  // the upsampled plane (4,480 B) fits, 1 plane a window
-  ctx.submit_and_wait([&](gpu::CommandList& cmd) { ew.upsample2(cmd, xb, 6, 5, 4, 7, ub); });
   ew.set_max_binding_bytes(limit);
   ctx.submit_and_wait([&](gpu::CommandList& cmd) { ew.avg_pool2(cmd, xb, 6, 5, 4, 7, pb); });
   CHECK(test::allclose(gpu::download_vector<float>(ctx, pb, pool.data.size()), pool.data, 1e-6, 1e-6, "avg_pool2"));
-  CHECK(test::allclose(gpu::download_vector<float>(ctx, ub, up.data.size()), up.data, 0.0, 0.0, "upsample2"));
+  if (limit != 300) {
+    ctx.submit_and_wait([&](gpu::CommandList& cmd) { ew.upsample2(cmd, xb, 6, 5, 4, 7, ub); });
+    CHECK(test::allclose(gpu::download_vector<float>(ctx, ub, up.data.size()), up.data, 0.0, 0.0, "upsample2"));
+  } else {
+    ctx.submit_and_wait([&](gpu::CommandList& cmd) {
+      CHECK_THROWS_WITH_AS(ew.upsample2(cmd, xb, 6, 5, 4, 7, ub), doctest::Contains("one x slice of 4x7 exceeds"),
+                           std::invalid_argument);
+    });
+  }
   gpu::Buffer tiny(ctx, 64);
   ctx.submit_and_wait([&](gpu::CommandList& cmd) {
     CHECK_THROWS_WITH_AS(ew.avg_pool2(cmd, tiny, 1, 1, 4, 4, tiny), doctest::Contains("shorter than 2"), std::invalid_argument);
   });
-  if (limit != 0) {
-    gpu::Buffer big(ctx, up.data.size() * 4);
-    ctx.submit_and_wait([&](gpu::CommandList& cmd) {
-      CHECK_THROWS_WITH_AS(ew.upsample2(cmd, xb, 6, 5, 4, 7, big), doctest::Contains("one plane of 4480 bytes exceeds"),
-                           std::invalid_argument);
-    });
-  }
   }
 }
