@@ -54,7 +54,9 @@ uint64_t RadixSort::max_elements() const {
 }
 
 std::vector<gpu::ElementWindow> RadixSort::windows(uint64_t n) const {
-  // Whole tiles of keys (the wider array); the values' windows cover the same elements.
+  // Whole tiles of keys (the wider array); the values' windows cover the same elements. Arrays
+  // that fit one binding are one window, however small the binding.
+  if (n * key_bytes(width_) <= ctx_.info().max_storage_buffer_range) return {{0, n}};
   return gpu::storage_windows(ctx_.info(), n, key_bytes(width_), kTileElements);
 }
 

@@ -9,6 +9,7 @@
 // Runs under the validation layer.
 #include <doctest/doctest.h>
 
+#include "capped_context.h"
 #include "gpu_test_context.h"
 #include "nn/sparse_cpu.h"
 #include "sparse_test_util.h"
@@ -92,11 +93,35 @@ TEST_CASE("sparse grid gpu: row gathers with missing rows read zero") {
   kernels::nn::SparseGridOps ops(ctx);
   ctx.submit_and_wait([&](gpu::CommandList& cmd) { ops.record_gather_rows(cmd, xb, 3, 2, rb, 4, yb); });
   CHECK(gpu::download_vector<float>(ctx, yb, 8) == std::vector<float>{3, 0, 1, 1, 30, 0, 10, 10});
+
+  // Bindings of 4 KiB: 8 channels of 301 input rows (9,632 B) gathered 3 channels a window into
+  // 517 output rows (2 a window), against the plain loop.
+  gpu::Context& capped = test::capped_gpu_context(4u << 10);
+  std::mt19937 rng(12);
+  const uint32_t in_rows = 301, out_rows = 517, channels = 8;
+  std::vector<float> xs(size_t{in_rows} * channels);
+  for (float& v : xs) v = float(rng() % 100000) - 50000.0f;
+  std::vector<int32_t> rs(out_rows);
+  for (int32_t& r : rs) r = int32_t(rng() % (in_rows + 20)) - 10;  // negative: missing
+  std::vector<float> want(size_t{out_rows} * channels);
+  for (uint32_t c = 0; c < channels; ++c)
+    for (uint32_t q = 0; q < out_rows; ++q)
+      want[c * out_rows + q] = rs[q] >= 0 && rs[q] < int32_t(in_rows) ? xs[c * in_rows + rs[q]] : 0.0f;
+  for (int32_t& r : rs) r = r >= int32_t(in_rows) ? -1 : r;
+  gpu::Buffer cx = gpu::upload_vector(capped, xs, "gx"), cr = gpu::upload_vector(capped, rs, "gr");
+  gpu::Buffer cy(capped, want.size() * 4, gpu::MemoryUsage::DeviceLocal, "gy");
+  kernels::nn::SparseGridOps capped_ops(capped);
+  capped.submit_and_wait([&](gpu::CommandList& cmd) { capped_ops.record_gather_rows(cmd, cx, in_rows, channels, cr, out_rows, cy); });
+  CHECK(test::equal_report(gpu::download_vector<float>(capped, cy, want.size()), want, "capped gather"));
 }
 
 TEST_CASE("sparse grid gpu: max pooling (sparse_coarse_keys, sparse_segments, sparse_coarse_rows, sparse_max_pool) and "
           "hash lookups (sparse_lookup) equal the CPU reference") {
-  gpu::Context& ctx = test::gpu_context();
+  // The device's bindings, and 64 KiB bindings: the 5 channels of ~4,000 fine rows (80 KB) pooled
+  // 4 channels a window; the coarse keys sorted in windows.
+  for (gpu::Context* pool_ctx : {&test::gpu_context(), &test::capped_gpu_context(64u << 10)}) {
+  gpu::Context& ctx = *pool_ctx;
+  CAPTURE(ctx.info().max_storage_buffer_range);
   kernels::nn::SparseGridOps ops(ctx);
   for (const Ijk f : {Ijk{2, 2, 1}, Ijk{2, 2, 2}, Ijk{3, 1, 2}}) {
     CAPTURE(f[0]);
@@ -127,6 +152,9 @@ TEST_CASE("sparse grid gpu: max pooling (sparse_coarse_keys, sparse_segments, sp
     }
     CHECK(bad == 0);
   }
+  }
+  gpu::Context& ctx = test::gpu_context();
+  kernels::nn::SparseGridOps ops(ctx);
   // Lookups of present, absent and far coordinates.
   const nn::SparseGrid g = test::random_sparse_grid(31, {-6, -6, -6}, {12, 12, 12}, 500);
   const uint32_t n = static_cast<uint32_t>(g.size());
