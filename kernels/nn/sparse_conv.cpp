@@ -6,6 +6,7 @@
 #include "shared/nn_params.h"
 
 #include <algorithm>
+#include <numeric>
 #include <stdexcept>
 #include <string>
 
@@ -13,11 +14,17 @@ namespace icube::kernels::nn {
 
 namespace {
 
-// Kernel-map rows one binding may hold: a multiple of 1,024 rows (so every window starts at a byte offset
-// that is a multiple of 1,024 * 108, aligned for any device), at least one.
+// Kernel-map rows one binding may hold: a multiple of the rows whose 108 bytes meet the binding-offset
+// alignment, so every window starts aligned.
 uint64_t kmap_window_rows(const gpu::Context& ctx) {
-  const uint64_t rows = ctx.info().max_storage_buffer_range / (uint64_t{NN_SPARSE_TAPS} * 4) / 1024 * 1024;
-  return std::max<uint64_t>(rows, 1024);
+  const uint64_t row_bytes = uint64_t{NN_SPARSE_TAPS} * 4;
+  const uint64_t align = std::max<uint64_t>(4, ctx.info().min_storage_buffer_offset_alignment);
+  const uint64_t unit = align / std::gcd(align, row_bytes);
+  const uint64_t rows = ctx.info().max_storage_buffer_range / row_bytes / unit * unit;
+  if (rows == 0)
+    throw std::invalid_argument("sparse kernel map: one storage binding of " +
+                                std::to_string(ctx.info().max_storage_buffer_range) + " bytes holds no aligned row window");
+  return rows;
 }
 
 }  // namespace
@@ -79,20 +86,33 @@ void SparseConv3d::record(gpu::CommandList& cmd, const SparseConvShape& s, const
   require_buffer("sparse conv", "kernel map", N * NN_SPARSE_TAPS * 4, kmap);
   require_buffer("sparse conv", "packed weights", w_bytes, w);
   if (bias) require_buffer("sparse conv", "bias", uint64_t{s.out_channels} * 4, *bias);
-  if (w_bytes > ctx_.info().max_storage_buffer_range)
-    throw std::invalid_argument("sparse conv: packed weights of " + std::to_string(w_bytes) + " bytes exceed one storage binding");
 
   shader::SparseConvParams pc{};
   pc.rows = s.rows;
   pc.co_vec4s = static_cast<uint32_t>(co_vec4s);
   pc.has_bias = bias ? 1u : 0u;
-  const gpu::BufferBinding wb = w.binding(0, w_bytes);
   const gpu::BufferBinding bb = bias ? bias->binding(0, uint64_t{s.out_channels} * 4) : gpu::null_binding();
   // Input channels per dispatch: lavapipe stops an invocation after 65,535 loop iterations; this kernel
   // makes about 27 * (ci_count + 1).
   constexpr uint64_t kMaxChannelsPerDispatch = 2048;
   const uint64_t usable = window_elements(ctx_, max_binding_bytes_);
-  const uint64_t ci_window = std::min(usable / N, kMaxChannelsPerDispatch);
+  uint64_t ci_window = std::min(usable / N, kMaxChannelsPerDispatch);
+  // Weights over one binding: windows of whole input channels (27 taps x all output columns each),
+  // a multiple of the channels whose rows meet the binding-offset alignment; the input windows follow.
+  const uint64_t w_row = uint64_t{NN_SPARSE_TAPS} * co_vec4s * 16;
+  const uint64_t w_limit = ctx_.info().max_storage_buffer_range;
+  const bool w_windows = w_bytes > w_limit;
+  if (w_windows) {
+    const uint64_t align = std::max<uint64_t>(4, ctx_.info().min_storage_buffer_offset_alignment);
+    const uint64_t unit = align / std::gcd(align, w_row);
+    const uint64_t w_channels = w_limit / w_row / unit * unit;
+    if (w_channels == 0)
+      throw std::invalid_argument("sparse conv: the packed weights of one input channel (" + std::to_string(w_row * unit) +
+                                  " bytes for " + std::to_string(s.out_channels) +
+                                  " output channels) exceed one storage binding; use fewer output channels");
+    // Input windows start where weight windows may: at multiples of `unit` channels.
+    ci_window = std::min(ci_window, w_channels) / unit * unit;
+  }
   // Output windows of whole vec4 weight columns (co_begin a multiple of 4; the kernel stores only
   // co_count channels of its 8-channel tile), so the largest grid one binding allows has 4 output
   // channel planes in it: 8.4 M rows on lavapipe, a whole 256 x 256 x 128 chunk.
@@ -124,6 +144,8 @@ void SparseConv3d::record(gpu::CommandList& cmd, const SparseConvShape& s, const
         if (ci0 > 0) cmd.barrier(gpu::deps::kComputeToCompute);  // later input windows read-modify-write y
         const ElementWindow xw = texel_window(ctx_, x, ci0 * N, uint64_t{pc.ci_count} * N);
         pc.x_offset = xw.offset;
+        pc.w_ci_base = w_windows ? pc.ci_begin : 0u;
+        const gpu::BufferBinding wb = w_windows ? w.binding(ci0 * w_row, uint64_t{pc.ci_count} * w_row) : w.binding(0, w_bytes);
         const uint64_t groups = uint64_t{pc.row_tiles} * pc.co_blocks;
         cmd.dispatch(program_, gpu::Threads{groups * NN_SPARSE_GROUP}, pc, {xw.binding, kb, wb, bb, yw.binding});
       }

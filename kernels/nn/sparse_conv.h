@@ -12,7 +12,8 @@
 // for every 3^3 convolution there (the VAE builds one per level). Kernel maps
 // beyond one storage binding (N * 27 * 4 bytes: 1.24 M rows on lavapipe's
 // 128 MiB) are written and read in row windows, features beyond one binding in
-// channel windows (as Conv3d).
+// channel windows (as Conv3d), packed weights beyond one binding in windows of
+// whole input channels.
 // CPU references: nn::cpu::kernel_map / nn::cpu::conv3d (kernels/nn/sparse_cpu.h).
 // Tests: tests/nn/test_sparse_conv_gpu.cpp.
 #pragma once
@@ -56,6 +57,8 @@ class SparseConv3d {
   // the grid-order weight; `bias` may be nullptr. The only barriers inside are between input-channel windows.
   void record(gpu::CommandList& cmd, const SparseConvShape& s, const gpu::Buffer& x, const gpu::Buffer& kmap,
               const gpu::Buffer& packed_weights, const gpu::Buffer* bias, const gpu::Buffer& y);
+  // Tests: the feature windows as if one binding held `bytes` (0: the device's); kernel-map and weight
+  // windows follow the context's limit (ContextOptions::max_storage_binding).
   void set_max_binding_bytes(uint64_t bytes) { max_binding_bytes_ = bytes; }
 
  private:

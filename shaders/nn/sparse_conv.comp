@@ -45,7 +45,7 @@ void main() {
     int nbr[NN_SPARSE_ROWS];
     for (int v = 0; v < NN_SPARSE_ROWS; ++v) nbr[v] = kmap[min(r0 + uint(v), last) * NN_SPARSE_TAPS + tap];
     for (uint cl = 0u; cl < p.ci_count; ++cl) {
-      const uint wi = ((p.ci_begin + cl) * NN_SPARSE_TAPS + tap) * p.co_vec4s + co_vec;
+      const uint wi = ((p.ci_begin - p.w_ci_base + cl) * NN_SPARSE_TAPS + tap) * p.co_vec4s + co_vec;
       const vec4 w_lo = w_packed[wi];
       const vec4 w_hi = w_packed[wi + 1u];
       const uint base = p.x_offset + cl * p.rows;

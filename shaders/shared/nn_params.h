@@ -222,7 +222,7 @@ struct SparseConvParams {
   uint row_begin;
   uint row_count;
   uint silu;  // 1: y = silu(result) on store (the last input-channel window; the VAE's conv -> SiLU)
-  uint pad0;
+  uint w_ci_base;  // the first input channel of the bound weight window (0: all weights bound)
 };
 
 // Sparse grid construction (kernels/nn/sparse_grid.h):
@@ -269,6 +269,7 @@ ICUBE_CHECK_SIZE(SparseConvParams, 64);
 ICUBE_CHECK_LAYOUT(SparseConvParams, row_begin, 48);
 ICUBE_CHECK_LAYOUT(SparseConvParams, row_tiles, 28);
 ICUBE_CHECK_LAYOUT(SparseConvParams, y_offset, 44);
+ICUBE_CHECK_LAYOUT(SparseConvParams, w_ci_base, 60);
 ICUBE_CHECK_SIZE(Conv3dParams, 80);
 ICUBE_CHECK_LAYOUT(Conv3dParams, co_vec4s, 28);
 ICUBE_CHECK_LAYOUT(Conv3dParams, kernel, 44);

@@ -8,6 +8,7 @@
 // Runs under the validation layer.
 #include <doctest/doctest.h>
 
+#include "capped_context.h"
 #include "gpu_test_context.h"
 #include "nn/conv3d.h"
 #include "nn/sparse_conv.h"
@@ -32,8 +33,7 @@ std::vector<int32_t> flat_ijk(const nn::SparseGrid& g) {
 }
 
 // The GPU kernel map of `g`.
-std::vector<int32_t> gpu_kernel_map(const nn::SparseGrid& g) {
-  gpu::Context& ctx = test::gpu_context();
+std::vector<int32_t> gpu_kernel_map(const nn::SparseGrid& g, gpu::Context& ctx = test::gpu_context()) {
   const uint32_t rows = static_cast<uint32_t>(g.size());
   const uint32_t ts = kernels::nn::SparseKernelMap::table_size(rows);
   gpu::Buffer ijk = gpu::upload_vector(ctx, flat_ijk(g).empty() ? std::vector<int32_t>{0, 0, 0} : flat_ijk(g), "sparse-ijk");
@@ -52,11 +52,11 @@ std::vector<int32_t> gpu_kernel_map(const nn::SparseGrid& g) {
 
 // GPU conv of x (CPU layout [N, C]) vs the CPU reference; bound 1e-6 + n * 2^-23 * sum |w x|.
 void check_conv(const nn::SparseGrid& g, int64_t ci, int64_t co, bool with_bias, float scale, uint32_t seed,
-                uint64_t max_binding_bytes = 0, bool silu = false) {
+                uint64_t max_binding_bytes = 0, bool silu = false, gpu::Context& ctx = test::gpu_context()) {
   CAPTURE(g.size());
   CAPTURE(ci);
   CAPTURE(co);
-  gpu::Context& ctx = test::gpu_context();
+  CAPTURE(ctx.info().max_storage_buffer_range);
   std::mt19937 rng(seed);
   std::uniform_real_distribution<float> u(-1.0f, 1.0f);
   nn::SparseTensor x{g, ci, std::vector<float>(static_cast<size_t>(g.size() * ci))};
@@ -153,6 +153,23 @@ TEST_CASE("sparse conv gpu: channel windows when the features exceed one binding
   const kernels::nn::SparseConvShape s{10, 4, 4};
   CHECK_THROWS_WITH_AS(ctx.submit_and_wait([&](gpu::CommandList& cmd) { conv.record(cmd, s, small, small, small, nullptr, small); }),
                        doctest::Contains("sparse conv: input buffer holds 64 bytes"), std::invalid_argument);
+}
+
+TEST_CASE("sparse conv gpu: kernel-map rows, features and weights over a forced 8 KiB binding") {
+  // A context whose bindings hold 8 KiB: the kernel map of 500 rows (54 KB) is written in windows of
+  // 72 rows; the convolution reads it in those row windows, its features 4 channels a window and
+  // its packed weights (2,592 B an input channel at 20 outputs) 3 input channels a window.
+  gpu::Context& capped = test::capped_gpu_context(8u << 10);
+  const nn::SparseGrid g = test::random_sparse_grid(41, {-9, -9, -9}, {18, 18, 18}, 500);
+  CHECK(gpu_kernel_map(g, capped) == nn::cpu::kernel_map(g, 3));
+  check_conv(g, 13, 20, true, 1.0f, 42, 0, false, capped);
+  check_conv(g, 7, 9, false, 3.0f, 43, 0, true, capped);
+  // One input channel's weights at 4,096 outputs (27 x 1,024 vec4s = 442 KB) cannot be windowed: named.
+  kernels::nn::SparseConv3d conv(capped);
+  gpu::Buffer big(capped, 27u * 1024 * 16 * 2, gpu::MemoryUsage::DeviceLocal, "big");
+  const kernels::nn::SparseConvShape s{2, 2, 4096};
+  CHECK_THROWS_WITH_AS(capped.submit_and_wait([&](gpu::CommandList& cmd) { conv.record(cmd, s, big, big, big, nullptr, big); }),
+                       doctest::Contains("use fewer output channels"), std::invalid_argument);
 }
 
 TEST_CASE("sparse conv gpu: equals the dense GPU conv3d over the zero-filled box at the active voxels") {
