@@ -7,6 +7,7 @@
 #include "shared/nn_params.h"
 
 #include <algorithm>
+#include <numeric>
 #include <stdexcept>
 #include <string>
 
@@ -55,9 +56,20 @@ void Conv3d::record(gpu::CommandList& cmd, const Conv3dShape& s, const gpu::Buff
   require_buffer("conv3d", "output", y_bytes, y);
   require_buffer("conv3d", "packed weights", w_bytes, w);
   if (bias) require_buffer("conv3d", "bias", uint64_t{s.out_channels} * 4, *bias);
-  if (w_bytes > ctx_.info().max_storage_buffer_range)
-    throw std::invalid_argument("conv3d: packed weights of " + std::to_string(w_bytes) +
-                                " bytes exceed one storage binding");
+  // Weights over one binding go in windows of whole input channels (all taps and output columns of
+  // each), a multiple of the channels whose rows meet the binding-offset alignment.
+  const uint64_t w_row = w_bytes / s.in_channels;
+  const bool w_windows = w_bytes > ctx_.info().max_storage_buffer_range;
+  uint64_t w_channels = s.in_channels, w_unit = 1;
+  if (w_windows) {
+    const uint64_t align = std::max<uint64_t>(4, ctx_.info().min_storage_buffer_offset_alignment);
+    w_unit = align / std::gcd(align, w_row);
+    w_channels = ctx_.info().max_storage_buffer_range / w_row / w_unit * w_unit;
+    if (w_channels == 0)
+      throw std::invalid_argument("conv3d: the packed weights of one input channel (" + std::to_string(w_row * w_unit) +
+                                  " bytes for " + std::to_string(s.out_channels) +
+                                  " output channels) exceed one storage binding; use fewer output channels");
+  }
   if (S > UINT32_MAX / 4) throw std::invalid_argument("conv3d: grid of " + std::to_string(S) + " voxels is too large");
 
   shader::Conv3dParams pc{};
@@ -69,7 +81,7 @@ void Conv3d::record(gpu::CommandList& cmd, const Conv3dShape& s, const gpu::Buff
   pc.kernel = s.kernel;
   pc.voxel_tiles = static_cast<uint32_t>(gpu::div_up(uint64_t{s.x} * s.y * gpu::div_up(s.z, NN_CONV_ZRUN), NN_CONV_GROUP));
   pc.has_bias = bias ? 1u : 0u;
-  const gpu::BufferBinding wb = w.binding(0, w_bytes);
+  gpu::BufferBinding wb = w_windows ? gpu::null_binding() : w.binding(0, w_bytes);
   const gpu::BufferBinding bb = bias ? bias->binding(0, uint64_t{s.out_channels} * 4) : gpu::null_binding();
   auto dispatch = [&](uint32_t batch, const gpu::BufferBinding& xb, const gpu::BufferBinding& yb) {
     pc.batch = batch;
@@ -82,7 +94,8 @@ void Conv3d::record(gpu::CommandList& cmd, const Conv3dShape& s, const gpu::Buff
   // stops one after 65,535, so input channels go in windows of at most kMaxChannelsPerDispatch.
   constexpr uint64_t kMaxChannelsPerDispatch = 4096;
   const uint64_t texel_limit = ctx_.info().max_texel_buffer_elements * 4;
-  if (x_bytes <= std::min(limit, texel_limit) && y_bytes <= limit && s.in_channels <= kMaxChannelsPerDispatch) {
+  if (!w_windows && x_bytes <= std::min(limit, texel_limit) && y_bytes <= limit &&
+      s.in_channels <= kMaxChannelsPerDispatch) {
     // One dispatch for everything.
     pc.co_begin = 0;
     pc.co_count = s.out_channels;
@@ -100,7 +113,7 @@ void Conv3d::record(gpu::CommandList& cmd, const Conv3dShape& s, const gpu::Buff
   // aligned down (element_window; the rest goes to *_offset), so a window holds
   // one alignment less than a binding (window_elements).
   const uint64_t usable = window_elements(ctx_, max_binding_bytes_);
-  const uint64_t ci_window = std::min(usable / S, kMaxChannelsPerDispatch);
+  const uint64_t ci_window = std::min({usable / S, kMaxChannelsPerDispatch, w_channels}) / w_unit * w_unit;
   const uint64_t co_window = usable / S / NN_CONV_CO_TILE * NN_CONV_CO_TILE;
   if (ci_window == 0 || co_window == 0)
     throw std::invalid_argument("conv3d: " + std::to_string(NN_CONV_CO_TILE) + " channels of " + std::to_string(S) +
@@ -124,6 +137,10 @@ void Conv3d::record(gpu::CommandList& cmd, const Conv3dShape& s, const gpu::Buff
         // Later input windows read-modify-write the same y window.
         if (ci0 > 0) cmd.barrier(gpu::deps::kComputeToCompute);
         const gpu::BufferBinding xb = window(x, (uint64_t{b} * s.in_channels + ci0) * S, uint64_t{pc.ci_count} * S, pc.x_offset, true);
+        if (w_windows) {
+          pc.w_ci_base = pc.ci_begin;
+          wb = w.binding(ci0 * w_row, uint64_t{pc.ci_count} * w_row);
+        }
         dispatch(1, xb, yb);
       }
     }

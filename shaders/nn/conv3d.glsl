@@ -86,7 +86,7 @@ void main() {
         const int qy = yy + dy - H;
         const bool row_valid = qx >= 0 && qx < X && qy >= 0 && qy < Y;
         const uint x_row = x_base + uint(clamp(qx, 0, X - 1) * Y + clamp(qy, 0, Y - 1)) * uint(Z);
-        const uint w_row = (ci * taps + uint((dx * K + dy) * K)) * row_len + co_vec;
+        const uint w_row = ((ci - p.w_ci_base) * taps + uint((dx * K + dy) * K)) * row_len + co_vec;
         row_taps(NN_K, x_row, row_valid, z0, Z, w_row);
       }
     }

@@ -42,7 +42,7 @@ struct Conv3dParams {
   uint x_batch_stride;
   uint y_offset;      // elements: channel co_begin of the first batch element
   uint y_batch_stride;
-  uint pad0;
+  uint w_ci_base;     // the first input channel of the bound weight window (0: all weights bound)
 };
 
 // group_norm_partials / group_norm_stats / group_norm_apply: GroupNorm over
@@ -275,6 +275,7 @@ ICUBE_CHECK_LAYOUT(Conv3dParams, co_vec4s, 28);
 ICUBE_CHECK_LAYOUT(Conv3dParams, kernel, 44);
 ICUBE_CHECK_LAYOUT(Conv3dParams, x_offset, 60);
 ICUBE_CHECK_LAYOUT(Conv3dParams, y_batch_stride, 72);
+ICUBE_CHECK_LAYOUT(Conv3dParams, w_ci_base, 76);
 
 ICUBE_CHECK_SIZE(GroupNormParams, 64);
 ICUBE_CHECK_LAYOUT(GroupNormParams, span_end, 52);

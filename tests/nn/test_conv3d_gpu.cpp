@@ -7,6 +7,7 @@
 // reference on |x| and |w|). Runs under the validation layer.
 #include <doctest/doctest.h>
 
+#include "capped_context.h"
 #include "gpu_test_context.h"
 #include "nn/conv3d.h"
 #include "nn/layers_cpu.h"
@@ -35,13 +36,13 @@ nn::CpuTensor abs_of(nn::CpuTensor t) {
 }
 
 void check_conv(const kernels::nn::Conv3dShape& s, bool with_bias, float x_scale, uint32_t seed,
-                uint64_t max_binding_bytes = 0) {
+                uint64_t max_binding_bytes = 0, gpu::Context& ctx = test::gpu_context()) {
+  CAPTURE(ctx.info().max_storage_buffer_range);
   CAPTURE(s.batch);
   CAPTURE(s.in_channels);
   CAPTURE(s.out_channels);
   CAPTURE(s.kernel);
   CAPTURE(s.f16_weights);
-  gpu::Context& ctx = test::gpu_context();
   const nn::CpuTensor x = random_tensor({s.batch, s.in_channels, s.x, s.y, s.z}, seed, x_scale);
   const int64_t k = s.kernel;
   nn::CpuTensor w = random_tensor({s.out_channels, s.in_channels, k, k, k}, seed + 1, 0.5f);
@@ -114,6 +115,22 @@ TEST_CASE("conv3d gpu: tensors larger than one binding run as channel windows an
   ctx.submit_and_wait([&](gpu::CommandList& cmd) {
     CHECK_THROWS_WITH_AS(conv.record(cmd, {1, 16, 16, 5, 6, 7, 1}, big, big, nullptr, big),
                          doctest::Contains("8 channels of 210 voxels exceed one storage binding"), std::invalid_argument);
+  });
+}
+
+TEST_CASE("conv3d gpu: weights, input and output over a forced 16 KiB binding") {
+  // The packed weights of 19 input channels at 21 outputs (2,592 B a channel, 1,296 in fp16) are
+  // bound 6 (12) input channels a window, with the feature windows of the same binding.
+  gpu::Context& capped = test::capped_gpu_context(16u << 10);
+  check_conv({2, 19, 21, 5, 6, 7, 3}, true, 1.0f, 81, 0, capped);
+  check_conv({1, 19, 21, 5, 6, 7, 3, true}, true, 1.0f, 82, 0, capped);
+  check_conv({1, 40, 9, 4, 3, 5, 1}, false, 1.0f, 83, 0, capped);  // 1x1: 96 B a channel, one window
+  // One input channel's weights at 4,096 outputs (27 x 1,024 vec4s = 442 KB) cannot be windowed: named.
+  kernels::nn::Conv3d conv(capped);
+  gpu::Buffer big(capped, 27u * 1024 * 16 * 2, gpu::MemoryUsage::DeviceLocal, "big");
+  capped.submit_and_wait([&](gpu::CommandList& cmd) {
+    CHECK_THROWS_WITH_AS(conv.record(cmd, {1, 2, 4096, 1, 1, 1, 3}, big, big, nullptr, big),
+                         doctest::Contains("use fewer output channels"), std::invalid_argument);
   });
 }
 
