@@ -8,6 +8,7 @@
 #include <cstring>
 #include <cfloat>
 #include <cmath>
+#include <numeric>
 #include <stdexcept>
 
 namespace icube::render {
@@ -66,8 +67,10 @@ shader::RaycastParams base_params(const RaycastWorld& w, const glm::ivec3& ref, 
 
 // The occupancy index layout of raycast_params.h for the world's bounds; false when
 // the world is empty, the relative bounds were clamped, the brick records pass the
-// entries' 24-bit field or the index would pass kMaxOccupancyWords.
-bool occupancy_layout(const RaycastWorld& w, const glm::ivec3& ref, shader::RaycastOccupancyParams& op, uint64_t& words) {
+// entries' 24-bit field or the index would pass max_words (the build writes it through one
+// storage binding).
+bool occupancy_layout(const RaycastWorld& w, const glm::ivec3& ref, uint64_t max_words, shader::RaycastOccupancyParams& op,
+                      uint64_t& words) {
   if (w.bounds.empty()) return false;
   for (int a = 0; a < 3; ++a) {
     const int64_t l = int64_t{w.bounds.min[a]} - ref[a], h = int64_t{w.bounds.max[a]} + 1 - ref[a];
@@ -81,7 +84,7 @@ bool occupancy_layout(const RaycastWorld& w, const glm::ivec3& ref, shader::Rayc
   // Every occupied super brick holds at least one brick record.
   const uint64_t max_blocks = std::min(supers, records);
   words = 2 * supers + 2 + max_blocks * RAYCAST_BLOCK_WORDS + records * RAYCAST_MASK_WORDS;
-  if (words > RaycasterGpu::kMaxOccupancyWords) return false;
+  if (words > max_words) return false;
   op = {};
   op.slots = w.gpu.table_mask + 1;
   op.supers = static_cast<uint32_t>(supers);
@@ -240,17 +243,32 @@ GpuRayBatch RaycasterGpu::upload_rays(const RaycastWorld& w, const std::vector<R
   return b;
 }
 
+// Rays per window when the hits (48 bytes a ray) or the ray list (32) of a cast exceed one storage
+// binding: a multiple of the rays whose hit and ray offsets meet the binding-offset alignment and,
+// for tiled camera casts, of whole tile rows (width x tile height); 0 when one tile row does not fit.
+static uint64_t rays_per_window(const gpu::DeviceInfo& info, uint64_t n, bool ray_list, uint64_t tile_row) {
+  const uint64_t limit = info.max_storage_buffer_range;
+  const uint64_t hit = sizeof(shader::RaycastHit), ray = 32;
+  if (n * hit <= limit && (!ray_list || n * ray <= limit)) return n;
+  const uint64_t align = std::max<uint64_t>(4, info.min_storage_buffer_offset_alignment);
+  uint64_t unit = std::lcm(align / std::gcd(align, hit), align / std::gcd(align, ray));
+  if (tile_row) unit = std::lcm(unit, tile_row);
+  return limit / hit / unit * unit;
+}
+
 void RaycasterGpu::record(gpu::CommandList& cmd, const RaycastWorld& w, const shader::RaycastParams& params,
                           const gpu::BufferBinding& rays, const gpu::Buffer& hits, const shader::RaycastCameraF64* cam64) {
   if (params.n == 0) return;
   const VkDeviceSize bytes = VkDeviceSize{params.n} * sizeof(shader::RaycastHit);
   if (hits.size() < bytes) throw std::invalid_argument("raycast: hits buffer too small");
   shader::RaycastParams p = params;
-  p.occupancy = 0;
+  p.first = 0;
+  bool occupancy = false;
   shader::RaycastOccupancyParams op{};
   uint64_t words = 0;
+  const uint64_t max_words = std::min<uint64_t>(kMaxOccupancyWords, ctx_.info().max_storage_buffer_range / 4);
   if (occupancy_ && skip_empty_ &&
-      occupancy_layout(w, glm::ivec3(params.ref_x, params.ref_y, params.ref_z), op, words)) {
+      occupancy_layout(w, glm::ivec3(params.ref_x, params.ref_y, params.ref_z), max_words, op, words)) {
     const VkDeviceSize occ_bytes = words * 4;
     if (occ_.size() < occ_bytes) {
       gpu::Buffer grown(ctx_, std::max<VkDeviceSize>(occ_bytes, occ_.size() * 2), gpu::MemoryUsage::DeviceLocal,
@@ -271,8 +289,7 @@ void RaycasterGpu::record(gpu::CommandList& cmd, const RaycastWorld& w, const sh
       cmd.fill_buffer(occ_.binding(0, mask_word_at), 0u);
       cmd.update_buffer(occ_.binding(mask_word_at, 4), &op.mask_word, 4);
       cmd.barrier(gpu::deps::kTransferToCompute);  // both before marking
-      const auto bindings = {w.gpu.brick_table.binding(), occ_.binding(0, occ_bytes),
-                             w.gpu.brick_data.texel_binding(VK_FORMAT_R32_UINT, 0, w.gpu.brick_data.size() & ~VkDeviceSize{3})};
+      const auto bindings = {table_texels(w), occ_.binding(0, occ_bytes), brick_texels(w)};
       shader::RaycastOccupancyParams pass = op;  // op (pass 0) is what the cache compares
       pass.pass = RAYCAST_OCC_MARK;
       cmd.dispatch(occupancy_program_, {op.slots}, pass, bindings);
@@ -289,49 +306,75 @@ void RaycasterGpu::record(gpu::CommandList& cmd, const RaycastWorld& w, const sh
       occ_revision_ = w.revision;
       occ_params_ = op;
     }
-    p.occupancy = 1;
+    occupancy = true;
   }
   const bool exact = cam64 != nullptr && exact_ && p.width != 0;
-  const bool tiled = tiled_ && p.width != 0 && tile_w_ > 1;
-  gpu::Program* prog = &cast_program(tiled, p.occupancy != 0, false);
-  uint64_t threads = p.n;
-  if (tiled) {
-    const uint64_t lanes = wg_lanes_, th = lanes / wg_w_;
-    const uint64_t height = p.n / p.width;
-    threads = gpu::tiled_threads(p.width, height, wg_w_, th, lanes);
+  const uint64_t lanes = wg_lanes_, th = lanes / wg_w_;
+  // Windows of rays when the hits (or the ray list) exceed one binding: whole tile rows, or rows
+  // without tiles (the same results) when one tile row does not fit.
+  bool tiled = tiled_ && p.width != 0 && tile_w_ > 1;
+  uint64_t per = rays_per_window(ctx_.info(), p.n, p.width == 0, tiled ? p.width * th : 0);
+  if (per == 0 && tiled) {
+    tiled = false;
+    per = rays_per_window(ctx_.info(), p.n, false, 0);
   }
+  if (per == 0)
+    throw std::invalid_argument("raycast: one storage binding of " + std::to_string(ctx_.info().max_storage_buffer_range) +
+                                " bytes holds no aligned window of ray hits");
+  gpu::Program& prog = cast_program(tiled, occupancy, false);
   const gpu::BufferBinding occ_texels = occ_.texel_binding(VK_FORMAT_R32G32_UINT, 0, occ_.size() & ~VkDeviceSize{7});
   const gpu::BufferBinding mask_texels = occ_.texel_binding(VK_FORMAT_R32_UINT, 0, occ_.size() & ~VkDeviceSize{3});
-  const gpu::BufferBinding brick_texels =
-      w.gpu.brick_data.texel_binding(VK_FORMAT_R32_UINT, 0, w.gpu.brick_data.size() & ~VkDeviceSize{3});
   p.mark_near = exact ? 1u : 0u;
   if (exact) {
-    const VkDeviceSize list_bytes = (VkDeviceSize{p.n} + 1) * 4;
+    const VkDeviceSize list_bytes = (VkDeviceSize{std::min<uint64_t>(per, p.n)} + 1) * 4;
     if (near_.size() < list_bytes) {
       ctx_.retire(std::move(near_));  // recorded commands may still use it
       near_ = gpu::Buffer(ctx_, list_bytes, gpu::MemoryUsage::DeviceLocal, "raycast-near-list");
     }
-    cmd.barrier(gpu::deps::kComputeToTransfer);  // an earlier record's passes may still use the list and camera
-    cmd.fill_buffer(near_.binding(0, 4), 0u);
+    cmd.barrier(gpu::deps::kComputeToTransfer);  // an earlier record's passes may still use the camera
     if (exact_float_only()) {
       const shader::RaycastCameraDf cdf = camera_df(*cam64);
       cmd.update_buffer(exact_camera_.binding(0, sizeof cdf), &cdf, sizeof cdf);
     } else {
       cmd.update_buffer(exact_camera_.binding(0, sizeof *cam64), cam64, sizeof *cam64);
     }
-    cmd.barrier(gpu::deps::kTransferToCompute);  // empty list and double camera before the passes
   }
-  cmd.dispatch(*prog, {threads}, p,
-               {w.gpu.brick_table.binding(), w.gpu.brick_data.binding(), rays, hits.binding(0, bytes),
-                occ_texels, brick_texels, near_.binding(), mask_texels});
-  if (exact) {
-    // Second pass: the rays flagged RAYCAST_FLAG_NEAR (listed by the first) are cast again with the
-    // chords near eps_sem decided in double (or double-float); a fixed grid strides over the list.
-    cmd.barrier(gpu::deps::kComputeToCompute);  // the float pass's hits and list before the exact pass
-    cmd.dispatch(cast_program(false, p.occupancy != 0, true), {std::min<uint64_t>(p.n, kExactPassThreads)}, p,
-                 {w.gpu.brick_table.binding(), w.gpu.brick_data.binding(), rays, hits.binding(0, bytes),
-                  occ_texels, brick_texels, near_.binding(), exact_camera_.binding(), mask_texels});
+  const uint64_t total = p.n;
+  for (uint64_t first = 0; first < total; first += per) {
+    const uint64_t count = std::min(per, total - first);
+    p.first = static_cast<uint32_t>(first);
+    p.n = static_cast<uint32_t>(first + count);
+    uint64_t threads = count;
+    if (tiled) threads = gpu::tiled_threads(p.width, count / p.width, wg_w_, th, lanes);
+    const gpu::BufferBinding hb = hits.binding(first * sizeof(shader::RaycastHit), count * sizeof(shader::RaycastHit));
+    gpu::BufferBinding rb = rays;
+    if (!rays.null) {  // ray-list mode: this window's rays
+      rb.offset += first * 32;
+      rb.range = count * 32;
+    }
+    if (exact) {
+      cmd.barrier(gpu::deps::kComputeToTransfer);  // an earlier window's or record's passes may still use the list
+      cmd.fill_buffer(near_.binding(0, 4), 0u);
+      cmd.barrier(gpu::deps::kTransferToCompute);  // empty list (and double camera) before the passes
+    }
+    const gpu::BufferBinding near = exact ? near_.binding(0, (count + 1) * 4) : near_.binding();
+    cmd.dispatch(prog, {threads}, p, {table_texels(w), rb, hb, occ_texels, brick_texels(w), near, mask_texels});
+    if (exact) {
+      // Second pass: the rays flagged RAYCAST_FLAG_NEAR (listed by the first) are cast again with the
+      // chords near eps_sem decided in double (or double-float); a fixed grid strides over the list.
+      cmd.barrier(gpu::deps::kComputeToCompute);  // the float pass's hits and list before the exact pass
+      cmd.dispatch(cast_program(false, occupancy, true), {std::min<uint64_t>(count, kExactPassThreads)}, p,
+                   {table_texels(w), rb, hb, occ_texels, brick_texels(w), near, exact_camera_.binding(), mask_texels});
+    }
   }
+}
+
+gpu::BufferBinding RaycasterGpu::table_texels(const RaycastWorld& w) {
+  return w.gpu.brick_table.texel_binding(VK_FORMAT_R32G32B32A32_UINT, 0, w.gpu.brick_table.size() & ~VkDeviceSize{15});
+}
+
+gpu::BufferBinding RaycasterGpu::brick_texels(const RaycastWorld& w) {
+  return w.gpu.brick_data.texel_binding(VK_FORMAT_R32_UINT, 0, w.gpu.brick_data.size() & ~VkDeviceSize{3});
 }
 
 void RaycasterGpu::record_camera(gpu::CommandList& cmd, const RaycastWorld& w, const Camera& cam,

@@ -69,8 +69,10 @@ class RaycasterGpu {
   // same revision and layout); a recorded command list must then be submitted
   // before the next record relies on it. Off: empty bricks are found by hash
   // lookups (the same results; for benchmarks). Worlds whose index would pass
-  // kMaxOccupancyWords words (one 128 MiB binding) always run without (the hash-table
-  // pipeline). The index and the brick words are read as texel buffers.
+  // kMaxOccupancyWords words or one storage binding (the build writes it through one) run
+  // without (the hash-table pipeline). The index, the hash table and the brick words are read
+  // as texel buffers. Casts whose hits (48 bytes a ray) or rays exceed one storage binding run
+  // in windows of rays (whole tile rows in camera mode; the same results).
   static constexpr uint64_t kMaxOccupancyWords = uint64_t{1} << 25;
   void set_occupancy(bool on) { occupancy_ = on; }
   // Number of occupancy builds recorded so far (for tests and benchmarks).
@@ -122,6 +124,10 @@ class RaycasterGpu {
   // The ray-casting pipeline: rows or tiles, occupancy index or hash table, float pass or the
   // exact pass (raycast/exact, needs shaderFloat64, or raycast/exact_df: exact_float_only()).
   gpu::Program& cast_program(bool tiled, bool occupancy, bool exact) const;
+  // The world as the kernels read it: the hash table as R32G32B32A32_UINT and the brick words as
+  // R32_UINT texels (bounded by maxTexelBufferElements, not by one storage binding).
+  static gpu::BufferBinding table_texels(const RaycastWorld& w);
+  static gpu::BufferBinding brick_texels(const RaycastWorld& w);
   gpu::Context& ctx_;
   static constexpr uint64_t kExactPassThreads = 4096;  // the exact pass's grid
   gpu::Program& occupancy_program_;

@@ -48,15 +48,18 @@ layout(constant_id = 4) const uint RAYCAST_WG_W = 8u;
 // a runtime branch (masked), so the unused path would cost every step.
 layout(constant_id = 5) const bool RAYCAST_OCCUPANCY = true;
 layout(push_constant) uniform Push { RaycastParams p; };
-layout(std430, binding = 0) readonly buffer Table { uvec4 world_table[]; };
-layout(std430, binding = 1) readonly buffer Bricks { uint world_bricks[]; };
+// The world is read through texel buffers only (the hash table as R32G32B32A32_UINT texels, the
+// brick words as R32_UINT), so it is bounded by maxTexelBufferElements, not by one storage binding.
+layout(binding = 0) uniform usamplerBuffer world_table_texels;
+// Rays and hits of one window of rays [p.first, p.n): rays[2 (i - first)], hits[i - first].
 layout(std430, binding = 2) readonly buffer Rays { vec4 rays[]; };
 layout(std430, binding = 3) writeonly buffer Hits { RaycastHit hits[]; };
 // Rays flagged RAYCAST_FLAG_NEAR: near_list[0] counts them, near_list[1 + k] = ray index
 // (appended by the float pass when p.mark_near, read by the exact pass).
 layout(std430, binding = 6) buffer NearList { uint near_list[]; };
 layout(binding = 4) uniform usamplerBuffer occ_index;    // occupancy index (R32G32_UINT texels: word pairs)
-layout(binding = 5) uniform usamplerBuffer brick_words;  // binding 1 as R32_UINT texels
+layout(binding = 5) uniform usamplerBuffer brick_words;  // the brick records as R32_UINT texels
+#define world_brick_texels brick_words
 layout(binding = 8) uniform usamplerBuffer occ_masks;    // the occupancy index as R32_UINT texels (mask level)
 #if RAYCAST_EXACT_F64
 #include "shared/raycast_f64_params.h"
@@ -67,7 +70,7 @@ layout(std430, binding = 7) readonly buffer CameraF64 { RaycastCameraF64 cam64; 
 layout(std430, binding = 7) readonly buffer CameraDf { RaycastCameraDf camdf; };
 #endif
 
-#include "world/lookup.glsl"
+#include "world/lookup_texel.glsl"
 #include "raycast/traverse.glsl"
 
 // Camera-mode pixel (px, py) of ray i.
@@ -86,20 +89,21 @@ void main() {
   for (uint k = ICUBE_THREAD_LINEAR(); k < count; k += stride) {
     const uint i = near_list[1u + k];
     const uvec2 px = raycast_pixel(i);
-    hits[i] = raycast_traverse(vec3(p.off_x, p.off_y, p.off_z), raycast_camera_dir(px), px);
+    hits[i - p.first] = raycast_traverse(vec3(p.off_x, p.off_y, p.off_z), raycast_camera_dir(px), px);
   }
 }
 #else
 void main() {
-  uint i = ICUBE_THREAD_LINEAR();
+  uint i = p.first + ICUBE_THREAD_LINEAR();
   uint px = 0u, py = 0u;
   if (p.width != 0u && RAYCAST_TILE_W > 0u) {
     const uint g = icube_group_linear(), l = gl_LocalInvocationID.x;
     const uint wg_h = gl_WorkGroupSize.x / RAYCAST_WG_W, tpr = (p.width + RAYCAST_WG_W - 1u) / RAYCAST_WG_W;
     const uint sub = l / RAYCAST_SUB_LANES, lane = l % RAYCAST_SUB_LANES;
     const uint sub_h = RAYCAST_SUB_LANES / RAYCAST_TILE_W, subs_per_row = RAYCAST_WG_W / RAYCAST_TILE_W;
+    // A window of whole tile rows starts at row p.first / width.
     px = (g % tpr) * RAYCAST_WG_W + (sub % subs_per_row) * RAYCAST_TILE_W + lane % RAYCAST_TILE_W;
-    py = (g / tpr) * wg_h + (sub / subs_per_row) * sub_h + lane / RAYCAST_TILE_W;
+    py = p.first / p.width + (g / tpr) * wg_h + (sub / subs_per_row) * sub_h + lane / RAYCAST_TILE_W;
     if (px >= p.width || py >= p.n / p.width) return;
     i = py * p.width + px;
   } else {
@@ -111,11 +115,11 @@ void main() {
     d = raycast_camera_dir(uvec2(px, py));
     o = vec3(p.off_x, p.off_y, p.off_z);
   } else {
-    o = rays[2u * i].xyz;
-    d = rays[2u * i + 1u].xyz;
+    o = rays[2u * (i - p.first)].xyz;
+    d = rays[2u * (i - p.first) + 1u].xyz;
   }
   const RaycastHit h = raycast_traverse(o, d, uvec2(px, py));
-  hits[i] = h;
+  hits[i - p.first] = h;
   if ((h.flags & RAYCAST_FLAG_NEAR) != 0u) near_list[1u + atomicAdd(near_list[0], 1u)] = i;
 }
 #endif

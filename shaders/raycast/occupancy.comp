@@ -24,7 +24,7 @@
 
 layout(local_size_x = 64) in;
 layout(push_constant) uniform Push { RaycastOccupancyParams p; };
-layout(std430, binding = 0) readonly buffer Table { uvec4 world_table[]; };
+layout(binding = 0) uniform usamplerBuffer world_table_texels;  // WorldHashEntry slots as R32G32B32A32_UINT
 layout(std430, binding = 1) buffer Occupancy { uint occ[]; };
 // The brick words as R32_UINT texels: the mask reads are at per-lane addresses (a gather on
 // lavapipe, where a storage-buffer load there is a loop over the lanes).
@@ -33,7 +33,7 @@ layout(binding = 2) uniform usamplerBuffer brick_words;
 // Super word index of table slot i's brick and the brick's place in its block; false when
 // the slot is empty or the brick lies outside the box.
 bool slot_brick(uint i, out uint sn, out uint local_brick, out uint record, out ivec3 brick) {
-  const uvec4 e = world_table[i];
+  const uvec4 e = texelFetch(world_table_texels, int(i));
   record = e.z;
   sn = 0u;
   local_brick = 0u;

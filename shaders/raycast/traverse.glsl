@@ -40,8 +40,8 @@
 // same chord is computed in double-float (raycast/chord_df.glsl, common/df.glsl) from `camdf`
 // (RaycastCameraDf); see there why its decisions are the reference's.
 //
-// The including shader declares world_table / world_bricks (see
-// world/lookup.glsl), the texel buffers `usamplerBuffer occ_index` and `occ_masks` (the
+// The including shader declares the texel buffers `world_table_texels` and `world_brick_texels`
+// (see world/lookup_texel.glsl; `brick_words` is the latter), the texel buffers `usamplerBuffer occ_index` and `occ_masks` (the
 // occupancy index as R32G32_UINT and R32_UINT texels) and
 // `usamplerBuffer brick_words` (world_bricks as R32_UINT texels: texel fetches are gathers on
 // lavapipe, where storage-buffer loads at divergent addresses run lane by lane), the push constant
@@ -216,7 +216,7 @@ RaycastHit raycast_traverse(vec3 o, vec3 d, uvec2 pix) {
         occupied = ((word >> (n & 31u)) & 1u) != 0u;
       }
     } else {
-      const uint b = world_find_brick(av >> 3, p.table_mask);
+      const uint b = world_find_brick_texel(av >> 3, p.table_mask);
       if (b == WORLD_EMPTY_SLOT) {
         shift = RAYCAST_SKIP_EMPTY ? 3 : 0;  // without skipping: an empty voxel
       } else {

@@ -35,7 +35,7 @@
 ICUBE_SHADER_NAMESPACE_BEGIN
 
 struct RaycastParams {
-  uint n;              // rays
+  uint n;              // rays: the end of this dispatch's window (all rays without windows)
   uint width;          // camera mode: image width (ray i = pixel (i % width, i / width)); 0 = ray-list mode
   uint table_mask;     // world hash table capacity - 1
   float pixel_offset;  // 0 (InfiniCube: integer pixels) or 0.5 (pixel centres)
@@ -50,10 +50,9 @@ struct RaycastParams {
   // Camera mode: d = normalize(M · (u + pixel_offset, v + pixel_offset, 1)), M = R_c2w · K^-1, row-major.
   float m00, m01, m02, m10, m11, m12, m20, m21, m22;
   float gap_eps;  // metres: empty length along the ray that ends a depth run (smaller gaps are bridged)
-  // 1: the occupancy buffer (binding 4) holds the super-brick / brick index of the bounds
-  // (layout below); 0: every brick is looked up in the hash table. The host records the
-  // pipeline whose spec constant RAYCAST_OCCUPANCY matches (the kernel branches on that).
-  uint occupancy;
+  // The first ray of this dispatch's window of rays [first, n): hits (and, in ray-list mode,
+  // rays) are bound from it. Camera mode with tiles: a multiple of width x the tile height.
+  uint first;
   // Camera mode, 1: flag rays (RAYCAST_FLAG_NEAR) whose semantic decision met a chord within float
   // rounding of eps_sem, for the exact pass (shaders/raycast/exact.comp), which re-casts only those.
   uint mark_near;
@@ -119,7 +118,7 @@ struct RaycastHit {
 ICUBE_SHADER_NAMESPACE_END
 
 ICUBE_CHECK_SIZE(RaycastParams, 128);
-ICUBE_CHECK_LAYOUT(RaycastParams, occupancy, 120);
+ICUBE_CHECK_LAYOUT(RaycastParams, first, 120);
 ICUBE_CHECK_SIZE(RaycastOccupancyParams, 64);
 ICUBE_CHECK_LAYOUT(RaycastOccupancyParams, sdim_x, 20);
 ICUBE_CHECK_LAYOUT(RaycastOccupancyParams, pass, 40);

@@ -11,24 +11,27 @@
 
 #include "shared/world_layout.h"
 
+// Brick record of brick coordinate `brick` (= ijk >> 3), or WORLD_EMPTY_SLOT (the texel form of
+// world/lookup.glsl's world_find_brick).
+uint world_find_brick_texel(ivec3 brick, uint table_mask) {
+  const uvec3 u = uvec3(brick + ivec3(WORLD_BRICK_BIAS));
+  const uint lo = u.x | (u.y << 21);
+  const uint hi = (u.y >> 11) | (u.z << 10);
+  uint slot = world_brick_hash(u.x, u.y, u.z) & table_mask;
+  for (uint probe = 0u; probe <= table_mask; ++probe) {
+    const uvec4 e = texelFetch(world_table_texels, int(slot));
+    if (e.z == WORLD_EMPTY_SLOT) return WORLD_EMPTY_SLOT;
+    if (e.x == lo && e.y == hi) return e.z;
+    slot = (slot + 1u) & table_mask;
+  }
+  return WORLD_EMPTY_SLOT;
+}
+
 // Whether voxel ijk is occupied (false out of range or in a missing brick).
 bool world_occupied_texel(ivec3 ijk, uint table_mask) {
   if (!(all(greaterThanEqual(ijk, ivec3(-WORLD_MAX_IJK - 1))) && all(lessThanEqual(ijk, ivec3(WORLD_MAX_IJK)))))
     return false;
-  const uvec3 u = uvec3((ijk >> 3) + ivec3(WORLD_BRICK_BIAS));
-  const uint lo = u.x | (u.y << 21);
-  const uint hi = (u.y >> 11) | (u.z << 10);
-  uint slot = world_brick_hash(u.x, u.y, u.z) & table_mask;
-  uint b = WORLD_EMPTY_SLOT;
-  for (uint probe = 0u; probe <= table_mask; ++probe) {
-    const uvec4 e = texelFetch(world_table_texels, int(slot));
-    if (e.z == WORLD_EMPTY_SLOT) break;
-    if (e.x == lo && e.y == hi) {
-      b = e.z;
-      break;
-    }
-    slot = (slot + 1u) & table_mask;
-  }
+  const uint b = world_find_brick_texel(ijk >> 3, table_mask);
   if (b == WORLD_EMPTY_SLOT) return false;
   const ivec3 l = ijk & ivec3(7);
   const uint n = uint(l.x | (l.y << 3) | (l.z << 6));
