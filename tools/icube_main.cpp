@@ -5,7 +5,8 @@
 //   icube scene ...   read, summarise, convert, plot scenes and sample routes (tools/cmd_scene*.cpp)
 //
 // Environment: ICUBE_DEVICE=<index|name substring> picks the device,
-// ICUBE_VALIDATION=1 turns on the Khronos validation layer.
+// ICUBE_VALIDATION=1 turns on the Khronos validation layer, ICUBE_MAX_STORAGE_BINDING=<bytes> caps
+// storage bindings (the windowed paths of a smaller device).
 #include "cmd_scene.h"
 #include "command_registry.h"
 #include "gpu/context.h"
@@ -57,7 +58,8 @@ int cmd_selfcheck() {
 int main(int argc, char** argv) {
   CLI::App app{"InfiniCube-VK: unbounded driving-scene generation on Vulkan compute", "icube"};
   app.require_subcommand(1);
-  app.footer("Environment: ICUBE_DEVICE=<index|name substring>, ICUBE_VALIDATION=1");
+  app.footer("Environment: ICUBE_DEVICE=<index|name substring>, ICUBE_VALIDATION=1, ICUBE_MAX_STORAGE_BINDING=<bytes, e.g. 1M>\n"
+             "(caps every storage binding below the device's, to run the windowed paths as on a smaller device)");
 
   bool all = false;
   auto* devices = app.add_subcommand("devices", "List Vulkan devices and the limits and features kernels use");

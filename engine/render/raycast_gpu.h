@@ -118,16 +118,17 @@ class RaycasterGpu {
   std::vector<shader::RaycastHit> cast_rays(const RaycastWorld& w, const std::vector<Ray>& rays,
                                             const RaycastOptions& opts);
 
+  // The world as the kernels read it: the hash table as R32G32B32A32_UINT and the brick words as
+  // R32_UINT texels (bounded by maxTexelBufferElements, not by one storage binding).
+  static gpu::BufferBinding table_texels(const RaycastWorld& w);
+  static gpu::BufferBinding brick_texels(const RaycastWorld& w);
+
  private:
   void record(gpu::CommandList& cmd, const RaycastWorld& w, const shader::RaycastParams& params,
               const gpu::BufferBinding& rays, const gpu::Buffer& hits, const shader::RaycastCameraF64* cam64 = nullptr);
   // The ray-casting pipeline: rows or tiles, occupancy index or hash table, float pass or the
   // exact pass (raycast/exact, needs shaderFloat64, or raycast/exact_df: exact_float_only()).
   gpu::Program& cast_program(bool tiled, bool occupancy, bool exact) const;
-  // The world as the kernels read it: the hash table as R32G32B32A32_UINT and the brick words as
-  // R32_UINT texels (bounded by maxTexelBufferElements, not by one storage binding).
-  static gpu::BufferBinding table_texels(const RaycastWorld& w);
-  static gpu::BufferBinding brick_texels(const RaycastWorld& w);
   gpu::Context& ctx_;
   static constexpr uint64_t kExactPassThreads = 4096;  // the exact pass's grid
   gpu::Program& occupancy_program_;

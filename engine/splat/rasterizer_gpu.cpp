@@ -133,10 +133,11 @@ SplatFramePlan SplatRendererGpu::plan(const GpuGaussians& g, const render::Camer
   SplatFramePlan p;
   p.gaussians = &g;
   p.opts = opts;
-  p.frame = make_frame(cam, opts, g.origin, band_of_ ? &band_of_->K : nullptr);
+  p.frame = make_frame(cam, opts, g.origin);
+  if (band_rows_) restrict_to_band(p.frame, band_y0_, band_rows_);
   validate_sky(opts.sky);
   p.width = cam.K.width;
-  p.height = cam.K.height;
+  p.height = band_rows_ ? std::min<uint32_t>(band_rows_ * SPLAT_TILE, cam.K.height - band_y0_ * SPLAT_TILE) : cam.K.height;
   p.tiles = p.frame.grid_x * p.frame.grid_y;
   p.n = g.count;
   const uint64_t n = p.n, W = p.width, H = p.height;
@@ -167,9 +168,10 @@ SplatFramePlan SplatRendererGpu::plan(const GpuGaussians& g, const render::Camer
   if (opts.depth || !variant_.tile_blend) gpu::ensure_capacity(ctx_, f.depth, W * H * 8, "splat-depth");
   if (opts.sky.kind == SkyKind::Equirect && f.sky_image != opts.sky.image) {
     const SkyImage& im = *opts.sky.image;
-    if (im.rgba.size() > limit || im.rgba.size() / 4 > texel_limit)
+    if (im.rgba.size() / 4 > texel_limit)  // read as R32_UINT texels only
       throw std::invalid_argument("splat sky: a " + std::to_string(im.width) + "x" + std::to_string(im.height) +
-                                  " image exceeds one storage binding");
+                                  " image exceeds this device's " + std::to_string(texel_limit) +
+                                  " texels of one texel buffer; use a smaller sky image");
     gpu::Buffer sky = gpu::upload_vector(ctx_, im.rgba, "splat-sky");
     ctx_.retire(std::move(f.sky));
     f.sky = std::move(sky);
@@ -180,9 +182,10 @@ SplatFramePlan SplatRendererGpu::plan(const GpuGaussians& g, const render::Camer
 
   shader::SplatBlendParams& bp = p.blend;
   bp.width = p.width;
-  bp.height = p.height;
+  bp.height = cam.K.height;  // pixel rows are the whole image's (a band's start at 16 tile_y0)
   bp.grid_x = p.frame.grid_x;
   bp.grid_y = p.frame.grid_y;
+  bp.tile_y0 = p.frame.tile_y0;
   bp.pixel_offset = static_cast<float>(render::pixel_offset(opts.pixels));
   bp.sky_kind = static_cast<uint32_t>(opts.sky.kind);
   if (opts.sky.kind == SkyKind::Equirect) {
@@ -251,7 +254,7 @@ void SplatRendererGpu::record_preprocess(gpu::CommandList& cmd, const SplatFrame
   depth_sort_.record(cmd, f.depth_keys, f.order, n, *f.depth_sort_scratch, p.opts.depth_key_bits);
   cmd.barrier(gpu::deps::kComputeToCompute);  // counts read the order
   const uint32_t cull = variant_.exact_cull ? 1u : 0u;
-  cmd.dispatch(counts_, {n}, shader::SplatDuplicateParams{static_cast<uint32_t>(n), p.frame.grid_x, cull, 0},
+  cmd.dispatch(counts_, {n}, shader::SplatDuplicateParams{static_cast<uint32_t>(n), p.frame.grid_x, cull, p.frame.tile_y0},
                {f.order.binding(0, n * 4), f.binning.counts().binding(0, n * 4),
                 f.rects.texel_binding(VK_FORMAT_R32G32B32A32_UINT, 0, n * 16),
                 f.records.texel_binding(VK_FORMAT_R32G32B32A32_UINT, 0, n * sizeof(shader::SplatBlendRecord)),
@@ -292,12 +295,12 @@ void SplatRendererGpu::record_bin(gpu::CommandList& cmd, const SplatFramePlan& p
   if (p.counting) {
     counting_binning_.record(cmd,
                              TileBinningGpu::Frame{f.order, f.binning.offsets(), f.bin_records, n, inst, p.frame.grid_x,
-                                                   p.tiles, variant_.exact_cull, p.chunks},
+                                                   p.tiles, variant_.exact_cull, p.chunks, p.frame.tile_y0},
                              f.values, f.ranges, f.incomplete);
   } else {
     if (inst > 0) {
       const uint32_t cull = variant_.exact_cull ? 1u : 0u;
-      cmd.dispatch(duplicate_, {n}, shader::SplatDuplicateParams{static_cast<uint32_t>(n), p.frame.grid_x, cull, 0},
+      cmd.dispatch(duplicate_, {n}, shader::SplatDuplicateParams{static_cast<uint32_t>(n), p.frame.grid_x, cull, p.frame.tile_y0},
                    {f.order.binding(0, n * 4),
                     f.bin_records.texel_binding(VK_FORMAT_R32G32B32A32_UINT, 0, n * sizeof(shader::SplatBinRecord)),
                     f.binning.counts().binding(0, n * 4), f.binning.offsets().binding(0, n * 4),
@@ -411,10 +414,13 @@ uint32_t SplatRendererGpu::run_slices(const GpuGaussians& g, const render::Camer
   if (!variant_.tile_blend)
     throw std::invalid_argument("splat: a frame over one pass (depth slices) needs the tile blend (SplatGpuVariant::tile_blend)");
   SplatFrameBuffers& f = *f_;
-  const SplatFrame frame = make_frame(cam, opts, g.origin, band_of_ ? &band_of_->K : nullptr);
+  SplatFrame frame = make_frame(cam, opts, g.origin);
+  if (band_rows_) restrict_to_band(frame, band_y0_, band_rows_);
   const std::vector<DepthSlice> slices =
       slicer_.plan(g, frame, opts.depth_key_bits, gaussians_per_pass(), instances_per_pass());
-  const uint64_t pixels = uint64_t{cam.K.width} * cam.K.height;
+  const uint64_t pixels =
+      uint64_t{cam.K.width} * (band_rows_ ? std::min<uint32_t>(band_rows_ * SPLAT_TILE, cam.K.height - band_y0_ * SPLAT_TILE)
+                                          : cam.K.height);
   if (slices.size() > 1) {
     gpu::ensure_capacity(ctx_, f.carry_color, pixels * 16, "splat-carry-color");
     if (opts.depth) gpu::ensure_capacity(ctx_, f.carry_depth, pixels * 8, "splat-carry-depth");
@@ -460,19 +466,18 @@ SplatImage SplatRendererGpu::render_bands(const GpuGaussians& g, const render::C
   if (opts.depth) img.depth.assign(W * H * 2, 0.0f);
   SplatTimings sum;
   for (uint64_t y0 = 0; y0 < H; y0 += rows) {
-    render::Camera band = cam;  // rows [y0, y0 + h): the principal point moved up by y0
-    band.K.height = static_cast<uint32_t>(std::min(rows, H - y0));
-    band.K.cy = cam.K.cy - static_cast<double>(y0);
+    // Tile rows [y0 / 16, ...) of the whole image's frame (restrict_to_band): the same pixels.
     SplatTimings t;
-    band_of_ = &cam;  // the Jacobian clamp of the whole image
+    band_y0_ = static_cast<uint32_t>(y0 / SPLAT_TILE);
+    band_rows_ = static_cast<uint32_t>(gpu::div_up(std::min(rows, H - y0), uint64_t{SPLAT_TILE}));
     SplatImage b;
     try {
-      b = render(g, band, opts, &t, nullptr, true);
+      b = render(g, cam, opts, &t, nullptr, true);
     } catch (...) {
-      band_of_ = nullptr;
+      band_rows_ = 0;
       throw;
     }
-    band_of_ = nullptr;
+    band_rows_ = 0;
     std::copy(b.rgba.begin(), b.rgba.end(), img.rgba.begin() + static_cast<ptrdiff_t>(y0 * W * 4));
     if (opts.depth) std::copy(b.depth.begin(), b.depth.end(), img.depth.begin() + static_cast<ptrdiff_t>(y0 * W * 2));
     sum.preprocess_ms += t.preprocess_ms;
@@ -492,7 +497,7 @@ SplatImage SplatRendererGpu::render_bands(const GpuGaussians& g, const render::C
 
 SplatImage SplatRendererGpu::render(const GpuGaussians& g, const render::Camera& cam, const SplatOptions& opts,
                                     SplatTimings* timings, SplatDebug* debug, bool download) {
-  if (uint64_t{cam.K.width} * cam.K.height * 16 > ctx_.info().max_storage_buffer_range)
+  if (band_rows_ == 0 && uint64_t{cam.K.width} * cam.K.height * 16 > ctx_.info().max_storage_buffer_range)
     return render_bands(g, cam, opts, timings, debug, download);
   const auto t0 = std::chrono::steady_clock::now();
   SplatFramePlan p = plan(g, cam, opts);

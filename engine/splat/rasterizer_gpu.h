@@ -271,7 +271,8 @@ class SplatRendererGpu {
   kernels::RadixSort depth_sort_;
   TileBinningGpu counting_binning_;
   DepthSlicer slicer_;
-  const render::Camera* band_of_ = nullptr;  // render_bands: the whole image a band belongs to
+  // render_bands: the band of tile rows [band_y0_, band_y0_ + band_rows_) being rendered (0 rows: whole images).
+  uint32_t band_y0_ = 0, band_rows_ = 0;
   std::unique_ptr<SplatFrameBuffers> f_;
   std::unique_ptr<gpu::GpuTimer> t1_, t2_;  // preprocess + depth sort; binning + blend
 };

@@ -10,8 +10,7 @@
 
 namespace icube::splat {
 
-SplatFrame make_frame(const render::Camera& cam, const SplatOptions& opts, const glm::dvec3& origin,
-                      const render::PinholeIntrinsics* clamp_image) {
+SplatFrame make_frame(const render::Camera& cam, const SplatOptions& opts, const glm::dvec3& origin) {
   render::validate_camera(cam);
   if (opts.depth_key_bits != 32 && opts.depth_key_bits != 16)
     throw std::invalid_argument("splat: depth_key_bits must be 32 or 16, not " + std::to_string(opts.depth_key_bits));
@@ -36,7 +35,7 @@ SplatFrame make_frame(const render::Camera& cam, const SplatOptions& opts, const
   p.fy = static_cast<float>(K.fy);
   p.cx = static_cast<float>(K.cx);
   p.cy = static_cast<float>(K.cy);
-  const render::PinholeIntrinsics& C = clamp_image ? *clamp_image : K;
+  const render::PinholeIntrinsics& C = K;
   const double tan_x = 0.5 * C.width / C.fx, tan_y = 0.5 * C.height / C.fy;
   p.lim_x_pos = static_cast<float>((C.width - C.cx) / C.fx + 0.3 * tan_x);
   p.lim_x_neg = static_cast<float>(C.cx / C.fx + 0.3 * tan_x);
@@ -48,10 +47,18 @@ SplatFrame make_frame(const render::Camera& cam, const SplatOptions& opts, const
   p.antialiased = opts.antialiased ? 1u : 0u;
   p.depth_key16 = opts.depth_key_bits == 16 ? 1u : 0u;
   p.width = K.width;
-  p.height = K.height;
+  p.tile_y0 = 0;
   p.grid_x = f.grid_x;
   p.grid_y = f.grid_y;
   return f;
+}
+
+void restrict_to_band(SplatFrame& f, uint32_t tile_y0, uint32_t rows) {
+  if (rows == 0 || tile_y0 + uint64_t{rows} > f.grid_y)
+    throw std::invalid_argument("splat: band of tile rows [" + std::to_string(tile_y0) + ", +" + std::to_string(rows) +
+                                ") outside the image's " + std::to_string(f.grid_y));
+  f.tile_y0 = f.pre.tile_y0 = tile_y0;
+  f.grid_y = f.pre.grid_y = rows;
 }
 
 uint32_t depth_key16(float z) {

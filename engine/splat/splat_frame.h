@@ -42,15 +42,18 @@ uint32_t depth_sort_key(float z, uint32_t bits);
 // Per-frame constants shared by the CPU reference and the GPU push constants.
 struct SplatFrame {
   shader::SplatPreprocessParams pre{};  // n/first/sh_* left for the caller
-  uint32_t grid_x = 0, grid_y = 0;
+  uint32_t grid_x = 0, grid_y = 0;      // grid_y: tile rows of the band (all rows: a whole image)
+  uint32_t tile_y0 = 0;                 // the band's first tile row (0: a whole image)
   glm::dvec3 camera{0.0};  // world position
 };
 // `origin`: the scene origin the GPU positions are relative to (the CPU reference passes 0 and
 // uses double camera-relative positions instead).
-// `clamp_image`: the image whose frustum the Jacobian clamp follows (default cam.K); a band of a
-// larger image (SplatRendererGpu) passes the whole image's, so its Gaussians project as there.
-SplatFrame make_frame(const render::Camera& cam, const SplatOptions& opts, const glm::dvec3& origin,
-                      const render::PinholeIntrinsics* clamp_image = nullptr);
+SplatFrame make_frame(const render::Camera& cam, const SplatOptions& opts, const glm::dvec3& origin);
+// The frame restricted to the band of tile rows [tile_y0, tile_y0 + rows) of its image: every
+// Gaussian projects as in the whole image (same camera, same clamp), its tile rect rows are
+// clipped to the band and tile ids count from the band's first row, so the band's pixels are
+// the whole image's, bit for bit.
+void restrict_to_band(SplatFrame& f, uint32_t tile_y0, uint32_t rows);
 
 struct SplatImage {
   uint32_t width = 0, height = 0;

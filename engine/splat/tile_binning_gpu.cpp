@@ -73,7 +73,7 @@ void TileBinningGpu::record(gpu::CommandList& cmd, const Frame& f, const gpu::Bu
                                  f.cull ? 1u : 0u,
                                  f.tiles,
                                  static_cast<uint32_t>(f.instances),
-                                 0};
+                                 f.tile_y0};
   auto walk = [&](gpu::Program& prog, const gpu::Buffer& counters, const gpu::BufferBinding& out) {
     cmd.dispatch(prog, {f.chunks}, p,
                  {f.order.texel_binding(VK_FORMAT_R32_UINT, 0, n * 4), f.offsets.texel_binding(VK_FORMAT_R32_UINT, 0, n * 4),

@@ -67,6 +67,7 @@ class TileBinningGpu {
     uint32_t grid_x, tiles;
     bool cull;        // exact tile culling, else whole rects
     uint32_t chunks;  // from chunks_for
+    uint32_t tile_y0 = 0;  // a band's first tile row (SplatFrame::tile_y0)
   };
 
   // Records the binning: values[0..instances) and ranges[0..tiles) (uvec2), and

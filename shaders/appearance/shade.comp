@@ -31,8 +31,9 @@ layout(std430, binding = 2) readonly buffer Params { AppearanceParams params_in;
 layout(binding = 3) uniform samplerBuffer light_texels;  // AppearanceLight records as 3 RGBA32F texels each
 layout(binding = 4) uniform usamplerBuffer world_table_texels;
 layout(binding = 5) uniform usamplerBuffer world_brick_texels;
-layout(std430, binding = 6) writeonly buffer Rgba { uint rgba[]; };
-layout(std430, binding = 7) writeonly buffer Labels { uint labels[]; };
+layout(std430, binding = 6) writeonly buffer Rgba { uint rgba[]; };      // from pixel win.first
+layout(std430, binding = 7) writeonly buffer Labels { uint labels[]; };  // from pixel win.first
+layout(push_constant) uniform Push { AppearanceWindow win; };
 
 AppearanceParams P;
 
@@ -41,9 +42,8 @@ AppearanceParams P;
 
 void main() {
   P = params_in;
-  const uint gi = ICUBE_THREAD_LINEAR();
-  const uint n = P.width * P.height;
-  const bool live = gi < n;
+  const uint gi = win.first + ICUBE_THREAD_LINEAR();
+  const bool live = gi < win.end;
   const uint i = live ? gi : 0u;
   const uvec2 px = uvec2(i % P.width, i / P.width);
   const float u = float(px.x) + P.pixel_offset, v = float(px.y) + P.pixel_offset;
@@ -80,7 +80,7 @@ void main() {
   const vec3 col = shade_fog(shade_surface(m, nrm, -d, sun_vis, shade_ao(occluded), lit), t_sem);
   const vec3 sky = shade_sky_pixel(d);
   if (live) {
-    rgba[i] = surface ? shade_encode(col, 255u) : shade_encode(sky, 0u);
-    labels[i] = surface ? (sem_class << 16u) | (sem_instance & 0xffffu) : 0u;
+    rgba[i - win.first] = surface ? shade_encode(col, 255u) : shade_encode(sky, 0u);
+    labels[i - win.first] = surface ? (sem_class << 16u) | (sem_instance & 0xffffu) : 0u;
   }
 }

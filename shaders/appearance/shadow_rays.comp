@@ -17,14 +17,14 @@
 layout(local_size_x = 64) in;
 layout(binding = 0) uniform usamplerBuffer hit_texels;  // RaycastHit records as 3 RGBA32UI texels each
 layout(std430, binding = 1) readonly buffer Params { AppearanceParams P; };
-layout(std430, binding = 2) writeonly buffer Rays { vec4 rays[]; };
+layout(std430, binding = 2) writeonly buffer Rays { vec4 rays[]; };  // from pixel win.first
+layout(push_constant) uniform Push { AppearanceWindow win; };
 
 #include "shared/appearance_shading.h"
 
 void main() {
-  const uint i = ICUBE_THREAD_LINEAR();
-  const uint n = P.width * P.height;
-  if (i >= n) return;
+  const uint i = win.first + ICUBE_THREAD_LINEAR();
+  if (i >= win.end) return;
   const uvec2 px = uvec2(i % P.width, i / P.width);
   const float u = float(px.x) + P.pixel_offset, v = float(px.y) + P.pixel_offset;
   const vec3 d = normalize(vec3(P.m00 * u + P.m01 * v + P.m02, P.m10 * u + P.m11 * v + P.m12,
@@ -36,6 +36,6 @@ void main() {
   const ivec3 nf = shade_face_normal(int(h1.w), d);
   if ((flags & RAYCAST_FLAG_SEM) != 0u && dot(vec3(nf), sun) > 0.0)
     o = vec3(P.off_x, P.off_y, P.off_z) + d * (uintBitsToFloat(h0.x) / P.voxel_size) + vec3(nf) * 0.02;
-  rays[2u * i] = vec4(o, 0.0);
-  rays[2u * i + 1u] = vec4(sun, 0.0);
+  rays[2u * (i - win.first)] = vec4(o, 0.0);
+  rays[2u * (i - win.first) + 1u] = vec4(sun, 0.0);
 }

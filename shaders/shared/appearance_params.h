@@ -70,8 +70,17 @@ struct AppearanceLight {
   uint kind;
 };
 
+// Push constants of appearance/shadow_rays and appearance/shade: the window of pixels [first, end)
+// one dispatch handles; its outputs (shadow rays, rgba, labels) are bound from pixel `first`, so an
+// image over one storage binding is shaded in windows (one window: first 0, end W·H).
+struct AppearanceWindow {
+  uint first;
+  uint end;
+};
+
 ICUBE_SHADER_NAMESPACE_END
 
+ICUBE_CHECK_SIZE(AppearanceWindow, 8);
 ICUBE_CHECK_SIZE(AppearanceParams, 336);
 ICUBE_CHECK_LAYOUT(AppearanceParams, width, 60);
 ICUBE_CHECK_LAYOUT(AppearanceParams, ref_x, 68);

@@ -91,14 +91,17 @@ struct SplatPreprocessParams {
   float lim_x_pos, lim_x_neg, lim_y_pos, lim_y_neg;  // Jacobian clamp on x/z and y/z
   float near_z, far_z, eps2d;
   uint antialiased;
-  uint width, height, grid_x, grid_y;
+  // The tile rect rows are clamped to the band [tile_y0, tile_y0 + grid_y) of the whole image's
+  // tile rows (a whole image: 0 and all rows); rects keep whole-image rows, tile ids count from
+  // the band's first row (engine/splat/rasterizer_gpu.h, render_bands).
+  uint width, tile_y0, grid_x, grid_y;
 };
 
 struct SplatDuplicateParams {
   uint n;  // Gaussians
   uint grid_x;
   uint cull;  // 1: exact tile culling (splat/tiles.glsl), 0: whole tile rects
-  uint pad1;
+  uint tile_y0;  // the band's first tile row: tile id = (row - tile_y0) · grid_x + column
 };
 
 // splat/bin_chunks.comp / splat/bin_offsets.comp (the counting-sort tile
@@ -111,7 +114,7 @@ struct SplatBinParams {
   uint cull;       // 1: exact tile culling (splat/tiles.glsl), 0: whole tile rects
   uint tiles;      // grid_x · grid_y
   uint instances;  // tile instances of the frame (the last inclusive offset)
-  uint pad0;
+  uint tile_y0;    // the band's first tile row: tile id = (row - tile_y0) · grid_x + column
 };
 
 // splat/to_rgba8.comp
@@ -130,7 +133,7 @@ struct SplatRangesParams {
 #define SPLAT_SKY_GRADIENT 1u    // zenith / horizon / ground by the world z of the ray
 #define SPLAT_SKY_EQUIRECT 2u    // equirectangular RGBA8 image (engine/splat/sky.h)
 
-// 124 bytes. Sky model (engine/splat/sky.h): pixel ray direction in world axes
+// 128 bytes. Sky model (engine/splat/sky.h): pixel ray direction in world axes
 // d = normalize(M · (u + o, v + o, 1)), M = R_c2w · K⁻¹ (row-major m00..m22).
 struct SplatBlendParams {
   uint width, height, grid_x, grid_y;
@@ -150,6 +153,10 @@ struct SplatBlendParams {
   // previous slice's state in the carry buffers instead of empty; SPLAT_CARRY_OUT stores the
   // state there for the next slice instead of writing the image. 0 = a whole frame.
   uint carry;
+  // A band of tile rows [tile_y0, tile_y0 + grid_y) of a larger image (height: the whole
+  // image's): pixel rows are the whole image's, written from row 16 tile_y0 of the band's
+  // buffers. A whole image: 0.
+  uint tile_y0;
 };
 
 #define SPLAT_CARRY_IN 1u
@@ -202,7 +209,8 @@ ICUBE_CHECK_LAYOUT(SplatBinParams, tiles, 20);
 ICUBE_CHECK_LAYOUT(SplatBinParams, instances, 24);
 ICUBE_CHECK_SIZE(SplatRangesParams, 16);
 ICUBE_CHECK_SIZE(SplatToRgba8Params, 16);
-ICUBE_CHECK_SIZE(SplatBlendParams, 124);
+ICUBE_CHECK_SIZE(SplatBlendParams, 128);
+ICUBE_CHECK_LAYOUT(SplatBlendParams, tile_y0, 124);
 ICUBE_CHECK_LAYOUT(SplatBlendParams, pixel_offset, 16);
 ICUBE_CHECK_LAYOUT(SplatBlendParams, sky_h, 28);
 ICUBE_CHECK_LAYOUT(SplatBlendParams, bg_r, 32);

@@ -107,7 +107,7 @@ void main() {
       xend = span.y;
     }
     if (x < xend) {
-      const uint t = c * p.tiles + y * p.grid_x + x;
+      const uint t = c * p.tiles + (y - p.tile_y0) * p.grid_x + x;
       if (EMIT != 0u) {
         const uint slot = counters[t];
         counters[t] = slot + 1u;

@@ -250,7 +250,7 @@ void main() {
   if (tile >= p.grid_x * p.grid_y) return;
   const uint local = gl_LocalInvocationID.x;
   const uint u0 = (tile % p.grid_x) * SPLAT_TILE + ((local >> 3) % SPLAT_BLEND_SEGS) * SPLAT_BLEND_PIXELS;
-  const uint v = (tile / p.grid_x) * SPLAT_TILE + (local & 7u) + 8u * ((local >> 3) / SPLAT_BLEND_SEGS);
+  const uint v = (p.tile_y0 + tile / p.grid_x) * SPLAT_TILE + (local & 7u) + 8u * ((local >> 3) / SPLAT_BLEND_SEGS);
   const float py = float(v) + p.pixel_offset;
   const float px0 = float(u0) + p.pixel_offset;  // sample x of the segment's first pixel
   // The subgroup's pixel block (sample coordinates), grown by 1/4 px: uniform.
@@ -270,7 +270,7 @@ void main() {
     C[j] = vec3(0.0);
     const uint u = u0 + uint(j);
     if (SPLAT_CARRY && (p.carry & SPLAT_CARRY_IN) != 0u && u < p.width && v < p.height) {
-      const uint pix = v * p.width + u;
+      const uint pix = (v - p.tile_y0 * SPLAT_TILE) * p.width + u;
       const vec4 c = carry_color[pix];
       C[j] = c.xyz;
       T[j] = c.w;
@@ -345,7 +345,7 @@ void main() {
   for (int j = 0; j < SPLAT_BLEND_PIXELS; ++j) {
     const uint u = u0 + uint(j);
     if (u >= p.width) break;
-    const uint pix = v * p.width + u;
+    const uint pix = (v - p.tile_y0 * SPLAT_TILE) * p.width + u;
     if (SPLAT_CARRY && (p.carry & SPLAT_CARRY_OUT) != 0u) {  // a nearer slice: the state for the next one
       carry_color[pix] = vec4(C[j], T[j]);
       if (SPLAT_DEPTH) carry_depth[pix] = vec2(wz[j], median[j]);

@@ -80,7 +80,7 @@ void main() {
   if (tile >= p.grid_x * p.grid_y) return;
   const uint local = t % SPLAT_BLEND_PER_TILE;
   const uint u0 = (tile % p.grid_x) * SPLAT_TILE + ((local >> 3) % SPLAT_BLEND_SEGS) * SPLAT_BLEND_PIXELS;
-  const uint v = (tile / p.grid_x) * SPLAT_TILE + (local & 7u) + 8u * ((local >> 3) / SPLAT_BLEND_SEGS);
+  const uint v = (p.tile_y0 + tile / p.grid_x) * SPLAT_TILE + (local & 7u) + 8u * ((local >> 3) / SPLAT_BLEND_SEGS);
   if (u0 >= p.width || v >= p.height) return;
   const float py = float(v) + p.pixel_offset;
   const float px0 = float(u0) + p.pixel_offset;  // sample x of the segment's first pixel
@@ -141,7 +141,7 @@ void main() {
   for (int j = 0; j < SPLAT_BLEND_PIXELS; ++j) {
     const uint u = u0 + uint(j);
     if (u >= p.width) break;
-    const uint pix = v * p.width + u;
+    const uint pix = (v - p.tile_y0 * SPLAT_TILE) * p.width + u;
     rgba[pix] = vec4(C[j] + T[j] * splat_sky(float(u) + p.pixel_offset, py), 1.0 - T[j]);
     depth[pix] = vec2(T[j] < 1.0 ? wz[j] / (1.0 - T[j]) : 0.0, median[j]);
   }

@@ -42,7 +42,7 @@ void main() {
   for (uint y = r.y; y < r.w; ++y) {
     const uvec2 span = p.cull != 0u ? splat_tile_row(g0.x, g0.y, g0.z, g0.w, g1.x, g1.y, r, y) : r.xz;
     for (uint x = span.x; x < span.y; ++x) {
-      keys[o] = y * p.grid_x + x;
+      keys[o] = (y - p.tile_y0) * p.grid_x + x;
       values[o] = i;
       ++o;
     }

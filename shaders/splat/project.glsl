@@ -86,9 +86,10 @@ bool splat_project(vec3 d, float opacity, float cov[6], out vec4 out0, out vec4 
   const float mx = p.fx * tx * inv_z + p.cx;
   const float my = p.fy * ty * inv_z + p.cy;
   if (!splat_finite(mx) || !splat_finite(my) || !splat_finite(radius) || !splat_finite(det_inv)) return false;
-  const vec2 g = vec2(float(p.grid_x), float(p.grid_y));
-  const uvec2 lo = uvec2(clamp((vec2(mx, my) - radius) / 16.0, vec2(0.0), g));
-  uvec2 hi = uvec2(clamp((vec2(mx, my) + radius + 15.0) / 16.0, vec2(0.0), g));
+  // Whole-image tile coordinates, rows clamped to the band [tile_y0, tile_y0 + grid_y).
+  const vec2 g0 = vec2(0.0, float(p.tile_y0)), g1 = vec2(float(p.grid_x), float(p.tile_y0 + p.grid_y));
+  const uvec2 lo = uvec2(clamp((vec2(mx, my) - radius) / 16.0, g0, g1));
+  uvec2 hi = uvec2(clamp((vec2(mx, my) + radius + 15.0) / 16.0, g0, g1));
   hi = max(hi, lo);
   if ((hi.x - lo.x) * (hi.y - lo.y) == 0u) return false;
   const float len = sqrt(d.x * d.x + d.y * d.y + d.z * d.z);

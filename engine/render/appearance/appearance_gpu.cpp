@@ -4,6 +4,7 @@
 #include "gpu/context.h"
 
 #include <algorithm>
+#include <numeric>
 #include <stdexcept>
 #include <string>
 
@@ -84,11 +85,16 @@ void AppearanceRendererGpu::record(gpu::CommandList& cmd, const RaycastWorld& w,
       frame_params(lighting, cp, w, o, static_cast<uint32_t>(frame_lights.size()));
   const uint64_t n = uint64_t{cam.K.width} * cam.K.height;
   const gpu::DeviceInfo& info = ctx_.info();
-  if (n * sizeof(shader::RaycastHit) > info.max_storage_buffer_range || 3 * n > info.max_texel_buffer_elements)
+  // The hits are read as texels (3 per pixel), so a frame is bounded by maxTexelBufferElements; the
+  // per-pixel outputs over one storage binding are written in windows of pixels.
+  if (3 * n > info.max_texel_buffer_elements)
     throw std::invalid_argument("frames: a " + std::to_string(cam.K.width) + "x" + std::to_string(cam.K.height) +
-                                " frame needs " + std::to_string(n * sizeof(shader::RaycastHit) >> 20) +
-                                " MiB of ray hits, over one storage binding of this device (" +
-                                std::to_string(info.max_storage_buffer_range >> 20) + " MiB); render a smaller size");
+                                " frame needs " + std::to_string(3 * n) + " texels of ray hits, over this device's " +
+                                std::to_string(info.max_texel_buffer_elements) + "; render at most " +
+                                std::to_string(info.max_texel_buffer_elements / 3) + " pixels");
+  const uint64_t align = std::max<uint64_t>(4, info.min_storage_buffer_offset_alignment);
+  const uint64_t per_window = info.max_storage_buffer_range / 32 / (align / std::gcd(align, uint64_t{4})) *
+                              (align / std::gcd(align, uint64_t{4}));  // shadow rays, 32 bytes a pixel, bound the window
   width_ = cam.K.width;
   height_ = cam.K.height;
   gpu::ensure_capacity(ctx_, hits_, n * sizeof(shader::RaycastHit), "appearance-hits");
@@ -114,20 +120,27 @@ void AppearanceRendererGpu::record(gpu::CommandList& cmd, const RaycastWorld& w,
   const gpu::BufferBinding hits = hits_.texel_binding(VK_FORMAT_R32G32B32A32_UINT, 0, n * sizeof(shader::RaycastHit));
   const gpu::BufferBinding params = params_.binding(0, sizeof(p));
   if (shadows) {
-    cmd.dispatch(shadow_rays_, {n}, {hits, params, shadow_rays_batch_.rays.binding(0, n * 32)});
+    for (uint64_t first = 0; first < n; first += per_window) {
+      const uint64_t count = std::min(per_window, n - first);
+      const shader::AppearanceWindow win{static_cast<uint32_t>(first), static_cast<uint32_t>(first + count)};
+      cmd.dispatch(shadow_rays_, {count}, win, {hits, params, shadow_rays_batch_.rays.binding(first * 32, count * 32)});
+    }
     cmd.barrier(gpu::deps::kComputeToCompute);
     RaycastOptions so;
     so.t_max = o.shadow_t_max;
     caster_.record_rays(cmd, w, shadow_rays_batch_, so, shadow_hits_);
     cmd.barrier(gpu::deps::kComputeToCompute);
   }
-  cmd.dispatch(shade_, {n},
-               {hits, shadows ? shadow_hits_.texel_binding(VK_FORMAT_R32G32B32A32_UINT, 0, n * sizeof(shader::RaycastHit))
-                        : gpu::null_binding(VK_FORMAT_R32G32B32A32_UINT), params,
-                lights_.texel_binding(VK_FORMAT_R32G32B32A32_SFLOAT, 0, lights_.size() & ~VkDeviceSize{15}), w.gpu.brick_table.texel_binding(VK_FORMAT_R32G32B32A32_UINT),
-                w.gpu.brick_data.texel_binding(VK_FORMAT_R32_UINT, 0, w.gpu.brick_data.size() & ~VkDeviceSize{3}),
-                rgba_.binding(0, n * 4),
-                labels_.binding(0, n * 4)});
+  for (uint64_t first = 0; first < n; first += per_window) {
+    const uint64_t count = std::min(per_window, n - first);
+    const shader::AppearanceWindow win{static_cast<uint32_t>(first), static_cast<uint32_t>(first + count)};
+    cmd.dispatch(shade_, {count}, win,
+                 {hits, shadows ? shadow_hits_.texel_binding(VK_FORMAT_R32G32B32A32_UINT, 0, n * sizeof(shader::RaycastHit))
+                                : gpu::null_binding(VK_FORMAT_R32G32B32A32_UINT), params,
+                  lights_.texel_binding(VK_FORMAT_R32G32B32A32_SFLOAT, 0, lights_.size() & ~VkDeviceSize{15}),
+                  RaycasterGpu::table_texels(w), RaycasterGpu::brick_texels(w), rgba_.binding(first * 4, count * 4),
+                  labels_.binding(first * 4, count * 4)});
+  }
 }
 
 AppearanceImage AppearanceRendererGpu::render(const RaycastWorld& w, const Camera& cam,
