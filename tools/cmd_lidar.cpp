@@ -192,14 +192,26 @@ void cmd_lidar_gaussians(const LidarArgs& a, scene::Diagnostics& diag) {
   splat::GpuLidarGaussians g;
   size_t uploaded = SIZE_MAX, max_gaussians = 0;
   double compose_s = 0.0;
-  auto gaussians_for = [&](int time_index) -> const splat::GpuLidarGaussians& {
+  // A set over what one upload takes is cast per sweep through the Gaussians the sweep can reach
+  // (splat::lidar_range_subset: the same scan), uploaded again at every pose.
+  size_t culled_sweeps = 0;
+  auto gaussians_for = [&](int time_index, const glm::dmat4& pose) -> const splat::GpuLidarGaussians& {
     const size_t frame = gs.has_objects() && time_index > 0 ? static_cast<size_t>(time_index) : 0;
     if (frame == uploaded) return g;
     const auto t0 = Clock::now();
-    const splat::GaussianCloud cloud = splat::compose_frame(gs, frame);
-    g = caster.upload(cloud, splat::lidar_gaussian_intensity(cloud));
+    splat::GaussianCloud cloud = splat::compose_frame(gs, frame);
     max_gaussians = std::max(max_gaussians, cloud.size());
-    uploaded = frame;
+    if (cloud.size() > caster.max_gaussians()) {
+      // Relative to the whole set's origin, so the sweep is the whole set's bit for bit.
+      const glm::dvec3 origin = splat::LidarGaussiansGpu::lidar_origin(cloud);
+      cloud = splat::lidar_range_subset(cloud, glm::dvec3(pose[3]), model.max_range);
+      ++culled_sweeps;
+      uploaded = SIZE_MAX;  // the next pose reaches other Gaussians
+      g = caster.upload(cloud, splat::lidar_gaussian_intensity(cloud), &origin);
+    } else {
+      uploaded = frame;
+      g = caster.upload(cloud, splat::lidar_gaussian_intensity(cloud));
+    }
     compose_s += std::chrono::duration<double>(Clock::now() - t0).count();
     return g;
   };
@@ -213,7 +225,7 @@ void cmd_lidar_gaussians(const LidarArgs& a, scene::Diagnostics& diag) {
   uint64_t returns = 0, instances = 0;
   for (size_t f = 0; f < traj.size(); ++f) {
     splat::LidarGaussianTimings tm;
-    const splat::GpuLidarGaussians& frame_gaussians = gaussians_for(traj.time_index[f]);
+    const splat::GpuLidarGaussians& frame_gaussians = gaussians_for(traj.time_index[f], traj.c2w[f]);
     auto t0 = Clock::now();
     render::LidarScan s = caster.scan(frame_gaussians, traj.c2w[f], go, &tm);
     cast_s += std::chrono::duration<double>(Clock::now() - t0).count();
@@ -256,6 +268,10 @@ void cmd_lidar_gaussians(const LidarArgs& a, scene::Diagnostics& diag) {
               cast_s > 0 ? mrays / cast_s : 0.0, total_s > 0 ? mrays / total_s : 0.0, read_s, compose_s, cast_s, gpu_ms,
               traj.size() ? static_cast<double>(instances) / static_cast<double>(traj.size()) : 0.0, write_s,
               out.string().c_str());
+  if (culled_sweeps)
+    std::printf("lidar: the set is over the %llu Gaussians one upload takes on this device: %zu sweeps cast the "
+                "Gaussians within %.0f m of the sensor (the same scan)\n",
+                static_cast<unsigned long long>(caster.max_gaussians()), culled_sweeps, model.max_range);
 }
 
 void cmd_lidar(const LidarArgs& a) {

@@ -450,10 +450,13 @@ PackageEval evaluate_package(gpu::Context& ctx, const std::string& package, cons
     std::vector<double> err_all, err_view;
     uint64_t rays = 0, both = 0, vo = 0, go = 0, rays_v = 0, both_v = 0, vo_v = 0, go_v = 0;
     for (size_t i = 0; i < pick.size(); ++i) {
-      // Only what the sweep can reach (the same scan; a large package's set fits the caster).
-      const splat::GaussianCloud cloud = splat::lidar_range_subset(
-          splat::compose_frame(gs, splat_frame_of(meta, pick[i])), glm::dvec3(traj.c2w[i][3]), o.lidar.max_range);
-      const splat::GpuLidarGaussians g = caster.upload(cloud, splat::lidar_gaussian_intensity(cloud));
+      // Only what the sweep can reach, relative to the whole set's origin (the same scan bit for bit;
+      // a large package's set fits the caster).
+      const splat::GaussianCloud frame_set = splat::compose_frame(gs, splat_frame_of(meta, pick[i]));
+      const glm::dvec3 origin = splat::LidarGaussiansGpu::lidar_origin(frame_set);
+      const splat::GaussianCloud cloud =
+          splat::lidar_range_subset(frame_set, glm::dvec3(traj.c2w[i][3]), o.lidar.max_range);
+      const splat::GpuLidarGaussians g = caster.upload(cloud, splat::lidar_gaussian_intensity(cloud), &origin);
       const render::LidarScan s = caster.scan(g, traj.c2w[i], splat::LidarGaussianOptions{});
       const glm::dmat4 w2c = glm::inverse(meta.poses[pick[i]]);
       const glm::dmat3 s2w(traj.c2w[i]);

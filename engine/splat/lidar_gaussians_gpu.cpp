@@ -94,7 +94,27 @@ LidarGaussiansGpu::LidarGaussiansGpu(gpu::Context& ctx, const render::LidarModel
 
 LidarGaussiansGpu::~LidarGaussiansGpu() = default;
 
-GpuLidarGaussians LidarGaussiansGpu::upload(const GaussianCloud& cloud, const std::vector<float>& intensity) {
+uint64_t LidarGaussiansGpu::max_gaussians() const {
+  // storage_windows' window length for the records, times the windows the kernels bind.
+  const gpu::DeviceInfo& info = ctx_.info();
+  const uint64_t row = sizeof(shader::SplatLidarGaussian);
+  const uint64_t unit = std::max<uint64_t>(1, info.min_storage_buffer_offset_alignment / row);
+  const uint64_t per_window = info.max_storage_buffer_range / row / unit * unit;
+  return std::min<uint64_t>({SPLAT_LIDAR_WINDOWS * per_window, info.max_storage_buffer_range / 16, UINT32_MAX / 8});
+}
+
+glm::dvec3 LidarGaussiansGpu::lidar_origin(const GaussianCloud& cloud) {
+  if (cloud.positions.empty()) return glm::dvec3(0.0);
+  glm::dvec3 lo = cloud.positions[0], hi = lo;
+  for (const auto& p : cloud.positions) {
+    lo = glm::min(lo, p);
+    hi = glm::max(hi, p);
+  }
+  return glm::floor(0.5 * (lo + hi));  // whole metres: exact in float
+}
+
+GpuLidarGaussians LidarGaussiansGpu::upload(const GaussianCloud& cloud, const std::vector<float>& intensity,
+                                            const glm::dvec3* origin) {
   cloud.validate();
   if (cloud.size() > UINT32_MAX / 8) throw std::invalid_argument("lidar gaussians: too many Gaussians");
   GpuLidarGaussians g;
@@ -103,19 +123,10 @@ GpuLidarGaussians LidarGaussiansGpu::upload(const GaussianCloud& cloud, const st
   if (g.windows.size() > SPLAT_LIDAR_WINDOWS || rect_bytes > ctx_.info().max_storage_buffer_range)
     throw std::invalid_argument(
         "lidar gaussians: " + std::to_string(cloud.size()) + " Gaussians exceed this device's limit of " +
-        std::to_string(std::min<uint64_t>(
-            SPLAT_LIDAR_WINDOWS * (ctx_.info().max_storage_buffer_range / sizeof(shader::SplatLidarGaussian)),
-            ctx_.info().max_storage_buffer_range / 16)) +
+        std::to_string(max_gaussians()) +
         " (" + std::to_string(SPLAT_LIDAR_WINDOWS) + " storage windows); cull the set to the sensor's range first");
   g.count = static_cast<uint32_t>(cloud.size());
-  if (!cloud.positions.empty()) {
-    glm::dvec3 lo = cloud.positions[0], hi = lo;
-    for (const auto& p : cloud.positions) {
-      lo = glm::min(lo, p);
-      hi = glm::max(hi, p);
-    }
-    g.origin = glm::floor(0.5 * (lo + hi));  // whole metres: exact in float
-  }
+  g.origin = origin ? glm::floor(*origin) : lidar_origin(cloud);
   g.gaussians = gpu::upload_vector(ctx_, lidar_gaussian_rows(cloud, intensity, g.origin), "lidar-gs-gaussians");
   return g;
 }

@@ -80,8 +80,17 @@ class LidarGaussiansGpu {
   LidarGaussiansGpu(gpu::Context& ctx, const render::LidarModel& model);  // validates the model
   ~LidarGaussiansGpu();
 
-  // `intensity`: one value per Gaussian (lidar_gaussian_intensity for the default).
-  GpuLidarGaussians upload(const GaussianCloud& cloud, const std::vector<float>& intensity);
+  // `intensity`: one value per Gaussian (lidar_gaussian_intensity for the default). `origin`: the
+  // whole metres the positions are stored relative to (default: the centre of the set's bounds); a
+  // subset of a larger set (lidar_range_subset) passes the whole set's lidar_origin, so its sweeps
+  // are the whole set's bit for bit.
+  GpuLidarGaussians upload(const GaussianCloud& cloud, const std::vector<float>& intensity,
+                           const glm::dvec3* origin = nullptr);
+  // The most Gaussians one upload takes on this device (SPLAT_LIDAR_WINDOWS storage windows of records,
+  // one binding of tile rects); larger sets are cast per sweep through lidar_range_subset.
+  uint64_t max_gaussians() const;
+  // The origin upload() uses for `cloud` by default.
+  static glm::dvec3 lidar_origin(const GaussianCloud& cloud);
   // One sweep from `sensor_to_world`; hits in ray order. `download` = false leaves them on the GPU (benchmarks).
   std::vector<shader::SplatLidarHit> cast(const GpuLidarGaussians& g, const glm::dmat4& sensor_to_world,
                                           LidarGaussianTimings* timings = nullptr, bool download = true,

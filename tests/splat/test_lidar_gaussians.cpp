@@ -14,6 +14,7 @@
 // intensity by ~1e-3), hence the 0.5 % budget.
 #include <doctest/doctest.h>
 
+#include "capped_context.h"
 #include "gpu_test_context.h"
 #include "test_splat_util.h"
 
@@ -637,5 +638,31 @@ TEST_CASE("lidar gaussians: the range subset drops only Gaussians no ray within 
       MESSAGE("ray " << r << ": all " << all[r].alpha << "/" << all[r].count << ", subset " << sub[r].alpha << "/" << sub[r].count);
   }
   CHECK(hits > all.size() / 10);
+  CHECK(bad == 0);
+}
+
+TEST_CASE("lidar gaussians gpu: a set over one upload, cast through its range subset at the whole set's origin, gives the whole set's sweep bit for bit") {
+  // Bindings capped at 512 KiB: one upload takes 32,768 Gaussians; 40,000 in a 60 m box are cast
+  // as the subset within reach of a 12 m sensor (as `icube lidar --gaussians` and `icube eval` do),
+  // against the whole set on the uncapped device.
+  render::LidarModel m = small_model(16, -25.0, 10.0, 180);
+  m.max_range = 12.0;
+  const splat::GaussianCloud c = test::random_cloud(43, 40000, 1, glm::dvec3(3.0, -2.0, 0.0), 30.0, -1.5, 0.3);
+  const glm::dmat4 pose = pose_at(glm::dvec3(0.5, -1.0, 0.2), 21.0, -3.0);
+  splat::LidarGaussiansGpu whole(test::gpu_context(), m), capped(test::capped_gpu_context(512u << 10), m);
+  REQUIRE(capped.max_gaussians() == 32768);
+  CHECK_THROWS_WITH(capped.upload(c, splat::lidar_gaussian_intensity(c)), doctest::Contains("exceed this device's limit of 32768"));
+  const glm::dvec3 origin = splat::LidarGaussiansGpu::lidar_origin(c);
+  const splat::GaussianCloud near = splat::lidar_range_subset(c, glm::dvec3(pose[3]), m.max_range);
+  REQUIRE(near.size() < capped.max_gaussians());
+  const auto want = whole.cast(whole.upload(c, splat::lidar_gaussian_intensity(c)), pose);
+  const auto got = capped.cast(capped.upload(near, splat::lidar_gaussian_intensity(near), &origin), pose);
+  REQUIRE(got.size() == want.size());
+  size_t bad = 0, hits = 0;
+  for (size_t r = 0; r < want.size(); ++r) {
+    hits += want[r].count > 0;
+    bad += std::memcmp(&want[r], &got[r], sizeof(want[r])) != 0;
+  }
+  CHECK(hits > want.size() / 10);
   CHECK(bad == 0);
 }
