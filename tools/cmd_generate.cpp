@@ -5,12 +5,13 @@
 //
 //   icube generate SCENE -o PACKAGE [--world WORLD.icw] [--prompt TEXT] [--seed N] [--resume]
 //                  [--frames A:B[:S]] [--camera ... | --camera-preset NAME | --trajectory F | --route M]
-//                  [--key-every N] [--gaussians-per-cell 1|4] [--no-video] [--no-preview]
+//                  [--key-every N] [--gaussians-per-cell 1|4] [--no-video | --video-preset NAME] [--no-preview]
 //                  [--frames-from DIR|VIDEO [--sky-masks DIR [--sky-label N]]] [--pixel-frames N]
 //   icube generate --batch SCENES.txt [--shard I/N] -o OUT_ROOT [the options above]
 #include "command_registry.h"
 #include "generate_batch.h"
 #include "generate_job.h"
+#include "video/mp4_writer.h"
 
 #include "cli_common.h"
 
@@ -78,6 +79,11 @@ void add_generate_command(CLI::App& app) {
                   "Stage 3 pixel branch: Gaussians for the mid-ground pixels of the last N key frames (0 = off)")
       ->capture_default_str();
   cmd->add_flag("--no-video", a->no_video, "No mp4s (guidance buffers, the preview's fly-through)");
+  cmd->add_option("--video-preset", a->video_preset,
+                  "x264 preset of the guidance buffers' mp4s (InfiniCube's: veryslow; ultrafast ... veryslow trades "
+                  "time for file size; on 2 cores veryslow is ~40 % of a 1,000-frame job)")
+      ->check(CLI::IsMember(video::x264_presets()))
+      ->capture_default_str();
   cmd->add_flag("--no-preview", a->no_preview, "No preview/ (the Gaussians rendered along the trajectory)");
   cmd->add_flag("--resume", a->resume,
                 "Continue a killed run after its last finished stage; nothing to do when the package is complete");

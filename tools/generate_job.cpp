@@ -135,7 +135,7 @@ GenerateResult generate_package(const GenerateArgs& a, scene::Diagnostics& diag)
       {"prompt", a.prompt},       {"seed", a.seed},
       {"frames", a.path.frames},  {"camera", {cp.K.fx, cp.K.fy, cp.K.cx, cp.K.cy, cp.K.width, cp.K.height}},
       {"route_m", a.path.route_m}, {"key_every", a.key_every},
-      {"gaussians_per_cell", a.per_cell}, {"pixel_frames", a.pixel_frames}, {"videos", !a.no_video},
+      {"gaussians_per_cell", a.per_cell}, {"pixel_frames", a.pixel_frames}, {"videos", !a.no_video}, {"video_preset", a.video_preset},
       {"preview", !a.no_preview}};
   const std::string fingerprint = scene::sha256_hex(inputs.dump() + "\n" + options.dump());
 
@@ -217,6 +217,7 @@ GenerateResult generate_package(const GenerateArgs& a, scene::Diagnostics& diag)
     render::Stage2Options wo;
     wo.clip = clip;
     wo.videos = !a.no_video;
+    wo.video.preset = a.video_preset;
     const render::Stage2Result wr =
         render::write_stage2(seq, &sc, render::world_to_voxel_world(traj.c2w[0]), bdir.string(), wo);
     for (const std::string& n : wr.notes) diag.warn(a.output, "buffers", n);
@@ -295,6 +296,7 @@ GenerateResult generate_package(const GenerateArgs& a, scene::Diagnostics& diag)
     const splat::SkyImage sky = splat::read_sky_png((root / "gaussians" / "sky.png").string());
     lift::FlythroughOptions fo;
     fo.video = !a.no_video;
+    fo.mp4.preset = "medium";  // a fly-through for people, not an input of InfiniCube's models: 3-4x faster than veryslow
     ProgressBar bar("preview", "frames");
     fo.progress = [&](size_t done, size_t total) { bar.update(done, total); };
     const lift::FlythroughResult fr = lift::write_flythrough(ctx, gs, sky, meta, (root / "frames").string(),

@@ -23,6 +23,9 @@ struct GenerateArgs {
   size_t key_every = 2;
   int per_cell = 1;
   bool no_video = false;
+  // x264 preset of the guidance buffers' three mp4s (InfiniCube's writer: veryslow); the preview's
+  // fly-through, for people, is encoded at medium.
+  std::string video_preset = "veryslow";
   bool no_preview = false;  // no preview/ (the Gaussians' fly-through)
   // Appearance frames made elsewhere (a video model run on this job's guidance buffers): a PNG folder
   // or an mp4, imported (render/appearance/frames_import.h) instead of the procedural renderer's.

@@ -26,9 +26,12 @@ void TileRadixBinning::record_scan(gpu::CommandList& cmd, uint64_t items, const 
 
 void TileRadixBinning::reserve_instances(uint64_t instances) {
   const uint64_t key_bytes = 4ull * key_words();
-  if (instances * key_bytes > ctx_.info().max_storage_buffer_range || instances > sort_.max_elements())
-    throw std::runtime_error(name_ + ": " + std::to_string(instances) + " tile instances exceed one storage binding " +
-                             "or the radix sort limit of " + std::to_string(sort_.max_elements()));
+  // The instance emitters write the keys through one binding (the sort itself runs in windows).
+  const uint64_t most = std::min<uint64_t>(ctx_.info().max_storage_buffer_range / key_bytes, sort_.max_elements());
+  if (instances > most)
+    throw std::runtime_error(name_ + ": " + std::to_string(instances) + " tile instances in one frame, over the " +
+                             std::to_string(most) + " this device takes (one storage binding of " +
+                             std::to_string(key_bytes) + "-byte keys); cast fewer or smaller Gaussians per frame");
   const uint64_t n = std::max<uint64_t>(instances, 1);
   gpu::ensure_capacity(ctx_, keys_, n * key_bytes, name_ + "-keys");
   gpu::ensure_capacity(ctx_, values_, n * 4, name_ + "-values");
