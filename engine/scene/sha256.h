@@ -1,28 +1,35 @@
 // SHA-256 (FIPS 180-4) of bytes and of files, as lowercase hex: the file
-// hashes of a package manifest. Tests: tests/scene/test_sha256.cpp (the FIPS
-// examples and a file read in chunks).
+// hashes of a package manifest. Computed by OpenSSL's libcrypto (EVP; the
+// SHA extensions where the CPU has them): ~5x the hand-written transform this
+// replaced on package hashes (bench/README.md, "SHA-256"). Tests:
+// tests/scene/test_sha256.cpp (the FIPS examples and a file read in chunks).
 #pragma once
 
 #include <array>
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <string_view>
+
+struct evp_md_ctx_st;  // OpenSSL's EVP_MD_CTX, kept out of this header
 
 namespace icube::scene {
 
 class Sha256 {
  public:
   Sha256();
+  ~Sha256();
+  Sha256(Sha256&&) noexcept;
+  Sha256& operator=(Sha256&&) noexcept;
   void update(const void* data, size_t bytes);
   std::array<uint8_t, 32> digest();  // finishes; the object must not be updated afterwards
   std::string hex();
 
  private:
-  void block(const uint8_t* p);
-  std::array<uint32_t, 8> h_;
-  std::array<uint8_t, 64> buf_{};
-  size_t buf_len_ = 0;
-  uint64_t total_ = 0;
+  struct Free {
+    void operator()(evp_md_ctx_st* c) const;
+  };
+  std::unique_ptr<evp_md_ctx_st, Free> ctx_;
 };
 
 std::string sha256_hex(std::string_view bytes);
