@@ -40,11 +40,11 @@
 // same chord is computed in double-float (raycast/chord_df.glsl, common/df.glsl) from `camdf`
 // (RaycastCameraDf); see there why its decisions are the reference's.
 //
-// The including shader declares the texel buffers `world_table_texels` and `world_brick_texels`
-// (see world/lookup_texel.glsl; `brick_words` is the latter), the texel buffers `usamplerBuffer occ_index` and `occ_masks` (the
-// occupancy index as R32G32_UINT and R32_UINT texels) and
-// `usamplerBuffer brick_words` (world_bricks as R32_UINT texels: texel fetches are gathers on
-// lavapipe, where storage-buffer loads at divergent addresses run lane by lane), the push constant
+// The including shader declares the texel buffers `world_table_texels` (the hash table as
+// R32G32B32A32_UINT), `usamplerBuffer brick_words` (the brick records as R32_UINT, also named
+// `world_brick_texels` for world/lookup_texel.glsl), `occ_index` and `occ_masks` (the occupancy
+// index as R32G32_UINT and R32_UINT texels; texel fetches are gathers on lavapipe, where
+// storage-buffer loads at divergent addresses run lane by lane), the push constant
 // block `p` (RaycastParams) and the bools RAYCAST_OCCUPANCY (see above) and RAYCAST_SKIP_EMPTY
 // (false: empty bricks are walked voxel by voxel too, the flat walk of the CPU reference, for
 // benchmarks) first.
