@@ -1,5 +1,7 @@
-// Plain-loop CPU references of the network layers (the oracles of the GPU
-// kernels to come, and the whole-network reference of unet_reference.h).
+// Plain-loop CPU references of the network layers: the oracles of the GPU
+// kernels in kernels/nn/ (conv3d, group_norm, layer_norm, attention, elementwise)
+// and the building blocks of the whole-network references (engine/nn/unet_reference.h,
+// vae_reference.h).
 // Conventions are PyTorch's, as the official modules use them:
 //   conv3d      x [B, Ci, X, Y, Z], w [Co, Ci, k, k, k] (or [Co, Ci] / [Co, Ci, 1] for 1x1), bias [Co];
 //               zero padding, output size floor((n + 2p - k) / s) + 1
