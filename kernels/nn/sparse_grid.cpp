@@ -77,21 +77,36 @@ void SparseGridOps::record_gather_rows(gpu::CommandList& cmd, const gpu::Buffer&
   require_buffer("sparse gather", "input", uint64_t{in_rows} * channels * 4, x);
   require_buffer("sparse gather", "output", uint64_t{out_rows} * channels * 4, y);
   require_buffer("sparse gather", "rows", uint64_t{out_rows} * 4, rows);
-  const uint64_t usable = window_elements(ctx_);
-  const uint64_t per_window = std::min(usable / std::max(in_rows, out_rows), uint64_t{UINT32_MAX} / std::max(in_rows, out_rows));
-  if (per_window == 0) throw std::invalid_argument("sparse gather: one channel exceeds one storage binding");
-  for (uint64_t c0 = 0; c0 < channels; c0 += per_window) {
-    const uint64_t cw = std::min<uint64_t>(per_window, channels - c0);
+  // The input is read as texels (bounded by maxTexelBufferElements), the rows and the output through
+  // storage bindings: windows of whole channels, or, when one output channel exceeds a binding, each
+  // channel's output rows in windows (the rows binding at an aligned row).
+  const uint64_t out_fit = window_elements(ctx_);
+  const uint64_t in_fit = std::min<uint64_t>(ctx_.info().max_texel_buffer_elements, UINT32_MAX / 2) -
+                          std::max<uint64_t>(4, ctx_.info().min_texel_buffer_offset_alignment) / 4;
+  if (in_rows > in_fit)
+    throw std::invalid_argument("sparse gather: one channel of " + std::to_string(in_rows) + " rows exceeds the " +
+                                std::to_string(in_fit) + " texels of one texel buffer; use fewer voxels per chunk");
+  const uint64_t per_window = std::min(in_fit / in_rows, out_fit / out_rows);
+  auto dispatch = [&](uint64_t c0, uint64_t cw, uint64_t r0, uint64_t rn) {
     const ElementWindow xw = texel_window(ctx_, x, c0 * in_rows, cw * in_rows);
-    const ElementWindow yw = element_window(ctx_, y, c0 * out_rows, cw * out_rows);
+    const ElementWindow yw = element_window(ctx_, y, c0 * out_rows + r0, cw * rn);
     shader::SparseGridParams pc{};
-    pc.rows = out_rows;
+    pc.rows = static_cast<uint32_t>(rn);
     pc.in_rows = in_rows;
     pc.channels = static_cast<uint32_t>(cw);
     pc.x_offset = xw.offset;
     pc.y_offset = yw.offset;
-    cmd.dispatch(gather_, gpu::Threads{cw * out_rows}, pc, {xw.binding, rows.binding(0, uint64_t{out_rows} * 4), yw.binding});
+    cmd.dispatch(gather_, gpu::Threads{cw * rn}, pc, {xw.binding, rows.binding(r0 * 4, rn * 4), yw.binding});
+  };
+  if (per_window > 0) {
+    for (uint64_t c0 = 0; c0 < channels; c0 += per_window)
+      dispatch(c0, std::min<uint64_t>(per_window, channels - c0), 0, out_rows);
+    return;
   }
+  const uint64_t align = std::max<uint64_t>(4, ctx_.info().min_storage_buffer_offset_alignment);
+  const uint64_t row_window = out_fit / (align / 4) * (align / 4);
+  for (uint64_t c = 0; c < channels; ++c)
+    for (uint64_t r0 = 0; r0 < out_rows; r0 += row_window) dispatch(c, 1, r0, std::min<uint64_t>(row_window, out_rows - r0));
 }
 
 SparseGridOps::Children SparseGridOps::subdivide(const gpu::Buffer& ijk, uint32_t rows, const gpu::Buffer& logits,

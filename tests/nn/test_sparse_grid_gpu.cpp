@@ -94,11 +94,14 @@ TEST_CASE("sparse grid gpu: row gathers with missing rows read zero") {
   ctx.submit_and_wait([&](gpu::CommandList& cmd) { ops.record_gather_rows(cmd, xb, 3, 2, rb, 4, yb); });
   CHECK(gpu::download_vector<float>(ctx, yb, 8) == std::vector<float>{3, 0, 1, 1, 30, 0, 10, 10});
 
-  // Bindings of 4 KiB: 8 channels of 301 input rows (9,632 B) gathered 3 channels a window into
-  // 517 output rows (2 a window), against the plain loop.
+  // Bindings of 4 KiB: 8 channels of 301 input rows (9,632 B, read as texels) gathered into 517
+  // output rows (1 channel a window), and into 3,001 (one output channel is 12 KB: each channel's
+  // rows in windows), against the plain loop.
   gpu::Context& capped = test::capped_gpu_context(4u << 10);
+  for (const uint32_t out_rows : {517u, 3001u}) {
+  CAPTURE(out_rows);
   std::mt19937 rng(12);
-  const uint32_t in_rows = 301, out_rows = 517, channels = 8;
+  const uint32_t in_rows = 301, channels = 8;
   std::vector<float> xs(size_t{in_rows} * channels);
   for (float& v : xs) v = float(rng() % 100000) - 50000.0f;
   std::vector<int32_t> rs(out_rows);
@@ -113,6 +116,7 @@ TEST_CASE("sparse grid gpu: row gathers with missing rows read zero") {
   kernels::nn::SparseGridOps capped_ops(capped);
   capped.submit_and_wait([&](gpu::CommandList& cmd) { capped_ops.record_gather_rows(cmd, cx, in_rows, channels, cr, out_rows, cy); });
   CHECK(test::equal_report(gpu::download_vector<float>(capped, cy, want.size()), want, "capped gather"));
+  }
 }
 
 TEST_CASE("sparse grid gpu: max pooling (sparse_coarse_keys, sparse_segments, sparse_coarse_rows, sparse_max_pool) and "
