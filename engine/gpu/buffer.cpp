@@ -124,13 +124,17 @@ BufferBinding Buffer::texel_binding(VkFormat format, VkDeviceSize offset, VkDevi
   return b;
 }
 
+uint64_t aligned_element_unit(const DeviceInfo& info, uint64_t element_bytes) {
+  const uint64_t align = std::max<uint64_t>(4, info.min_storage_buffer_offset_alignment);
+  return align / std::gcd(align, std::max<uint64_t>(1, element_bytes));
+}
+
 std::vector<ElementWindow> storage_windows(const DeviceInfo& info, uint64_t element_count, uint32_t element_size,
                                            uint64_t multiple_of, uint64_t max_bytes) {
   uint64_t limit = info.max_storage_buffer_range;
   if (max_bytes) limit = std::min(limit, max_bytes);
   // Window length in elements: a multiple of the tile and of the offset alignment.
-  uint64_t align_elems = std::max<uint64_t>(1, info.min_storage_buffer_offset_alignment / element_size);
-  uint64_t unit = std::lcm(std::max<uint64_t>(1, multiple_of), align_elems);
+  uint64_t unit = std::lcm(std::max<uint64_t>(1, multiple_of), aligned_element_unit(info, element_size));
   uint64_t per_window = (limit / element_size) / unit * unit;
   if (per_window == 0) throw std::invalid_argument("storage_windows: tile does not fit one storage binding");
   std::vector<ElementWindow> out;

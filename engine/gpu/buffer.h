@@ -95,6 +95,11 @@ struct ElementWindow {
   uint64_t count = 0;
 };
 
+// The fewest elements of `element_bytes` whose bytes are a multiple of
+// minStorageBufferOffsetAlignment: a window whose first element is a multiple
+// of it starts at an aligned offset.
+uint64_t aligned_element_unit(const DeviceInfo& info, uint64_t element_bytes);
+
 // Splits `element_count` elements of `element_size` bytes into windows that
 // each fit one storage binding (<= maxStorageBufferRange, or `max_bytes` if
 // smaller and non-zero) and start at offsets aligned to

@@ -250,8 +250,7 @@ static uint64_t rays_per_window(const gpu::DeviceInfo& info, uint64_t n, bool ra
   const uint64_t limit = info.max_storage_buffer_range;
   const uint64_t hit = sizeof(shader::RaycastHit), ray = 32;
   if (n * hit <= limit && (!ray_list || n * ray <= limit)) return n;
-  const uint64_t align = std::max<uint64_t>(4, info.min_storage_buffer_offset_alignment);
-  uint64_t unit = std::lcm(align / std::gcd(align, hit), align / std::gcd(align, ray));
+  uint64_t unit = std::lcm(gpu::aligned_element_unit(info, hit), gpu::aligned_element_unit(info, ray));
   if (tile_row) unit = std::lcm(unit, tile_row);
   return limit / hit / unit * unit;
 }

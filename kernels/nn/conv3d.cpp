@@ -62,8 +62,7 @@ void Conv3d::record(gpu::CommandList& cmd, const Conv3dShape& s, const gpu::Buff
   const bool w_windows = w_bytes > ctx_.info().max_storage_buffer_range;
   uint64_t w_channels = s.in_channels, w_unit = 1;
   if (w_windows) {
-    const uint64_t align = std::max<uint64_t>(4, ctx_.info().min_storage_buffer_offset_alignment);
-    w_unit = align / std::gcd(align, w_row);
+    w_unit = gpu::aligned_element_unit(ctx_.info(), w_row);
     w_channels = ctx_.info().max_storage_buffer_range / w_row / w_unit * w_unit;
     if (w_channels == 0)
       throw std::invalid_argument("conv3d: the packed weights of one input channel (" + std::to_string(w_row * w_unit) +

@@ -18,8 +18,7 @@ namespace {
 // alignment, so every window starts aligned.
 uint64_t kmap_window_rows(const gpu::Context& ctx) {
   const uint64_t row_bytes = uint64_t{NN_SPARSE_TAPS} * 4;
-  const uint64_t align = std::max<uint64_t>(4, ctx.info().min_storage_buffer_offset_alignment);
-  const uint64_t unit = align / std::gcd(align, row_bytes);
+  const uint64_t unit = gpu::aligned_element_unit(ctx.info(), row_bytes);
   const uint64_t rows = ctx.info().max_storage_buffer_range / row_bytes / unit * unit;
   if (rows == 0)
     throw std::invalid_argument("sparse kernel map: one storage binding of " +
@@ -103,8 +102,7 @@ void SparseConv3d::record(gpu::CommandList& cmd, const SparseConvShape& s, const
   const uint64_t w_limit = ctx_.info().max_storage_buffer_range;
   const bool w_windows = w_bytes > w_limit;
   if (w_windows) {
-    const uint64_t align = std::max<uint64_t>(4, ctx_.info().min_storage_buffer_offset_alignment);
-    const uint64_t unit = align / std::gcd(align, w_row);
+    const uint64_t unit = gpu::aligned_element_unit(ctx_.info(), w_row);
     const uint64_t w_channels = w_limit / w_row / unit * unit;
     if (w_channels == 0)
       throw std::invalid_argument("sparse conv: the packed weights of one input channel (" + std::to_string(w_row * unit) +

@@ -103,8 +103,8 @@ void SparseGridOps::record_gather_rows(gpu::CommandList& cmd, const gpu::Buffer&
       dispatch(c0, std::min<uint64_t>(per_window, channels - c0), 0, out_rows);
     return;
   }
-  const uint64_t align = std::max<uint64_t>(4, ctx_.info().min_storage_buffer_offset_alignment);
-  const uint64_t row_window = out_fit / (align / 4) * (align / 4);
+  const uint64_t unit = gpu::aligned_element_unit(ctx_.info(), 4);
+  const uint64_t row_window = out_fit / unit * unit;
   for (uint64_t c = 0; c < channels; ++c)
     for (uint64_t r0 = 0; r0 < out_rows; r0 += row_window) dispatch(c, 1, r0, std::min<uint64_t>(row_window, out_rows - r0));
 }

@@ -92,9 +92,9 @@ void AppearanceRendererGpu::record(gpu::CommandList& cmd, const RaycastWorld& w,
                                 " frame needs " + std::to_string(3 * n) + " texels of ray hits, over this device's " +
                                 std::to_string(info.max_texel_buffer_elements) + "; render at most " +
                                 std::to_string(info.max_texel_buffer_elements / 3) + " pixels");
-  const uint64_t align = std::max<uint64_t>(4, info.min_storage_buffer_offset_alignment);
-  const uint64_t per_window = info.max_storage_buffer_range / 32 / (align / std::gcd(align, uint64_t{4})) *
-                              (align / std::gcd(align, uint64_t{4}));  // shadow rays, 32 bytes a pixel, bound the window
+  // Shadow rays (32 bytes a pixel) bound the window; starts aligned for them and the 4-byte outputs.
+  const uint64_t unit = gpu::aligned_element_unit(info, 4);
+  const uint64_t per_window = info.max_storage_buffer_range / 32 / unit * unit;
   width_ = cam.K.width;
   height_ = cam.K.height;
   gpu::ensure_capacity(ctx_, hits_, n * sizeof(shader::RaycastHit), "appearance-hits");
