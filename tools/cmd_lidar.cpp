@@ -199,15 +199,12 @@ void cmd_lidar_gaussians(const LidarArgs& a, scene::Diagnostics& diag) {
     const size_t frame = gs.has_objects() && time_index > 0 ? static_cast<size_t>(time_index) : 0;
     if (frame == uploaded) return g;
     const auto t0 = Clock::now();
-    splat::GaussianCloud cloud = splat::compose_frame(gs, frame);
+    const splat::GaussianCloud cloud = splat::compose_frame(gs, frame);
     max_gaussians = std::max(max_gaussians, cloud.size());
     if (cloud.size() > caster.max_gaussians()) {
-      // Relative to the whole set's origin, so the sweep is the whole set's bit for bit.
-      const glm::dvec3 origin = splat::LidarGaussiansGpu::lidar_origin(cloud);
-      cloud = splat::lidar_range_subset(cloud, glm::dvec3(pose[3]), model.max_range);
       ++culled_sweeps;
       uploaded = SIZE_MAX;  // the next pose reaches other Gaussians
-      g = caster.upload(cloud, splat::lidar_gaussian_intensity(cloud), &origin);
+      g = caster.upload_within_reach(cloud, glm::dvec3(pose[3]));
     } else {
       uploaded = frame;
       g = caster.upload(cloud, splat::lidar_gaussian_intensity(cloud));

@@ -452,11 +452,8 @@ PackageEval evaluate_package(gpu::Context& ctx, const std::string& package, cons
     for (size_t i = 0; i < pick.size(); ++i) {
       // Only what the sweep can reach, relative to the whole set's origin (the same scan bit for bit;
       // a large package's set fits the caster).
-      const splat::GaussianCloud frame_set = splat::compose_frame(gs, splat_frame_of(meta, pick[i]));
-      const glm::dvec3 origin = splat::LidarGaussiansGpu::lidar_origin(frame_set);
-      const splat::GaussianCloud cloud =
-          splat::lidar_range_subset(frame_set, glm::dvec3(traj.c2w[i][3]), o.lidar.max_range);
-      const splat::GpuLidarGaussians g = caster.upload(cloud, splat::lidar_gaussian_intensity(cloud), &origin);
+      const splat::GpuLidarGaussians g = caster.upload_within_reach(
+          splat::compose_frame(gs, splat_frame_of(meta, pick[i])), glm::dvec3(traj.c2w[i][3]));
       const render::LidarScan s = caster.scan(g, traj.c2w[i], splat::LidarGaussianOptions{});
       const glm::dmat4 w2c = glm::inverse(meta.poses[pick[i]]);
       const glm::dmat3 s2w(traj.c2w[i]);

@@ -113,6 +113,12 @@ glm::dvec3 LidarGaussiansGpu::lidar_origin(const GaussianCloud& cloud) {
   return glm::floor(0.5 * (lo + hi));  // whole metres: exact in float
 }
 
+GpuLidarGaussians LidarGaussiansGpu::upload_within_reach(const GaussianCloud& cloud, const glm::dvec3& sensor) {
+  const glm::dvec3 origin = lidar_origin(cloud);
+  const GaussianCloud near = lidar_range_subset(cloud, sensor, model_.max_range);
+  return upload(near, lidar_gaussian_intensity(near), &origin);
+}
+
 GpuLidarGaussians LidarGaussiansGpu::upload(const GaussianCloud& cloud, const std::vector<float>& intensity,
                                             const glm::dvec3* origin) {
   cloud.validate();

@@ -91,6 +91,9 @@ class LidarGaussiansGpu {
   uint64_t max_gaussians() const;
   // The origin upload() uses for `cloud` by default.
   static glm::dvec3 lidar_origin(const GaussianCloud& cloud);
+  // The Gaussians of `cloud` a sweep from `sensor` can reach (lidar_range_subset), uploaded at the
+  // whole cloud's origin: the whole cloud's sweep bit for bit, for sets over one upload.
+  GpuLidarGaussians upload_within_reach(const GaussianCloud& cloud, const glm::dvec3& sensor);
   // One sweep from `sensor_to_world`; hits in ray order. `download` = false leaves them on the GPU (benchmarks).
   std::vector<shader::SplatLidarHit> cast(const GpuLidarGaussians& g, const glm::dmat4& sensor_to_world,
                                           LidarGaussianTimings* timings = nullptr, bool download = true,
