@@ -11,6 +11,7 @@
 #pragma once
 
 #include "nn/cpu_tensor.h"
+#include "nn/param_spec.h"
 #include "nn/unet_config.h"
 
 #include <functional>
@@ -19,11 +20,6 @@
 #include <vector>
 
 namespace icube::nn {
-
-struct ParamSpec {
-  std::string name;
-  std::vector<int64_t> shape;
-};
 
 class UNetReference {
  public:

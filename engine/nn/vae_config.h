@@ -19,7 +19,7 @@
 #pragma once
 
 #include "nn/sparse_cpu.h"
-#include "nn/unet_reference.h"  // ParamSpec
+#include "nn/param_spec.h"
 
 #include <string>
 #include <vector>

@@ -1,15 +1,16 @@
 // InfiniCube's sparse structure VAE (decoder and encoder) on the GPU: VaeReference's
-// module tree recorded as kernels/nn dispatches (sparse_conv over one kernel
-// map per level, Conv3d kernel 1 for the 1x1 convolutions, GroupNorm over the
-// active voxels and the element-wise kernels on the channel-major [C][N]
-// features), one command list per level with a barrier after every dispatch;
+// module tree walked over the shared network layers (nn/layer_recorder.h:
+// sparse_conv over one kernel map per level, the 1x1 convolutions, GroupNorm
+// over the active voxels and the element-wise kernels on the channel-major
+// [1, C, N] features), one command list per level with a barrier after every dispatch;
 // between levels the structure decision, subdivision and feature copy run on
 // the GPU (kernels/nn/sparse_grid.h), and only the structure logits and grids
 // come back for the result (and the kept count, to size the next level).
 // Activations are pooled as in UNetGpu (a buffer is reused once the tensor in
 // it is dead), so the peak is near the largest live set of a level.
 // Weights as VaeReference takes them (official names, 3^3 kernels already in
-// grid order: vae_weights.h), packed and uploaded once.
+// grid order: vae_weights.h), in one nn::ParameterStore (fp32: the sparse
+// convolution has no fp16-weight path yet), packed and uploaded once.
 // Tensors beyond one storage binding (lavapipe: 128 MiB; a full chunk's finest
 // level is ~2.7 M rows) run in windows: sparse_conv by row and channel
 // windows, GroupNorm by groups or, for one group beyond a binding, in spans.

@@ -1,0 +1,199 @@
+// The layers of the GPU networks; see layer_recorder.h.
+#include "nn/layer_recorder.h"
+
+#include "nn/attention.h"
+#include "nn/conv3d.h"
+#include "nn/elementwise.h"
+#include "nn/group_norm.h"
+#include "nn/layer_norm.h"
+#include "nn/sparse_conv.h"
+
+#include <stdexcept>
+
+namespace icube::nn {
+
+namespace {
+
+uint32_t u32(int64_t v) { return static_cast<uint32_t>(v); }
+
+// A tensor's spatial extent as the dense kernels take it: X, Y, Z of a volume, or tokens along x.
+void extent(const DeviceTensor& x, uint32_t& sx, uint32_t& sy, uint32_t& sz) {
+  if (x.shape.size() == 5) {
+    sx = u32(x.shape[2]);
+    sy = u32(x.shape[3]);
+    sz = u32(x.shape[4]);
+  } else {
+    sx = u32(x.spatial());
+    sy = sz = 1;
+  }
+}
+
+}  // namespace
+
+LayerRecorder::LayerRecorder(gpu::Context& ctx, const ParameterStore& params, const std::string& pool_name)
+    : ctx_(ctx),
+      params_(params),
+      pool_(ctx, pool_name),
+      conv_(std::make_unique<kernels::nn::Conv3d>(ctx)),
+      sparse_conv_(std::make_unique<kernels::nn::SparseConv3d>(ctx)),
+      group_norm_(std::make_unique<kernels::nn::GroupNorm>(ctx)),
+      layer_norm_(std::make_unique<kernels::nn::LayerNorm>(ctx)),
+      elementwise_(std::make_unique<kernels::nn::Elementwise>(ctx)),
+      attention_(std::make_unique<kernels::nn::Attention>(ctx)) {}
+
+LayerRecorder::~LayerRecorder() = default;
+
+gpu::CommandList& LayerRecorder::cmd() const {
+  if (!cmd_) throw std::logic_error("LayerRecorder: a layer recorded outside begin() / end()");
+  return *cmd_;
+}
+
+void LayerRecorder::barrier() const { cmd().barrier(gpu::deps::kComputeToCompute); }
+
+DeviceTensor LayerRecorder::alloc(std::vector<int64_t> shape) {
+  DeviceTensor t;
+  t.shape = std::move(shape);
+  t.buf = pool_.take(std::max<uint64_t>(t.numel(), 1) * 4);
+  return t;
+}
+
+void LayerRecorder::set_max_binding_bytes(uint64_t bytes) {
+  conv_->set_max_binding_bytes(bytes);
+  sparse_conv_->set_max_binding_bytes(bytes);
+  group_norm_->set_max_binding_bytes(bytes);
+  elementwise_->set_max_binding_bytes(bytes);
+}
+
+DeviceTensor LayerRecorder::conv(const DeviceTensor& x, const std::string& prefix) {
+  const std::vector<int64_t>& ws = params_.shape(prefix + ".weight");
+  std::vector<int64_t> shape = x.shape;
+  shape[1] = ws[0];
+  DeviceTensor y = alloc(shape);
+  kernels::nn::Conv3dShape s;
+  s.batch = u32(x.batch());
+  s.in_channels = u32(x.channels());
+  s.out_channels = u32(ws[0]);
+  extent(x, s.x, s.y, s.z);
+  s.kernel = ParameterStore::kernel_edge(ws);
+  s.f16_weights = params_.f16_matrices();
+  const std::string bias = prefix + ".bias";
+  conv_->record(cmd(), s, *x.buf, params_.buffer(prefix + ".weight"), params_.has(bias) ? &params_.buffer(bias) : nullptr, *y.buf);
+  barrier();
+  return y;
+}
+
+DeviceTensor LayerRecorder::sparse_conv(const DeviceTensor& x, const std::string& prefix, const gpu::Buffer& kernel_map,
+                                        bool silu) {
+  if (params_.f16_matrices())
+    throw std::logic_error("LayerRecorder: the sparse convolution has no fp16-weight path (" + prefix + ")");
+  if (x.batch() != 1) throw std::logic_error("LayerRecorder: sparse features are [1, C, rows] (" + prefix + ")");
+  const std::vector<int64_t>& ws = params_.shape(prefix + ".weight");
+  DeviceTensor y = alloc({1, ws[0], x.spatial()});
+  const kernels::nn::SparseConvShape s{u32(x.spatial()), u32(x.channels()), u32(ws[0]), silu};
+  const std::string bias = prefix + ".bias";
+  sparse_conv_->record(cmd(), s, *x.buf, kernel_map, params_.buffer(prefix + ".weight"),
+                       params_.has(bias) ? &params_.buffer(bias) : nullptr, *y.buf);
+  barrier();
+  return y;
+}
+
+DeviceTensor LayerRecorder::group_norm(const DeviceTensor& x, const std::string& prefix, const NormOptions& o) {
+  DeviceTensor y = alloc(x.shape);
+  kernels::nn::GroupNormShape s;
+  s.batch = u32(x.batch());
+  s.channels = u32(x.channels());
+  s.groups = o.groups;
+  s.spatial = static_cast<uint64_t>(x.spatial());
+  s.eps = o.eps;
+  s.silu = o.silu;
+  s.modulate = o.modulation != nullptr;
+  const DeviceTensor scratch = alloc({static_cast<int64_t>(kernels::nn::GroupNorm::scratch_bytes(s) / 4 + 1), 1});
+  group_norm_->record(cmd(), s, *x.buf, params_.buffer(prefix + ".weight"), params_.buffer(prefix + ".bias"),
+                      o.modulation ? o.modulation->buf.get() : nullptr, *scratch.buf, *y.buf);
+  barrier();
+  return y;
+}
+
+DeviceTensor LayerRecorder::layer_norm(const DeviceTensor& x, const std::string& prefix, float eps) {
+  DeviceTensor y = alloc(x.shape);
+  layer_norm_->record(cmd(), {u32(x.batch()), u32(x.channels()), static_cast<uint64_t>(x.spatial()), eps}, *x.buf,
+                      params_.buffer(prefix + ".weight"), params_.buffer(prefix + ".bias"), *y.buf);
+  barrier();
+  return y;
+}
+
+DeviceTensor LayerRecorder::silu(const DeviceTensor& x) {
+  DeviceTensor y = alloc(x.shape);
+  elementwise_->silu(cmd(), *x.buf, x.numel(), *y.buf);
+  barrier();
+  return y;
+}
+
+DeviceTensor LayerRecorder::add(const DeviceTensor& a, const DeviceTensor& b) {
+  if (a.numel() != b.numel()) throw std::logic_error("LayerRecorder: add of tensors of different sizes");
+  DeviceTensor y = alloc(a.shape);
+  elementwise_->add(cmd(), *a.buf, *b.buf, a.numel(), *y.buf);
+  barrier();
+  return y;
+}
+
+DeviceTensor LayerRecorder::resample(const DeviceTensor& x, bool up) {
+  uint32_t sx, sy, sz;
+  extent(x, sx, sy, sz);
+  const uint32_t planes = u32(x.batch() * x.channels());
+  std::vector<int64_t> shape = x.shape;
+  for (size_t i = 2; i < shape.size(); ++i) shape[i] = up ? shape[i] * 2 : shape[i] / 2;
+  DeviceTensor y = alloc(shape);
+  if (up) elementwise_->upsample2(cmd(), *x.buf, planes, sx, sy, sz, *y.buf);
+  else elementwise_->avg_pool2(cmd(), *x.buf, planes, sx, sy, sz, *y.buf);
+  barrier();
+  return y;
+}
+
+DeviceTensor LayerRecorder::geglu(const DeviceTensor& x) {
+  DeviceTensor y = alloc({x.batch(), x.channels() / 2, x.spatial()});
+  elementwise_->geglu(cmd(), *x.buf, u32(x.batch()), u32(x.channels() / 2), static_cast<uint64_t>(x.spatial()), *y.buf);
+  barrier();
+  return y;
+}
+
+DeviceTensor LayerRecorder::tokens(const DeviceTensor& x) {
+  DeviceTensor t = x;
+  t.shape = {x.batch(), x.channels(), x.spatial()};
+  return t;
+}
+
+DeviceTensor LayerRecorder::concat(const DeviceTensor& a, const DeviceTensor& b) {
+  std::vector<int64_t> shape = a.shape;
+  shape[1] = a.channels() + b.channels();
+  DeviceTensor y = alloc(shape);
+  gpu::CommandList& c = cmd();
+  c.barrier(gpu::deps::kComputeToTransfer);
+  const uint64_t S = static_cast<uint64_t>(a.spatial()), ca = static_cast<uint64_t>(a.channels()),
+                 cb = static_cast<uint64_t>(b.channels());
+  for (uint64_t n = 0; n < static_cast<uint64_t>(a.batch()); ++n) {
+    c.copy_buffer(a.buf->binding(n * ca * S * 4, ca * S * 4), y.buf->binding(n * (ca + cb) * S * 4, ca * S * 4));
+    c.copy_buffer(b.buf->binding(n * cb * S * 4, cb * S * 4), y.buf->binding((n * (ca + cb) + ca) * S * 4, cb * S * 4));
+  }
+  c.barrier(gpu::deps::kTransferToCompute);
+  return y;
+}
+
+DeviceTensor LayerRecorder::attention(const DeviceTensor& q, const DeviceTensor& k, const DeviceTensor& v, uint32_t heads) {
+  DeviceTensor o = alloc(q.shape);
+  attention_->record(cmd(), {u32(q.batch()), heads, u32(q.channels()) / heads, static_cast<uint64_t>(q.spatial())}, *q.buf,
+                     *k.buf, *v.buf, *o.buf);
+  barrier();
+  return o;
+}
+
+DeviceTensor LayerRecorder::attention_qkv(const DeviceTensor& qkv, uint32_t heads) {
+  const int64_t C = qkv.channels() / 3;
+  DeviceTensor o = alloc({qkv.batch(), C, qkv.spatial()});
+  attention_->record_qkv(cmd(), {u32(qkv.batch()), heads, u32(C) / heads, static_cast<uint64_t>(qkv.spatial())}, *qkv.buf,
+                         *o.buf);
+  barrier();
+  return o;
+}
+
+}  // namespace icube::nn
