@@ -13,8 +13,15 @@
 // at the model's last prediction there, which the fusion's "existing voxels
 // win" hides in the world anyway.
 // Noise: diffusion/counter_noise.h, streams (seed, chunk, timestep, purpose):
-// a chunk is the same on any device and in any order. The step runs on the GPU
-// (kernels/nn/sampler_step.h) when a context is given, else the CPU reference.
+// a chunk is the same on any device and in any order.
+// With a context the latent stays on the device from the initial noise to the
+// last step: the guidance batch is assembled there (the condition channels
+// uploaded once, the latent copied into each batch element), the denoiser
+// reads and writes device buffers, the step and the overwrite are kernels
+// (kernels/nn/sampler_step.h), and the latent comes back once, at the end.
+// Per step only what the host makes crosses: the noise a step needs (eta > 0,
+// outpainting's known-cell noise) and the denoiser's own (the UNet's timestep
+// embedding). Without a context the CPU references run.
 // Tests: tests/diffusion/test_chunk_sampler.cpp.
 #pragma once
 
@@ -26,8 +33,9 @@
 #include <vector>
 
 namespace icube::gpu {
+class Buffer;
 class Context;
-}
+}  // namespace icube::gpu
 
 namespace icube::diffusion {
 
@@ -36,6 +44,10 @@ class Denoiser {
  public:
   virtual ~Denoiser() = default;
   virtual nn::CpuTensor predict(const nn::CpuTensor& x_in, int t) = 0;
+  // The same on device buffers: x_in (shape x_shape) -> v written to the start of `v`. The default reads
+  // x_in back, calls predict() and uploads its result (a host denoiser); UNetDenoiser stays on the device.
+  virtual void predict_on_device(gpu::Context& ctx, const gpu::Buffer& x_in, const std::vector<int64_t>& x_shape, int t,
+                       const gpu::Buffer& v);
 };
 
 // Condition channels zeroed in the unconditional input (world/conditions.h: 3..7 = map and boxes).
@@ -57,6 +69,7 @@ struct SamplerOptions {
 struct StepTiming {
   int t = 0;
   double denoise_ms = 0.0, step_ms = 0.0;
+  uint64_t host_bytes = 0;  // bytes between host and device during the step (gpu::host_transfer_bytes), 0 on the CPU
 };
 
 struct ChunkSample {

@@ -3,6 +3,7 @@
 #include "gpu/commands.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cstring>
 #include <numeric>
 #include <utility>
@@ -155,9 +156,16 @@ void ensure_capacity(Context& ctx, Buffer& b, VkDeviceSize bytes, const std::str
   b = std::move(grown);
 }
 
+namespace {
+std::atomic<uint64_t> g_bytes_to_device{0}, g_bytes_to_host{0};
+}  // namespace
+
+HostTransferBytes host_transfer_bytes() { return {g_bytes_to_device.load(), g_bytes_to_host.load()}; }
+
 void upload(Context& ctx, const Buffer& dst, const void* src, size_t bytes, VkDeviceSize dst_offset) {
   if (dst_offset + bytes > dst.size())
     throw std::out_of_range("upload to '" + dst.name() + "' past its end");
+  g_bytes_to_device += bytes;
   if (dst.mapped()) {
     std::memcpy(static_cast<char*>(dst.mapped()) + dst_offset, src, bytes);
     return;
@@ -177,6 +185,7 @@ void upload(Context& ctx, const Buffer& dst, const void* src, size_t bytes, VkDe
 void download(Context& ctx, const Buffer& src, void* dst, size_t bytes, VkDeviceSize src_offset) {
   if (src_offset + bytes > src.size())
     throw std::out_of_range("download from '" + src.name() + "' past its end");
+  g_bytes_to_host += bytes;
   if (src.mapped() && src.host_cached()) {
     std::memcpy(dst, static_cast<const char*>(src.mapped()) + src_offset, bytes);
     return;

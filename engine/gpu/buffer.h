@@ -112,6 +112,13 @@ std::vector<ElementWindow> storage_windows(const DeviceInfo& info, uint64_t elem
 // (unless ContextOptions::force_staging) and read directly when host-cached
 // (integrated GPUs, lavapipe); others go through staging buffers in chunks, so
 // a 300 MiB upload never needs 300 MiB of staging memory.
+// Bytes moved between host and device by upload() and download() since the process started (all
+// contexts, all threads), for measurements such as the sampler's host traffic per step.
+struct HostTransferBytes {
+  uint64_t to_device = 0, to_host = 0;
+};
+HostTransferBytes host_transfer_bytes();
+
 void upload(Context& ctx, const Buffer& dst, const void* src, size_t bytes, VkDeviceSize dst_offset = 0);
 void download(Context& ctx, const Buffer& src, void* dst, size_t bytes, VkDeviceSize src_offset = 0);
 

@@ -5,13 +5,20 @@
 // channels of the second and combines as cond + s (cond - uncond); the same
 // seed and chunk give the same latent on the CPU and GPU step and in any
 // order, another chunk another latent; outpainting feeds the known cells
-// noised to the current level with the counter noise and ends with them exact.
+// noised to the current level with the counter noise and ends with them exact;
+// with the GPU UNet the latent stays on the device (per step only the timestep
+// embedding and the noise a step needs cross to it, nothing comes back).
 #include <doctest/doctest.h>
 
 #include "diffusion/chunk_sampler.h"
 #include "diffusion/counter_noise.h"
+#include "diffusion/unet_denoiser.h"
+#include "gpu/buffer.h"
 #include "gpu_test_context.h"
 #include "nn/layers_cpu.h"
+#include "nn/random_weights.h"
+#include "nn/unet_config.h"
+#include "nn/unet_gpu.h"
 
 #include <cmath>
 #include <random>
@@ -207,4 +214,48 @@ TEST_CASE("chunk sampler: outpainting noises the known cells to each level and e
   bad.values.pop_back();
   Oracle o2 = make_oracle(9);
   CHECK_THROWS_WITH_AS(sample_chunk(o2, kC, cond, &bad, 3, opt), doctest::Contains("known latents of"), std::invalid_argument);
+}
+
+TEST_CASE("chunk sampler: with the GPU UNet the latent stays on the device, per step only the noise and the timestep cross") {
+  const nn::UNetConfig cfg = nn::load_unet_config("infinicube-diffusion-tiny");
+  nn::UNetGpu net(test::gpu_context(), cfg, nn::random_weights(nn::UNetReference(cfg).parameters(), 5));
+  UNetDenoiser denoiser(net);
+  constexpr int64_t n = 8;  // an 8^3 latent of 8 channels
+  nn::CpuTensor cond({8, n, n, n});
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<float> u(-1.f, 1.f);
+  for (float& v : cond.data) v = u(rng);
+  KnownLatents known;
+  known.mask.assign(n * n * n, 0);
+  known.values.assign(8 * n * n * n, 0.0f);
+  for (size_t v = 0; v < known.mask.size(); v += 3) known.mask[v] = 1;
+  for (float& v : known.values) v = u(rng);
+  const uint64_t latent_bytes = 8 * n * n * n * 4;
+  struct Case {
+    float eta, cfg;
+    bool outpaint;
+  };
+  for (const Case c : {Case{0.0f, 2.0f, false}, Case{1.0f, 2.0f, false}, Case{0.0f, 1.0f, true}}) {
+    CAPTURE(c.eta);
+    CAPTURE(c.cfg);
+    CAPTURE(c.outpaint);
+    SamplerOptions o;
+    o.ddim.steps = 3;
+    o.ddim.eta = c.eta;
+    o.cfg_scale = c.cfg;
+    o.seed = 21;
+    const ChunkSample dev = sample_chunk(denoiser, 8, cond, c.outpaint ? &known : nullptr, 4, o, &test::gpu_context());
+    const uint64_t timestep_bytes = (c.cfg != 1.0f ? 2 : 1) * static_cast<uint64_t>(cfg.model_channels) * 4;
+    const DdimSchedule sched(o.ddim);
+    REQUIRE(dev.steps.size() == sched.size());
+    for (size_t i = 0; i < sched.size(); ++i) {
+      CAPTURE(i);
+      const bool step_noise = sched.step(i).sigma != 0.0f;
+      if (i == 0) CHECK(step_noise == (c.eta != 0.0f));
+      CHECK(dev.steps[i].host_bytes == timestep_bytes + (step_noise ? latent_bytes : 0) + (c.outpaint ? latent_bytes : 0));
+    }
+    // The same chunk with the latent on the host (the UNet's host form, the CPU step): equal to rounding.
+    const ChunkSample host = sample_chunk(denoiser, 8, cond, c.outpaint ? &known : nullptr, 4, o);
+    CHECK(max_abs_diff(dev.latent.data, host.latent.data) < 1e-4);
+  }
 }
