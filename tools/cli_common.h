@@ -4,6 +4,7 @@
 // refusal to overwrite a command's own input.
 #pragma once
 
+#include "scene/atomic_file.h"
 #include "scene/input_error.h"
 
 #include <CLI/CLI.hpp>
@@ -38,11 +39,7 @@ void run_command(F&& body) {
   print_warnings(diag);
 }
 
-inline void refuse_overwriting_input(const std::string& input, const std::string& output) {
-  std::error_code ec;
-  if (std::filesystem::exists(output, ec) && std::filesystem::equivalent(input, output, ec))
-    throw std::runtime_error(output + ": is the input file; choose another output path");
-}
+using scene::refuse_overwriting_input;  // scene/atomic_file.h
 
 // --sky-masks DIR and --sky-label N (render/appearance/frames_import.h), shared by `icube frames
 // import` and `icube generate`; `what` says which frames the masks were segmented from.

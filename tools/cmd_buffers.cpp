@@ -20,7 +20,7 @@
 // 0 ... N-1 as written; buffers_meta.json keeps each one's trajectory index.
 // The field-by-field layout and the official reader of each: docs/guidance-buffers.md.
 // Engine: engine/render/buffers/ (guidance_sequence.h, stage2_writer.h).
-#include "camera_path.h"
+#include "camera_path_options.h"
 #include "cli_common.h"
 #include "command_registry.h"
 #include "progress.h"
@@ -59,7 +59,7 @@ namespace {
 namespace fs = std::filesystem;
 
 struct BuffersArgs {
-  CameraPathArgs path;
+  pipeline::CameraPathArgs path;
   std::string world, clip, output;
   uint64_t seed = 0;
   bool pixel_centres = false, normals = false, no_video = false;
@@ -79,7 +79,7 @@ void cmd_buffers(const BuffersArgs& a) {
     using Clock = std::chrono::steady_clock;
     const auto t_start = Clock::now();
     const world::VoxelGrid world = world::load_world(a.world);
-    CameraPath cp = resolve_camera_path(a.path, diag);
+    pipeline::CameraPath cp = pipeline::resolve_camera_path(a.path, diag);
     const std::optional<scene::Scene>& sc = cp.scene;
     const scene::Scene* scene_ptr = sc ? &*sc : nullptr;
     std::vector<render::Trajectory>& passes = cp.passes;
@@ -175,7 +175,7 @@ void add_buffers_commands(CLI::App& app) {
   CLI::App* cmd = app.add_subcommand(
       "buffers", "Stage 2: render guidance buffers (semantic, instance, depth, coordinate) along a trajectory");
   cmd->add_option("world", a->world, "World file (.icw)")->required()->type_name("WORLD");
-  a->path.add_options(cmd);
+  add_camera_path_options(cmd, a->path);
   cmd->add_option("--seed", a->seed, "Seed of the instance colours and the coordinate-range sampling")
       ->type_name("N")
       ->capture_default_str();

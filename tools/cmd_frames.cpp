@@ -13,7 +13,7 @@
 // numbers. FRAMES_DIR is built in a hidden staging folder beside it and
 // renamed into place at the end: an error leaves nothing half-written.
 // Engine: engine/render/appearance/.
-#include "camera_path.h"
+#include "camera_path_options.h"
 #include "cli_common.h"
 #include "command_registry.h"
 #include "progress.h"
@@ -46,7 +46,7 @@ namespace {
 namespace fs = std::filesystem;
 
 struct FramesRenderArgs {
-  CameraPathArgs path;
+  pipeline::CameraPathArgs path;
   std::string world, prompt = render::kDefaultAppearancePrompt, output;
   uint32_t seed = 0;
   bool no_shadows = false, no_ao = false, pixel_centres = false, list_prompts = false;
@@ -54,7 +54,7 @@ struct FramesRenderArgs {
 };
 
 struct FramesSheetArgs {
-  CameraPathArgs path;
+  pipeline::CameraPathArgs path;
   std::string world, output;
   std::vector<std::string> prompts;
   int frame = -1, thumb_width = 416, columns = 3;
@@ -84,7 +84,7 @@ void move_into_place(StagingDir& staging, const fs::path& final_dir) {
 }
 
 // The world with the scene's vehicles replaced by its cars (as the guidance buffers).
-world::VoxelGrid static_world_of(const world::VoxelGrid& world, const CameraPath& cp, const world::TriangleMesh& mesh) {
+world::VoxelGrid static_world_of(const world::VoxelGrid& world, const pipeline::CameraPath& cp, const world::TriangleMesh& mesh) {
   if (!cp.scene) return world;
   const render::Trajectory& t = cp.passes[0];
   const int t0 = t.time_index.empty() ? 0 : std::max(0, t.time_index[0]);
@@ -105,7 +105,7 @@ void cmd_frames_render(const FramesRenderArgs& a) {
     const render::AppearancePrompt parsed = render::parse_prompt(a.prompt);
     report_prompt(parsed, diag);
     const world::VoxelGrid world = world::load_world(a.world);
-    CameraPath cp = resolve_camera_path(a.path, diag);
+    pipeline::CameraPath cp = pipeline::resolve_camera_path(a.path, diag);
     const world::TriangleMesh mesh = world::builtin_car_mesh();
     const world::VoxelGrid stat = static_world_of(world, cp, mesh);
     gpu::Context ctx(gpu::ContextOptions::from_env());
@@ -151,7 +151,7 @@ void cmd_frames_sheet(const FramesSheetArgs& a) {
     refuse_overwriting_input(a.world, a.output);
     const std::vector<std::string> prompts = a.prompts.empty() ? render::default_sheet_prompts() : a.prompts;
     const world::VoxelGrid world = world::load_world(a.world);
-    CameraPath cp = resolve_camera_path(a.path, diag);
+    pipeline::CameraPath cp = pipeline::resolve_camera_path(a.path, diag);
     const render::Trajectory& t = cp.passes[0];
     const size_t f = a.frame >= 0 ? static_cast<size_t>(a.frame) : t.size() / 2;
     if (f >= t.size())
@@ -222,7 +222,7 @@ void add_frames_commands(CLI::App& app) {
   CLI::App* render_cmd = frames->add_subcommand(
       "render", "Render RGB frames of a voxel world along a trajectory with the procedural appearance renderer");
   render_cmd->add_option("world", r->world, "World file (.icw)")->type_name("WORLD");
-  r->path.add_options(render_cmd);
+  add_camera_path_options(render_cmd, r->path);
   render_cmd->add_option("--prompt", r->prompt, "Text prompt: time of day, weather, season (see --list-prompts)")
       ->type_name("TEXT")
       ->capture_default_str();
@@ -245,7 +245,7 @@ void add_frames_commands(CLI::App& app) {
   auto s = std::make_shared<FramesSheetArgs>();
   CLI::App* sheet = frames->add_subcommand("sheet", "Contact sheet PNG of one view under several prompts");
   sheet->add_option("world", s->world, "World file (.icw)")->required()->type_name("WORLD");
-  s->path.add_options(sheet);
+  add_camera_path_options(sheet, s->path);
   sheet->add_option("--frame", s->frame, "Frame of the (selected) trajectory (default: the middle one)")->type_name("K");
   sheet->add_option("--prompt", s->prompts,
                     "A prompt per tile (repeat; default: sunny noon, overcast, rainy, foggy, dusk, snowy night)")

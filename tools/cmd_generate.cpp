@@ -1,6 +1,6 @@
 // `icube generate` (the main job): scene → Stage 1 voxel world → Stage 2
 // guidance buffers and appearance frames → Stage 3 Gaussians and sky, written
-// as one package (tools/generate_job.cpp); or a shard of a list of scenes
+// as one package (engine/pipeline/generate_package.h); or a shard of a list of scenes
 // (tools/generate_batch.cpp).
 //
 //   icube generate SCENE -o PACKAGE [--world WORLD.icw] [--prompt TEXT] [--seed N] [--resume]
@@ -10,6 +10,7 @@
 //   icube generate --batch SCENES.txt [--shard I/N] -o OUT_ROOT [the options above]
 #include "command_registry.h"
 #include "generate_batch.h"
+#include "camera_path_options.h"
 #include "generate_job.h"
 #include "video/mp4_writer.h"
 
@@ -25,7 +26,7 @@ namespace icube::tools {
 namespace {
 
 struct GenerateCommand {
-  GenerateArgs args;
+  pipeline::GenerateArgs args;
   std::string batch, shard = "0/1";
 };
 
@@ -40,7 +41,9 @@ void cmd_generate(const GenerateCommand& c) {
       return;
     }
     if (c.shard != "0/1") throw std::invalid_argument("--shard goes with --batch");
-    const GenerateResult r = generate_package(c.args, diag);
+    pipeline::GenerateArgs a = c.args;
+    report_on_terminal(a);
+    const pipeline::GenerateResult r = pipeline::generate_package(a, diag);
     if (r.skipped) {
       std::printf("generate: %s is complete (same inputs and options, every file verified); nothing to do\n",
                   r.package.c_str());
@@ -52,11 +55,11 @@ void cmd_generate(const GenerateCommand& c) {
 
 void add_generate_command(CLI::App& app) {
   auto c = std::make_shared<GenerateCommand>();
-  GenerateArgs* a = &c->args;
+  pipeline::GenerateArgs* a = &c->args;
   CLI::App* cmd = app.add_subcommand(
       "generate", "The main job: scene -> voxel world -> guidance buffers and frames -> 3D Gaussians, as one package");
   cmd->add_option("scene_file", a->path.scene, "Scene (icube JSON, Waymo TFRecord, OpenDRIVE)")->type_name("SCENE");
-  a->path.add_options(cmd);
+  add_camera_path_options(cmd, a->path);
   cmd->add_option("--world", a->world, "Use this voxel world (e.g. from `world build --generator diffusion`) for Stage 1")
       ->type_name("WORLD.icw");
   cmd->add_option("--prompt", a->prompt, "Text prompt of the appearance frames (time of day, weather, season)")

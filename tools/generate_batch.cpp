@@ -68,7 +68,7 @@ Shard parse_shard(const std::string& text) {
   return s;
 }
 
-size_t run_generate_batch(const GenerateArgs& base, const std::string& list, const Shard& shard) {
+size_t run_generate_batch(const pipeline::GenerateArgs& base, const std::string& list, const Shard& shard) {
   if (base.output.empty()) throw std::invalid_argument("give -o OUT_ROOT (the packages go into it)");
   const std::vector<BatchScene> all = read_batch_list(list);
   std::vector<const BatchScene*> mine;
@@ -83,7 +83,8 @@ size_t run_generate_batch(const GenerateArgs& base, const std::string& list, con
   for (size_t k = 0; k < mine.size(); ++k) {
     const BatchScene& bs = *mine[k];
     std::fprintf(stderr, "batch: [%zu/%zu] %s -> %s\n", k + 1, mine.size(), bs.scene.c_str(), bs.package.c_str());
-    GenerateArgs a = base;
+    pipeline::GenerateArgs a = base;
+    report_on_terminal(a);  // fresh progress bars per scene
     a.path.scene = bs.scene;
     a.output = (root / bs.package).string();
     a.resume = true;
@@ -91,11 +92,11 @@ size_t run_generate_batch(const GenerateArgs& base, const std::string& list, con
     const auto t0 = std::chrono::steady_clock::now();
     scene::Diagnostics diag;
     try {
-      const GenerateResult r = generate_package(a, diag);
+      const pipeline::GenerateResult r = pipeline::generate_package(a, diag);
       const char* status = r.skipped ? "skipped" : r.resumed_stages ? "resumed" : "generated";
       row["status"] = status;
       ++counts[r.skipped ? 2 : r.resumed_stages ? 1 : 0];
-      if (r.resumed_stages) row["resumed_after"] = generate_stage_names()[r.resumed_stages - 1];
+      if (r.resumed_stages) row["resumed_after"] = pipeline::generate_stage_names()[r.resumed_stages - 1];
       if (!r.skipped) print_generate_summary(r, bs.scene);
     } catch (const std::exception& e) {
       row["status"] = "failed";

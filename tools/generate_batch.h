@@ -32,6 +32,6 @@ struct Shard {
 Shard parse_shard(const std::string& text);
 
 // Runs the shard; returns the number of scenes that failed.
-size_t run_generate_batch(const GenerateArgs& base, const std::string& list, const Shard& shard);
+size_t run_generate_batch(const pipeline::GenerateArgs& base, const std::string& list, const Shard& shard);
 
 }  // namespace icube::tools

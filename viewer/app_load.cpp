@@ -3,6 +3,7 @@
 
 #include "render/buffers/trajectory.h"
 #include "scene/frames.h"
+#include "scene/package_layout.h"
 #include "scene/scene_load.h"
 #include "world/car_mesh.h"
 #include "world/procedural/procedural_prior.h"
@@ -50,27 +51,27 @@ void App::load() {
   namespace fs = std::filesystem;
   std::string world_path = opt.input, scene_path = opt.scene_path, splat_path, sky_path;
   if (!world_path.empty() && fs::is_directory(world_path)) {
-    const fs::path dir(world_path);
-    world_path = (dir / "world.icw").string();
-    if (scene_path.empty() && fs::exists(dir / "scene.json")) scene_path = (dir / "scene.json").string();
-    if (fs::exists(dir / "gaussians" / "scene.json")) {  // an icube generate package
-      package_dir = dir.string();
-      splat_path = (dir / "gaussians" / "scene.json").string();
-      if (fs::exists(dir / "gaussians" / "sky.png")) sky_path = (dir / "gaussians" / "sky.png").string();
+    const scene::PackageLayout dir(world_path);  // a package, or a folder laid out as one
+    world_path = dir.world().string();
+    if (scene_path.empty() && fs::exists(dir.scene())) scene_path = dir.scene().string();
+    if (fs::exists(dir.splat_scene())) {  // an icube generate package
+      package_dir = dir.root().string();
+      splat_path = dir.splat_scene().string();
+      if (fs::exists(dir.sky())) sky_path = dir.sky().string();
     }
   } else if (!world_path.empty() && is_gaussian_file(world_path)) {
     splat_path = world_path;
     world_path.clear();
-    const fs::path sky = fs::path(splat_path).parent_path() / "sky.png";
+    const fs::path sky = fs::path(splat_path).parent_path() / scene::PackageLayout::kSky;
     if (fs::exists(sky)) sky_path = sky.string();
   }
   if (!scene_path.empty()) {
     scene = scene::load_scene(scene_path);
     if (!scene->cameras.empty() && scene->cameras[0].fy > 0.0) target_cam = scene->cameras[0];
   }
-  if (!package_dir.empty() && fs::exists(fs::path(package_dir) / "trajectory.json")) {
+  if (!package_dir.empty() && fs::exists(scene::PackageLayout(package_dir).trajectory())) {
     // The camera the package's frames were rendered with is the one to record for.
-    const render::TrajectoryFile tf = render::load_trajectory((fs::path(package_dir) / "trajectory.json").string(), 0);
+    const render::TrajectoryFile tf = render::load_trajectory(scene::PackageLayout(package_dir).trajectory().string(), 0);
     if (tf.camera) {
       target_cam.fx = tf.camera->fx;
       target_cam.fy = tf.camera->fy;

@@ -2,6 +2,7 @@
 #include "lift/lift_output.h"
 
 #include "scene/atomic_file.h"
+#include "scene/package_layout.h"
 #include "scene/png_write.h"
 #include "splat/splat_scene.h"
 
@@ -16,13 +17,13 @@ void write_lift_outputs(const std::string& dir_name, const render::FramesMeta& m
   namespace fs = std::filesystem;
   const fs::path dir(dir_name);
   fs::create_directories(dir);
-  splat::write_gaussians_ply((dir / "gaussians_static.ply").string(), r.cloud);
-  scene::write_file_atomic((dir / "sky.png").string(),
+  splat::write_gaussians_ply((dir / scene::PackageLayout::kStaticPly).string(), r.cloud);
+  scene::write_file_atomic((dir / scene::PackageLayout::kSky).string(),
                            scene::encode_png(r.sky.rgba.data(), int(r.sky.width), int(r.sky.height), 4));
   nlohmann::ordered_json sj;
   sj["format"] = splat::kSplatSceneFormat;
   sj["version"] = splat::kSplatSceneVersion;
-  sj["static"] = "gaussians_static.ply";
+  sj["static"] = scene::PackageLayout::kStaticPly;
   if (!r.objects.empty()) {
     // Each dynamic object's Gaussians in its object frame, and its pose in every frame that has it.
     sj["frames"] = r.splat_frames;
@@ -41,7 +42,7 @@ void write_lift_outputs(const std::string& dir_name, const render::FramesMeta& m
     }
     sj["objects"] = objs;
   }
-  scene::write_file_atomic((dir / "scene.json").string(), sj.dump(1) + "\n");
+  scene::write_file_atomic((dir / scene::PackageLayout::kSplatScene).string(), sj.dump(1) + "\n");
 
   nlohmann::ordered_json rep;
   rep["format"] = kLiftReportFormat;
@@ -75,7 +76,7 @@ void write_lift_outputs(const std::string& dir_name, const render::FramesMeta& m
   }
   rep["held_out"] = ev;
   rep["mean_psnr_db"] = r.mean_psnr();
-  scene::write_file_atomic((dir / "lift_report.json").string(), rep.dump(1) + "\n");
+  scene::write_file_atomic((dir / scene::PackageLayout::kLiftReport).string(), rep.dump(1) + "\n");
   if (r.eval.empty()) return;
 
   const size_t cols = r.eval.size(), W = meta.width, H = meta.height, SW = cols * W;
@@ -89,7 +90,7 @@ void write_lift_outputs(const std::string& dir_name, const render::FramesMeta& m
           img[((H + y) * SW + c * W + x) * 3 + k] = r.eval[c].rendered_rgb[(y * W + x) * 3 + k];
         }
   }
-  scene::write_file_atomic((dir / "eval.png").string(), scene::encode_png(img.data(), int(SW), int(2 * H), 3));
+  scene::write_file_atomic((dir / scene::PackageLayout::kLiftEval).string(), scene::encode_png(img.data(), int(SW), int(2 * H), 3));
 }
 
 }  // namespace icube::lift

@@ -9,6 +9,7 @@
 #include "scene/atomic_file.h"
 #include "scene/input_error.h"
 #include "scene/package_check.h"
+#include "scene/package_layout.h"
 #include "scene/png_read.h"
 #include "scene/png_write.h"
 #include "splat/lidar_gaussians_gpu.h"
@@ -42,11 +43,11 @@ constexpr double kMapSampleStep = 0.25;                          // metres betwe
 constexpr double kMinMapDepth = 0.5;
 
 // The Stage-2 clip folder of the package (buffers/<clip>/ holding semantic_buffer/).
-fs::path clip_folder(const fs::path& pkg) {
+fs::path clip_folder(const scene::PackageLayout& pkg) {
   std::error_code ec;
-  for (const auto& e : fs::directory_iterator(pkg / "buffers", ec))
+  for (const auto& e : fs::directory_iterator(pkg.buffers(), ec))
     if (e.is_directory() && fs::is_directory(e.path() / "semantic_buffer")) return e.path();
-  throw scene::InputError((pkg / "buffers").string(), "", "no clip folder with semantic_buffer/ (the package is partial)");
+  throw scene::InputError(pkg.buffers().string(), "", "no clip folder with semantic_buffer/ (the package is partial)");
 }
 
 std::vector<size_t> read_key_frames(const fs::path& report_path, size_t frames) {
@@ -226,27 +227,27 @@ DistanceStats distance_stats(std::vector<double> v, double tolerance) {
 
 PackageEval evaluate_package(gpu::Context& ctx, const std::string& package, const scene::Scene& sc,
                              const PackageEvalOptions& o) {
-  const fs::path pkg(package);
+  const scene::PackageLayout pkg(package);
   const scene::PackageCheck check = scene::check_package(package, false);
   if (!check.complete) throw std::runtime_error(check.problem);
   PackageEval ev;
   ev.package = package;
-  const std::string frames_dir = (pkg / "frames").string();
+  const std::string frames_dir = pkg.frames().string();
   const render::FramesMeta meta = render::read_frames_meta(frames_dir);
   const size_t n = meta.poses.size();
   ev.frames = n;
   ev.width = meta.width;
   ev.height = meta.height;
-  ev.key_frames = read_key_frames(pkg / "gaussians" / "lift_report.json", n);
+  ev.key_frames = read_key_frames(pkg.lift_report(), n);
   const std::set<size_t> keys(ev.key_frames.begin(), ev.key_frames.end());
-  const splat::SplatScene gs = splat::read_splat_scene((pkg / "gaussians" / "scene.json").string());
+  const splat::SplatScene gs = splat::read_splat_scene(pkg.splat_scene().string());
   if (gs.has_objects())
     for (size_t f = 0; f < n; ++f)
       if (splat_frame_of(meta, f) >= gs.frames())
-        throw scene::InputError((pkg / "gaussians" / "scene.json").string(), "/frames",
+        throw scene::InputError(pkg.splat_scene().string(), "/frames",
                                 std::to_string(gs.frames()) + " frames, but package frame " + std::to_string(f) +
                                     " needs frame " + std::to_string(splat_frame_of(meta, f)));
-  const splat::SkyImage sky = splat::read_sky_png((pkg / "gaussians" / "sky.png").string());
+  const splat::SkyImage sky = splat::read_sky_png(pkg.sky().string());
 
   // ---- novel views ----
   auto t0 = Clock::now();
@@ -308,7 +309,7 @@ PackageEval evaluate_package(gpu::Context& ctx, const std::string& package, cons
   // ---- map alignment ----
   t0 = Clock::now();
   const fs::path clip = clip_folder(pkg);
-  const world::VoxelGrid world = world::load_world((pkg / "world.icw").string());
+  const world::VoxelGrid world = world::load_world(pkg.world().string());
   // Map heights against the world's ground: a map's z and the prior's road surface can differ (a
   // Waymo map's elevation model), which would shift every sample in the image without any horizontal
   // misalignment. The offset of each sample to the top face of the first ground-class voxel of its

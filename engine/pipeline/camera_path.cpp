@@ -1,5 +1,5 @@
 // The camera path of the rendering commands; see camera_path.h.
-#include "camera_path.h"
+#include "pipeline/camera_path.h"
 
 #include "scene/frames.h"
 #include "scene/scene_load.h"
@@ -7,39 +7,7 @@
 #include <cstdio>
 #include <stdexcept>
 
-namespace icube::tools {
-
-void CameraPathArgs::add_options(CLI::App* cmd) {
-  cmd->add_option("--scene", scene, "Scene: ego trajectory, camera, static and dynamic cars")->type_name("SCENE");
-  cmd->add_option("--record", record, "Waymo TFRecord only: which record, by index or scenario id")->type_name("SEL");
-  cmd->add_option("--trajectory", trajectory,
-                  "Camera poses: .npy [N,4,4] or [P,N,4,4] OpenCV camera-to-world in the scene's world frame, or "
-                  "icube-trajectory JSON")
-      ->type_name("FILE");
-  cmd->add_option("--route", route_m,
-                  "Trajectory: a seeded drive of this many metres along the scene's lanes (instead of its ego track)")
-      ->type_name("METRES")
-      ->check(CLI::PositiveNumber);
-  cmd->add_option("--route-seed", route.seed, "Seed of --route's start lane and fork choices")
-      ->type_name("N")
-      ->capture_default_str();
-  cmd->add_option("--route-speed", route.speed_mps, "Speed of --route in m/s (poses at 10 Hz)")
-      ->type_name("MPS")
-      ->capture_default_str()
-      ->check(CLI::PositiveNumber);
-  cmd->add_option_function<int64_t>(
-         "--route-start-lane",
-         [this](const int64_t& id) {
-           route_start_lane = id;
-           route_start_given = true;
-         },
-         "Lane id --route starts on (default: chosen by the seed)")
-      ->type_name("ID");
-  cmd->add_option("--camera", camera, "Pinhole intrinsics in pixels")->type_name("fx,fy,cx,cy,w,h");
-  cmd->add_option("--camera-preset", preset, "waymo-front-480p: Waymo FRONT rescaled to 832x480")->type_name("NAME");
-  cmd->add_option("--frames", frames, "Frames [A, B) of the trajectory, every S-th with A:B:S (A:, :B, ::S and A also work)")
-      ->type_name("A:B[:S]");
-}
+namespace icube::pipeline {
 
 size_t CameraPath::total_frames() const {
   size_t n = 0;
@@ -101,4 +69,4 @@ CameraPath resolve_camera_path(const CameraPathArgs& a, scene::Diagnostics& diag
   return out;
 }
 
-}  // namespace icube::tools
+}  // namespace icube::pipeline

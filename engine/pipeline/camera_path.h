@@ -1,9 +1,12 @@
-// The camera path of the commands that render along a trajectory (`icube
-// buffers`, `icube frames render`): the scene, the trajectory (--trajectory
-// file, a --route along the lanes, else the scene's ego track), the camera
-// (--camera, --camera-preset, the trajectory file's, the scene's first, else
-// waymo-front-480p) and the --frames selection, registered and resolved the
-// same way for every such command so their frames line up by number.
+// The camera path of everything that renders along a trajectory (`icube
+// generate`, `buffers`, `frames render`): the scene, the trajectory (a
+// trajectory file, a route along the lanes, else the scene's ego track), the
+// camera (given intrinsics, a preset, the trajectory file's, the scene's
+// first, else waymo-front-480p) and the frame selection, resolved the same
+// way for every such command so their frames line up by number. The CLI
+// options that fill CameraPathArgs: tools/camera_path_options.h.
+// Tests: through the commands (tests/render/test_cli_buffers.cpp, tests/lift/test_generate.cpp)
+// and tests/pipeline/test_generate_package.cpp.
 #pragma once
 
 #include "render/buffers/trajectory.h"
@@ -11,14 +14,12 @@
 #include "scene/route.h"
 #include "scene/scene.h"
 
-#include <CLI/CLI.hpp>
-
 #include <cstdint>
 #include <optional>
 #include <string>
 #include <vector>
 
-namespace icube::tools {
+namespace icube::pipeline {
 
 struct CameraPathArgs {
   std::string scene, record, trajectory, camera, preset, frames;
@@ -26,8 +27,6 @@ struct CameraPathArgs {
   scene::RouteOptions route;
   int64_t route_start_lane = 0;
   bool route_start_given = false;
-  // --scene, --record, --trajectory, --route*, --camera, --camera-preset, --frames. `this` must outlive cmd.
-  void add_options(CLI::App* cmd);
 };
 
 struct CameraPath {
@@ -39,4 +38,4 @@ struct CameraPath {
 
 CameraPath resolve_camera_path(const CameraPathArgs& a, scene::Diagnostics& diag);
 
-}  // namespace icube::tools
+}  // namespace icube::pipeline

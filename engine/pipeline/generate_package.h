@@ -1,20 +1,26 @@
 // One run of the main job (`icube generate SCENE -o PACKAGE`): scene → Stage 1
 // voxel world → Stage 2 guidance buffers and appearance frames → Stage 3
-// Gaussians and sky, as one package (docs/generate.md) built in a resumable
-// staging folder (package_staging.h) and renamed into place. Used by the
-// single-scene command and by batches (generate_batch.h).
+// Gaussians and sky → preview, as one package (docs/generate.md, every path
+// from scene/package_layout.h) built in a resumable staging folder
+// (package_staging.h) and renamed into place, with a manifest of its inputs,
+// options, stages and every file's SHA-256. One function per stage; the CLI
+// (tools/cmd_generate.cpp, tools/generate_batch.cpp) parses options and shows
+// progress through the callbacks below.
+// Tests: tests/pipeline/test_generate_package.cpp (in process: stages,
+// resume, staging) and tests/lift/test_generate*.cpp (the command).
 #pragma once
 
-#include "camera_path.h"
+#include "pipeline/camera_path.h"
 
 #include "render/appearance/prompt.h"
 #include "scene/input_error.h"
 
 #include <filesystem>
+#include <functional>
 #include <string>
 #include <vector>
 
-namespace icube::tools {
+namespace icube::pipeline {
 
 struct GenerateArgs {
   CameraPathArgs path;
@@ -38,6 +44,13 @@ struct GenerateArgs {
   // Skip the package when it is complete and made from the same inputs and
   // options; else continue a killed run's staging folder after its last finished stage.
   bool resume = false;
+
+  // Progress of the running stage's work: (stage, unit, done, total).
+  std::function<void(const std::string& stage, const std::string& unit, size_t done, size_t total)> progress;
+  // One-line notes for people (a stage's time and result, a resumed run); none when unset.
+  std::function<void(const std::string& line)> log;
+  // Called right after a stage is recorded as finished (the CLI's kill hook; tests that stop a run).
+  std::function<void(const std::string& stage)> on_stage_finished;
 };
 
 struct GenerateStage {
@@ -63,7 +76,4 @@ inline const std::vector<std::string>& generate_stage_names() {
 // Throws (one line naming the file) on bad input; the package is then absent.
 GenerateResult generate_package(const GenerateArgs& a, scene::Diagnostics& diag);
 
-// The summary table: seconds and peak RSS per stage, "resumed" for stages an earlier run finished.
-void print_generate_summary(const GenerateResult& r, const std::string& scene);
-
-}  // namespace icube::tools
+}  // namespace icube::pipeline

@@ -1,4 +1,4 @@
-#include "package_staging.h"
+#include "pipeline/package_staging.h"
 
 #include "scene/atomic_file.h"
 
@@ -12,7 +12,7 @@
 #include <cstdio>
 #include <stdexcept>
 
-namespace icube::tools {
+namespace icube::pipeline {
 
 namespace fs = std::filesystem;
 
@@ -110,4 +110,4 @@ PackageStaging::~PackageStaging() {
   }
 }
 
-}  // namespace icube::tools
+}  // namespace icube::pipeline

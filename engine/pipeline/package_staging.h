@@ -8,7 +8,8 @@
 // folder is removed and the run starts over. commit() renames the folder into
 // place. On destruction without commit the folder is kept when a stage
 // finished (so --resume can continue after the cause is fixed) and removed
-// when none did. Used by `icube generate` (tools/generate_job.cpp).
+// when none did. Used by `icube generate` (pipeline/generate_package.h).
+// Tests: tests/lift/test_generate.cpp (resume after a kill) and tests/pipeline/test_generate_package.cpp.
 #pragma once
 
 #include <filesystem>
@@ -16,7 +17,7 @@
 #include <utility>
 #include <vector>
 
-namespace icube::tools {
+namespace icube::pipeline {
 
 inline constexpr const char* kStagesFile = ".stages.json";
 
@@ -48,4 +49,4 @@ class PackageStaging {
   bool committed_ = false;
 };
 
-}  // namespace icube::tools
+}  // namespace icube::pipeline

@@ -5,6 +5,7 @@
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <stdexcept>
 #include <unistd.h>
@@ -35,6 +36,12 @@ std::string read_file(const std::string& path) {
   in.seekg(0);
   if (size > 0 && !in.read(data.data(), size)) throw InputError(path, "", "read error");
   return data;
+}
+
+void refuse_overwriting_input(const std::string& input, const std::string& output) {
+  std::error_code ec;
+  if (std::filesystem::exists(output, ec) && std::filesystem::equivalent(input, output, ec))
+    throw std::runtime_error(output + ": is the input file; choose another output path");
 }
 
 }  // namespace icube::scene

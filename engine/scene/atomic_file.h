@@ -13,4 +13,7 @@ void write_file_atomic(const std::string& path, std::string_view bytes);
 // Reads a whole file; throws InputError(path, "", reason) when it cannot.
 std::string read_file(const std::string& path);
 
+// Throws std::runtime_error when `output` exists and is the file or folder `input` (the same inode).
+void refuse_overwriting_input(const std::string& input, const std::string& output);
+
 }  // namespace icube::scene

@@ -5,13 +5,15 @@
 // named by the first problem found. Tests: tests/scene/test_package_check.cpp.
 #pragma once
 
+#include "scene/package_layout.h"
+
 #include <string>
 
 namespace icube::scene {
 
 inline constexpr const char* kPackageFormat = "icube-package";
 inline constexpr int kPackageVersion = 1;
-inline constexpr const char* kPackageManifest = "manifest.json";
+inline constexpr const char* kPackageManifest = PackageLayout::kManifest;
 
 struct PackageCheck {
   bool complete = false;
