@@ -45,6 +45,7 @@
 #include "render/lidar/lidar_io.h"
 #include "render/lidar/lidar_model.h"
 #include "render/lidar/lidar_sequence.h"
+#include "splat/lidar_gaussian_sequence.h"
 #include "scene/atomic_file.h"
 #include "splat/lidar_gaussians_gpu.h"
 #include "splat/splat_scene.h"
@@ -129,13 +130,6 @@ void check_output(const fs::path& out) {
                                           "choose another -o or remove it");
 }
 
-// Replaces the first `from` in `text` by `to` (lidar.json's voxel-specific convention lines).
-std::string replace_once(std::string text, const std::string& from, const std::string& to) {
-  const size_t at = text.find(from);
-  if (at != std::string::npos) text.replace(at, from.size(), to);
-  return text;
-}
-
 void cmd_lidar_gaussians(const LidarArgs& a, scene::Diagnostics& diag) {
   using Clock = std::chrono::steady_clock;
   const auto t_start = Clock::now();
@@ -188,67 +182,27 @@ void cmd_lidar_gaussians(const LidarArgs& a, scene::Diagnostics& diag) {
 
   gpu::Context ctx(gpu::ContextOptions::from_env());
   splat::LidarGaussiansGpu caster(ctx, model);
-  // The frame's Gaussians: the static set once, or static + objects placed at the frame's scene state.
-  splat::GpuLidarGaussians g;
-  size_t uploaded = SIZE_MAX, max_gaussians = 0;
-  double compose_s = 0.0;
-  // A set over what one upload takes is cast per sweep through the Gaussians the sweep can reach
-  // (splat::lidar_range_subset: the same scan), uploaded again at every pose.
-  size_t culled_sweeps = 0;
-  auto gaussians_for = [&](int time_index, const glm::dmat4& pose) -> const splat::GpuLidarGaussians& {
-    const size_t frame = gs.has_objects() && time_index > 0 ? static_cast<size_t>(time_index) : 0;
-    if (frame == uploaded) return g;
-    const auto t0 = Clock::now();
-    const splat::GaussianCloud cloud = splat::compose_frame(gs, frame);
-    max_gaussians = std::max(max_gaussians, cloud.size());
-    if (cloud.size() > caster.max_gaussians()) {
-      ++culled_sweeps;
-      uploaded = SIZE_MAX;  // the next pose reaches other Gaussians
-      g = caster.upload_within_reach(cloud, glm::dvec3(pose[3]));
-    } else {
-      uploaded = frame;
-      g = caster.upload(cloud, splat::lidar_gaussian_intensity(cloud));
-    }
-    compose_s += std::chrono::duration<double>(Clock::now() - t0).count();
-    return g;
-  };
-
   StagingDir staging(out.parent_path(), out.filename().string());
 
   ProgressBar bar("lidar", "frames");
   render::LidarWriteOptions wo;
   wo.world_frame_ply = a.ply_world;
-  double write_s = 0.0, cast_s = 0.0, gpu_ms = 0.0;
-  uint64_t returns = 0, instances = 0;
-  for (size_t f = 0; f < traj.size(); ++f) {
-    splat::LidarGaussianTimings tm;
-    const splat::GpuLidarGaussians& frame_gaussians = gaussians_for(traj.time_index[f], traj.c2w[f]);
-    auto t0 = Clock::now();
-    render::LidarScan s = caster.scan(frame_gaussians, traj.c2w[f], go, &tm);
-    cast_s += std::chrono::duration<double>(Clock::now() - t0).count();
-    gpu_ms += tm.bin_ms + tm.sort_ms + tm.cast_ms;
-    instances += tm.instances;
-    s.frame_index = traj.frame_index[f];
-    s.time_index = traj.time_index[f];
-    returns += s.returns.size();
-    t0 = Clock::now();
-    render::write_lidar_frame(staging.path.string(), s, model, wo);
-    write_s += std::chrono::duration<double>(Clock::now() - t0).count();
-    bar.update(f + 1, traj.size());
-  }
+  const std::string returns_when = "a return when the accumulated alpha >= " + std::to_string(go.alpha_threshold);
+  wo.range_convention = go.range == splat::LidarRangeMode::Median
+                            ? "Gaussians: median depth (t* where the front-to-back transmittance first falls to <= 0.5); " +
+                                  returns_when
+                            : "Gaussians: expected depth (blend-weighted mean t*); " + returns_when;
+  wo.intensity_convention = "Gaussians: blend-weighted mean of each Gaussian's DC-colour luminance, [0, 1]; class and instance 0";
+  splat::LidarGaussianSequenceOptions so;
+  so.cast = go;
+  so.progress = [&](size_t done, size_t total) { bar.update(done, total); };
+  so.on_frame = [&](const render::LidarScan& s) { render::write_lidar_frame(staging.path.string(), s, model, wo); };
+  const splat::LidarGaussianSequenceStats st = splat::cast_lidar_gaussian_sequence(caster, gs, traj, so);
+  double write_s = st.sink_s;
   const auto t0 = Clock::now();
   scene::write_file_atomic((staging.path / "poses.npy").string(), render::lidar_poses_npy(traj.c2w));
-  std::string meta = render::lidar_meta_json(model, traj.frame_index, wo, a.gaussians + " + " + pose_source);
-  meta = replace_once(meta, "\"entry distance of the first >= 0.1 m run of occupied voxels\"",
-                      go.range == splat::LidarRangeMode::Median
-                          ? "\"Gaussians: median depth (t* where the front-to-back transmittance first falls to <= 0.5); "
-                            "a return when the accumulated alpha >= " + std::to_string(go.alpha_threshold) + "\""
-                          : "\"Gaussians: expected depth (blend-weighted mean t*); a return when the accumulated "
-                            "alpha >= " + std::to_string(go.alpha_threshold) + "\"");
-  meta = replace_once(meta, "\"reflectivity(class) * |cos(incidence)| on the voxel face entering the depth run, [0, 1]\"",
-                      "\"Gaussians: blend-weighted mean of each Gaussian's DC-colour luminance, [0, 1]; class and "
-                      "instance 0\"");
-  scene::write_file_atomic((staging.path / "lidar.json").string(), meta);
+  scene::write_file_atomic((staging.path / "lidar.json").string(),
+                           render::lidar_meta_json(model, traj.frame_index, wo, a.gaussians + " + " + pose_source));
   write_s += std::chrono::duration<double>(Clock::now() - t0).count();
 
   if (fs::exists(out)) fs::remove_all(out);
@@ -259,16 +213,16 @@ void cmd_lidar_gaussians(const LidarArgs& a, scene::Diagnostics& diag) {
   std::printf("lidar: %zu Gaussians (%zu objects), %zu frames, %u beams x %u columns, %.2f Mrays, %llu returns "
               "(%.1f %%), %.2f s, %.2f Mrays/s casting (%.2f overall) [read %.2f s, compose + upload %.2f s, cast %.2f s "
               "(GPU %.2f ms), %.1f tile instances per frame, write %.2f s] -> %s\n",
-              max_gaussians, gs.objects.size(), traj.size(), model.beams(), model.columns, mrays,
-              static_cast<unsigned long long>(returns),
-              mrays > 0 ? 100.0 * static_cast<double>(returns) * 1e-6 / mrays : 0.0, total_s,
-              cast_s > 0 ? mrays / cast_s : 0.0, total_s > 0 ? mrays / total_s : 0.0, read_s, compose_s, cast_s, gpu_ms,
-              traj.size() ? static_cast<double>(instances) / static_cast<double>(traj.size()) : 0.0, write_s,
+              st.max_gaussians, gs.objects.size(), traj.size(), model.beams(), model.columns, mrays,
+              static_cast<unsigned long long>(st.returns),
+              mrays > 0 ? 100.0 * static_cast<double>(st.returns) * 1e-6 / mrays : 0.0, total_s,
+              st.cast_s > 0 ? mrays / st.cast_s : 0.0, total_s > 0 ? mrays / total_s : 0.0, read_s, st.compose_s, st.cast_s,
+              st.gpu_ms, traj.size() ? static_cast<double>(st.instances) / static_cast<double>(traj.size()) : 0.0, write_s,
               out.string().c_str());
-  if (culled_sweeps)
+  if (st.culled_sweeps)
     std::printf("lidar: the set is over the %llu Gaussians one upload takes on this device: %zu sweeps cast the "
                 "Gaussians within %.0f m of the sensor (the same scan)\n",
-                static_cast<unsigned long long>(caster.max_gaussians()), culled_sweeps, model.max_range);
+                static_cast<unsigned long long>(caster.max_gaussians()), st.culled_sweeps, model.max_range);
 }
 
 void cmd_lidar(const LidarArgs& a) {

@@ -12,6 +12,7 @@
 #include "scene/package_layout.h"
 #include "scene/png_read.h"
 #include "scene/png_write.h"
+#include "splat/lidar_gaussian_sequence.h"
 #include "splat/lidar_gaussians_gpu.h"
 #include "world/car_mesh.h"
 #include "world/npy.h"
@@ -450,12 +451,13 @@ PackageEval evaluate_package(gpu::Context& ctx, const std::string& package, cons
     const std::vector<glm::dvec3>& dirs = caster.directions();
     std::vector<double> err_all, err_view;
     uint64_t rays = 0, both = 0, vo = 0, go = 0, rays_v = 0, both_v = 0, vo_v = 0, go_v = 0;
+    std::vector<render::LidarScan> gaussian_scans;
+    splat::LidarGaussianSequenceOptions so;
+    for (const size_t f : pick) so.scene_frames.push_back(splat_frame_of(meta, f));
+    so.on_frame = [&](const render::LidarScan& s) { gaussian_scans.push_back(s); };
+    splat::cast_lidar_gaussian_sequence(caster, gs, traj, so);
     for (size_t i = 0; i < pick.size(); ++i) {
-      // Only what the sweep can reach, relative to the whole set's origin (the same scan bit for bit;
-      // a large package's set fits the caster).
-      const splat::GpuLidarGaussians g = caster.upload_within_reach(
-          splat::compose_frame(gs, splat_frame_of(meta, pick[i])), glm::dvec3(traj.c2w[i][3]));
-      const render::LidarScan s = caster.scan(g, traj.c2w[i], splat::LidarGaussianOptions{});
+      const render::LidarScan& s = gaussian_scans[i];
       const glm::dmat4 w2c = glm::inverse(meta.poses[pick[i]]);
       const glm::dmat3 s2w(traj.c2w[i]);
       for (size_t r = 0; r < s.range.size(); ++r) {

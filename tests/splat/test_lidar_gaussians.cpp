@@ -19,6 +19,7 @@
 #include "test_splat_util.h"
 
 #include "render/lidar/lidar_model.h"
+#include "splat/lidar_gaussian_sequence.h"
 #include "splat/lidar_gaussians_cpu.h"
 #include "splat/lidar_gaussians_gpu.h"
 #include "splat/splat_scene.h"
@@ -665,4 +666,44 @@ TEST_CASE("lidar gaussians gpu: a set over one upload, cast through its range su
   }
   CHECK(hits > want.size() / 10);
   CHECK(bad == 0);
+}
+
+TEST_CASE("lidar gaussians: a sequence of sweeps casts each pose as one scan would, a set over one upload through its range subsets") {
+  // splat/lidar_gaussian_sequence.h: three poses over a static scene of 40,000 Gaussians. Uncapped, the set is
+  // uploaded once; capped at 512 KiB (32,768 per upload) every sweep casts the Gaussians within its reach.
+  // Both give the scans of one whole-set cast per pose, range for range.
+  render::LidarModel m = small_model(16, -25.0, 10.0, 180);
+  m.max_range = 12.0;
+  splat::SplatScene scene;
+  scene.static_set = test::random_cloud(44, 40000, 1, glm::dvec3(3.0, -2.0, 0.0), 30.0, -1.5, 0.3);
+  render::Trajectory traj;
+  for (int i = 0; i < 3; ++i) {
+    traj.c2w.push_back(pose_at(glm::dvec3(-8.0 + 8.0 * i, -1.0, 0.2), 30.0 * i, -3.0));
+    traj.frame_index.push_back(i);
+    traj.time_index.push_back(i);
+  }
+  splat::LidarGaussiansGpu whole(test::gpu_context(), m), capped(test::capped_gpu_context(512u << 10), m);
+  const splat::GpuLidarGaussians all = whole.upload(scene.static_set, splat::lidar_gaussian_intensity(scene.static_set));
+  for (splat::LidarGaussiansGpu* caster : {&whole, &capped}) {
+    CAPTURE(caster == &capped);
+    std::vector<render::LidarScan> scans;
+    splat::LidarGaussianSequenceOptions o;
+    size_t progress = 0;
+    o.on_frame = [&](const render::LidarScan& s) { scans.push_back(s); };
+    o.progress = [&](size_t done, size_t total) { progress = done == total ? done : 0; };
+    const splat::LidarGaussianSequenceStats st = splat::cast_lidar_gaussian_sequence(*caster, scene, traj, o);
+    CHECK(st.frames == 3);
+    CHECK(progress == 3);
+    CHECK(st.culled_sweeps == (caster == &capped ? 3u : 0u));
+    REQUIRE(scans.size() == 3);
+    uint64_t returns = 0;
+    for (size_t i = 0; i < 3; ++i) {
+      const render::LidarScan want = whole.scan(all, traj.c2w[i], {});
+      CHECK(scans[i].frame_index == static_cast<int>(i));
+      CHECK(scans[i].range == want.range);
+      returns += scans[i].returns.size();
+    }
+    CHECK(returns == st.returns);
+    CHECK(returns > 3 * m.rays() / 10);
+  }
 }

@@ -65,6 +65,10 @@ std::string lidar_poses_npy(const std::vector<glm::dmat4>& sensor_to_world);
 
 struct LidarWriteOptions {
   bool world_frame_ply = false;
+  // lidar.json's conventions of what range and intensity mean (the voxel caster's by default; the
+  // Gaussian caster's say how it measures them).
+  std::string range_convention = "entry distance of the first >= 0.1 m run of occupied voxels";
+  std::string intensity_convention = "reflectivity(class) * |cos(incidence)| on the voxel face entering the depth run, [0, 1]";
 };
 // Writes the four per-frame files of `s` under `dir` (creates the sub-folders).
 void write_lidar_frame(const std::string& dir, const LidarScan& s, const LidarModel& m, const LidarWriteOptions& o);
