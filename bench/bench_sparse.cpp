@@ -12,7 +12,6 @@
 #include "bench_stats.h"
 #include "gpu/context.h"
 #include "nn/conv3d.h"
-#include "nn/layers_cpu.h"
 #include "nn/sparse_conv.h"
 #include "nn/random_weights.h"
 #include "nn/sparse_cpu.h"

@@ -3,7 +3,8 @@
 
 #include "diffusion/counter_noise.h"
 #include "gpu/context.h"
-#include "nn/sampler_step.h"
+#include "nn/ddim_step.h"
+#include "nn/latent_overwrite.h"
 
 #include <algorithm>
 #include <chrono>
@@ -42,12 +43,6 @@ nn::CpuTensor conditioned_batch(const ChunkDims& d, const nn::CpuTensor& cond) {
   return input;
 }
 
-// x[c][v] = a * known[c][v] + b * z[c][v] where mask[v].
-void overwrite(std::vector<float>& x, const KnownLatents& k, size_t spatial, float a, float b, const std::vector<float>* z) {
-  for (size_t i = 0; i < x.size(); ++i)
-    if (k.mask[i % spatial]) x[i] = z ? a * k.values[i] + b * (*z)[i] : k.values[i];
-}
-
 uint64_t transferred_since(const gpu::HostTransferBytes& before) {
   const gpu::HostTransferBytes now = gpu::host_transfer_bytes();
   return (now.to_device - before.to_device) + (now.to_host - before.to_host);
@@ -70,7 +65,7 @@ ChunkSample sample_on_host(Denoiser& denoiser, const ChunkDims& d, const nn::Cpu
       float a = 0, s = 0;
       sched.noise_level(st.t, &a, &s);
       normal_noise({o.seed, chunk_index, static_cast<uint32_t>(st.t), NoisePurpose::KnownLatent}, 0, z.data(), d.n);
-      overwrite(x, *known, d.spatial, a, s, &z);
+      nn::cpu::latent_overwrite(x, known->mask, known->values, a, s, &z);
     }
     for (int64_t b = 0; b < d.B; ++b)
       std::copy(x.begin(), x.end(), input.data.begin() + static_cast<int64_t>(static_cast<size_t>(b * (d.C + 8)) * d.spatial));
@@ -86,17 +81,17 @@ ChunkSample sample_on_host(Denoiser& denoiser, const ChunkDims& d, const nn::Cpu
     const float* vp = v.data.data();
     if (d.cfg) {
       guided.resize(d.n);
-      cfg_combine_cpu(v.data.data(), v.data.data() + d.n, o.cfg_scale, guided.data(), d.n);
+      nn::cpu::cfg_combine(v.data.data(), v.data.data() + d.n, o.cfg_scale, guided.data(), d.n);
       vp = guided.data();
     }
     std::vector<float> next(d.n);
-    ddim_step_cpu(st, x.data(), vp, noise ? z.data() : nullptr, next.data(), d.n);
+    nn::cpu::ddim_step(st.coefficients(), x.data(), vp, noise ? z.data() : nullptr, next.data(), d.n);
     x.swap(next);
     timing.step_ms = ms_since(t0);
     out.steps.push_back(timing);
     if (progress) progress(i + 1, sched.size());
   }
-  if (d.outpaint && o.final_overwrite) overwrite(x, *known, d.spatial, 1.0f, 0.0f, nullptr);
+  if (d.outpaint && o.final_overwrite) nn::cpu::latent_overwrite(x, known->mask, known->values, 1.0f, 0.0f, nullptr);
   out.latent = nn::CpuTensor({1, d.C, d.X, d.Y, d.Z}, std::move(x));
   return out;
 }
@@ -106,7 +101,8 @@ ChunkSample sample_on_device(Denoiser& denoiser, const ChunkDims& d, const nn::C
                              uint32_t chunk_index, const SamplerOptions& o, gpu::Context& ctx,
                              const std::function<void(size_t, size_t)>& progress) {
   const DdimSchedule sched(o.ddim);
-  kernels::nn::SamplerStep kernels(ctx);
+  kernels::nn::DdimStep step_kernel(ctx);
+  kernels::nn::LatentOverwrite overwrite_kernel(ctx);
   const uint64_t bytes = d.n * 4, element_bytes = static_cast<uint64_t>(d.C + 8) * d.spatial * 4;
   const gpu::Buffer input = gpu::upload_vector(ctx, conditioned_batch(d, cond).data, "sampler denoiser input");
   const gpu::Buffer v(ctx, static_cast<uint64_t>(d.B) * bytes, gpu::MemoryUsage::DeviceLocal, "sampler prediction");
@@ -150,7 +146,7 @@ ChunkSample sample_on_device(Denoiser& denoiser, const ChunkDims& d, const nn::C
     ctx.submit_and_wait([&](gpu::CommandList& cmd) {  // the known cells, then the latent into every batch element
       after_previous(cmd);
       if (d.outpaint) {
-        kernels.overwrite_known(cmd, static_cast<uint32_t>(d.C), d.spatial, a, s, *known_b, *mask_b, z, *x);
+        overwrite_kernel.record(cmd, static_cast<uint32_t>(d.C), d.spatial, a, s, *known_b, *mask_b, z, *x);
         cmd.barrier(gpu::deps::kComputeToTransfer);
       }
       for (int64_t b = 0; b < d.B; ++b) cmd.copy_buffer(x->binding(0, bytes), input.binding(static_cast<uint64_t>(b) * element_bytes, bytes));
@@ -164,13 +160,12 @@ ChunkSample sample_on_device(Denoiser& denoiser, const ChunkDims& d, const nn::C
       normal_noise({o.seed, chunk_index, static_cast<uint32_t>(st.t), NoisePurpose::StepNoise}, 0, host_noise.data(), d.n);
       gpu::upload(ctx, z, host_noise.data(), bytes);
     }
-    const kernels::nn::DdimStepCoefficients c{st.sqrt_alpha, st.sqrt_beta, st.sqrt_alpha_prev, st.direction, st.sigma};
     ctx.submit_and_wait([&](gpu::CommandList& cmd) {  // the predictions apart, then the step
       after_previous(cmd);
       cmd.copy_buffer(v.binding(0, bytes), v_cond.binding(0, bytes));
       if (d.cfg) cmd.copy_buffer(v.binding(bytes, bytes), v_uncond->binding(0, bytes));
       cmd.barrier(gpu::deps::kTransferToCompute);
-      kernels.step(cmd, c, d.n, *x, v_cond, d.cfg ? &*v_uncond : nullptr, o.cfg_scale, noise ? &z : nullptr, *next);
+      step_kernel.record(cmd, st.coefficients(), d.n, *x, v_cond, d.cfg ? &*v_uncond : nullptr, o.cfg_scale, noise ? &z : nullptr, *next);
     });
     std::swap(x, next);
     timing.step_ms = ms_since(t0);
@@ -181,7 +176,7 @@ ChunkSample sample_on_device(Denoiser& denoiser, const ChunkDims& d, const nn::C
   if (d.outpaint && o.final_overwrite)  // b = 0 and z = the known latents themselves (finite): `known` exactly
     ctx.submit_and_wait([&](gpu::CommandList& cmd) {
       after_previous(cmd);
-      kernels.overwrite_known(cmd, static_cast<uint32_t>(d.C), d.spatial, 1.0f, 0.0f, *known_b, *mask_b, *known_b, *x);
+      overwrite_kernel.record(cmd, static_cast<uint32_t>(d.C), d.spatial, 1.0f, 0.0f, *known_b, *mask_b, *known_b, *x);
     });
   out.latent = nn::CpuTensor({1, d.C, d.X, d.Y, d.Z}, gpu::download_vector<float>(ctx, *x, d.n));
   return out;

@@ -18,7 +18,7 @@
 // last step: the guidance batch is assembled there (the condition channels
 // uploaded once, the latent copied into each batch element), the denoiser
 // reads and writes device buffers, the step and the overwrite are kernels
-// (kernels/nn/sampler_step.h), and the latent comes back once, at the end.
+// (kernels/nn/ddim_step.h, latent_overwrite.h), and the latent comes back once, at the end.
 // Per step only what the host makes crosses: the noise a step needs (eta > 0,
 // outpainting's known-cell noise) and the denoiser's own (the UNet's timestep
 // embedding). Without a context the CPU references run.

@@ -96,18 +96,4 @@ DdimStep DdimSchedule::step(size_t i) const {
   return s;
 }
 
-void ddim_step_cpu(const DdimStep& s, const float* x, const float* v, const float* z, float* out, size_t n) {
-  for (size_t i = 0; i < n; ++i) {
-    const float x0 = s.sqrt_alpha * x[i] - s.sqrt_beta * v[i];
-    const float eps = s.sqrt_alpha * v[i] + s.sqrt_beta * x[i];
-    float y = s.sqrt_alpha_prev * x0 + s.direction * eps;
-    if (s.sigma != 0.0f) y = y + s.sigma * z[i];
-    out[i] = y;
-  }
-}
-
-void cfg_combine_cpu(const float* cond, const float* uncond, float scale, float* out, size_t n) {
-  for (size_t i = 0; i < n; ++i) out[i] = cond[i] + scale * (cond[i] - uncond[i]);
-}
-
 }  // namespace icube::diffusion

@@ -1,4 +1,4 @@
-// The DDIM sampler's schedule and step, as InfiniCube samples Stage 1
+// The DDIM sampler's schedule (the step itself: kernels/nn/ddim_step.h), as InfiniCube samples Stage 1
 // (conventions §9.1; the official copy of diffusers' DDIMScheduler in
 // schedulers/scheduling_ddim.py):
 //   - T = 1000 training steps, linear betas 1e-4 .. 0.02 as torch.linspace
@@ -22,6 +22,8 @@
 // torch's CPU cumprod does. tests/diffusion/test_ddim_schedule.cpp states how
 // far the plain float64 schedule is from it.
 #pragma once
+
+#include "nn/ddim_step.h"
 
 #include <cstddef>
 #include <cstdint>
@@ -47,6 +49,8 @@ struct DdimStep {
   float sqrt_alpha_prev = 0;           // times x0
   float direction = 0;                 // sqrt(max(0, 1 - a_prev - sigma^2)): times eps
   float sigma = 0;                     // times the step's noise z
+  // What the step kernel and its CPU reference take (kernels/nn/ddim_step.h).
+  kernels::nn::DdimStepCoefficients coefficients() const { return {sqrt_alpha, sqrt_beta, sqrt_alpha_prev, direction, sigma}; }
 };
 
 // torch.linspace(start, end, n, dtype=float32) as its CPU kernel computes it.
@@ -73,11 +77,5 @@ class DdimSchedule {
   std::vector<float> alphas_cumprod_;
   std::vector<int> timesteps_;
 };
-
-// CPU reference of one step on n elements (float32, in the reference's operation order). z may be
-// null when sigma is 0.
-void ddim_step_cpu(const DdimStep& s, const float* x, const float* v, const float* z, float* out, size_t n);
-// Classifier-free guidance, InfiniCube's form: cond + scale * (cond - uncond) (conventions §9.2).
-void cfg_combine_cpu(const float* cond, const float* uncond, float scale, float* out, size_t n);
 
 }  // namespace icube::diffusion

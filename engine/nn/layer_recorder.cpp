@@ -6,6 +6,7 @@
 #include "nn/elementwise.h"
 #include "nn/group_norm.h"
 #include "nn/layer_norm.h"
+#include "nn/resample.h"
 #include "nn/sparse_conv.h"
 
 #include <stdexcept>
@@ -39,6 +40,7 @@ LayerRecorder::LayerRecorder(gpu::Context& ctx, const ParameterStore& params, co
       group_norm_(std::make_unique<kernels::nn::GroupNorm>(ctx)),
       layer_norm_(std::make_unique<kernels::nn::LayerNorm>(ctx)),
       elementwise_(std::make_unique<kernels::nn::Elementwise>(ctx)),
+      resample_(std::make_unique<kernels::nn::Resample>(ctx)),
       attention_(std::make_unique<kernels::nn::Attention>(ctx)) {}
 
 LayerRecorder::~LayerRecorder() = default;
@@ -62,6 +64,7 @@ void LayerRecorder::set_max_binding_bytes(uint64_t bytes) {
   sparse_conv_->set_max_binding_bytes(bytes);
   group_norm_->set_max_binding_bytes(bytes);
   elementwise_->set_max_binding_bytes(bytes);
+  resample_->set_max_binding_bytes(bytes);
 }
 
 DeviceTensor LayerRecorder::conv(const DeviceTensor& x, const std::string& prefix) {
@@ -144,8 +147,8 @@ DeviceTensor LayerRecorder::resample(const DeviceTensor& x, bool up) {
   std::vector<int64_t> shape = x.shape;
   for (size_t i = 2; i < shape.size(); ++i) shape[i] = up ? shape[i] * 2 : shape[i] / 2;
   DeviceTensor y = alloc(shape);
-  if (up) elementwise_->upsample2(cmd(), *x.buf, planes, sx, sy, sz, *y.buf);
-  else elementwise_->avg_pool2(cmd(), *x.buf, planes, sx, sy, sz, *y.buf);
+  if (up) resample_->upsample2(cmd(), *x.buf, planes, sx, sy, sz, *y.buf);
+  else resample_->avg_pool2(cmd(), *x.buf, planes, sx, sy, sz, *y.buf);
   barrier();
   return y;
 }

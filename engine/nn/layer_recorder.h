@@ -25,6 +25,7 @@ class Conv3d;
 class Elementwise;
 class GroupNorm;
 class LayerNorm;
+class Resample;
 class SparseConv3d;
 }  // namespace icube::kernels::nn
 
@@ -85,6 +86,7 @@ class LayerRecorder {
   std::unique_ptr<kernels::nn::GroupNorm> group_norm_;
   std::unique_ptr<kernels::nn::LayerNorm> layer_norm_;
   std::unique_ptr<kernels::nn::Elementwise> elementwise_;
+  std::unique_ptr<kernels::nn::Resample> resample_;
   std::unique_ptr<kernels::nn::Attention> attention_;
 };
 

@@ -2,7 +2,7 @@
 #include "nn/unet_gpu.h"
 
 #include "nn/layer_recorder.h"
-#include "nn/layers_cpu.h"
+#include "nn/timestep_embedding.h"
 #include "nn/parameter_store.h"
 
 #include <map>

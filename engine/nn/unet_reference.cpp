@@ -1,7 +1,14 @@
 // The dense diffusion UNet as a CPU reference; see unet_reference.h.
 #include "nn/unet_reference.h"
 
-#include "nn/layers_cpu.h"
+#include "nn/attention.h"
+#include "nn/conv3d.h"
+#include "nn/cpu_tensor.h"
+#include "nn/elementwise.h"
+#include "nn/group_norm.h"
+#include "nn/layer_norm.h"
+#include "nn/resample.h"
+#include "nn/timestep_embedding.h"
 
 #include <algorithm>
 #include <stdexcept>

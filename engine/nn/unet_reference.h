@@ -1,5 +1,5 @@
 // InfiniCube's dense diffusion UNet (`UNetModel`, unet_dense.py) as a plain
-// CPU reference over layers_cpu.h: the module tree the official constructor
+// CPU reference over the layers' CPU references (kernels/nn/<op>.h): the module tree the official constructor
 // builds for a UNetConfig, its parameters under the official state-dict names
 // and shapes, and a forward pass that can report every block's output under
 // the names of ../shared/data/models/unet_small/*.intermediates.safetensors

@@ -5,12 +5,13 @@
 // F.scaled_dot_product_attention. One dispatch, no barrier inside; every
 // tensor must fit one storage binding; head_dim <= 128; on CPU devices at
 // most NN_ATTN_LOOP_BUDGET loop iterations per query (about 9,500 tokens at head_dim 96).
-// CPU reference: nn::cpu::attention on [B, H, N, D] (layers_cpu.h).
-// Tests: tests/nn/test_attention_gpu.cpp.
+// CPU reference: nn::cpu::attention on [B, H, N, D] (below, attention_cpu.cpp).
+// Tests: tests/nn/test_attention.cpp.
 #pragma once
 
 #include "gpu/buffer.h"
 #include "gpu/commands.h"
+#include "nn/cpu_tensor.h"
 
 #include <cstdint>
 
@@ -42,3 +43,10 @@ class Attention {
 };
 
 }  // namespace icube::kernels::nn
+
+namespace icube::nn::cpu {
+
+// q, k, v [B, H, N, D]: softmax(q k^T * scale) v, scale = 1/sqrt(D).
+CpuTensor attention(const CpuTensor& q, const CpuTensor& k, const CpuTensor& v);
+
+}  // namespace icube::nn::cpu

@@ -14,11 +14,12 @@
 // compute-to-compute barrier inside record(). The packed weights must fit one
 // binding (768 -> 768 channels, 3^3: 64 MiB). Tested with a forced small limit
 // and with real 136 MB tensors over lavapipe's 128 MiB binding.
-// CPU reference: nn::cpu::conv3d (layers_cpu.h). Tests: tests/nn/test_conv3d_gpu.cpp.
+// CPU reference: nn::cpu::conv3d (below, conv3d_cpu.cpp). Tests: tests/nn/test_conv3d.cpp.
 #pragma once
 
 #include "gpu/buffer.h"
 #include "gpu/commands.h"
+#include "nn/cpu_tensor.h"
 
 #include <cstdint>
 #include <vector>
@@ -62,3 +63,13 @@ class Conv3d {
 };
 
 }  // namespace icube::kernels::nn
+
+namespace icube::nn::cpu {
+
+// conv3d: x [B, Ci, X, Y, Z], w [Co, Ci, k, k, k] (or [Co, Ci] / [Co, Ci, 1] for 1x1), bias [Co]; zero
+// padding, output size floor((n + 2p - k) / s) + 1 (PyTorch's Conv3d). linear: y = x W^T + b, W [out, in],
+// over the last axis.
+CpuTensor conv3d(const CpuTensor& x, const CpuTensor& w, const CpuTensor* bias, int stride = 1, int padding = 1);
+CpuTensor linear(const CpuTensor& x, const CpuTensor& w, const CpuTensor* bias);
+
+}  // namespace icube::nn::cpu

@@ -1,6 +1,8 @@
 // A plain host tensor for the CPU references of the network layer: float32
 // values in C order with a shape (NCDHW for 3-D feature maps, row-major for
-// matrices). No strides, no views: the references favour obviousness.
+// matrices). No strides, no views: the references favour obviousness. Each
+// layer's plain-loop CPU reference (namespace nn::cpu) is declared in its
+// kernel's header (kernels/nn/<op>.h) and defined in <op>_cpu.cpp.
 #pragma once
 
 #include <cstddef>
@@ -39,5 +41,28 @@ struct CpuTensor {
     return s + "]";
   }
 };
+
+namespace cpu {
+
+// [a | b] along the channel axis (axis 1); the other axes equal.
+CpuTensor concat_channels(const CpuTensor& a, const CpuTensor& b);
+// The project's agreement metric for networks: max |got - ref| / std(ref) (population std, in double).
+double max_abs_over_std(const std::vector<float>& got, const std::vector<float>& ref);
+
+// Small helpers of the CPU references (kernels/nn/*_cpu.cpp).
+namespace detail {
+inline double D(float v) { return static_cast<double>(v); }
+inline void require(bool ok, const std::string& what) {
+  if (!ok) throw std::invalid_argument(what);
+}
+// Elements per (batch, channel) plane: the product of the axes after the first two.
+inline int64_t spatial_of(const CpuTensor& x) {
+  int64_t n = 1;
+  for (size_t i = 2; i < x.rank(); ++i) n *= x.shape[i];
+  return n;
+}
+}  // namespace detail
+
+}  // namespace cpu
 
 }  // namespace icube::nn

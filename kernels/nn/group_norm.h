@@ -15,12 +15,13 @@
 // binding (a full VAE chunk level: 16 channels x 2.7 M voxels) runs in spans:
 // the partials pass once per span, continuing the same Welford triples, then
 // the statistics once, then the apply pass once per span.
-// CPU reference: nn::cpu::group_norm / scale_shift / silu (layers_cpu.h).
-// Tests: tests/nn/test_group_norm_gpu.cpp.
+// CPU reference: nn::cpu::group_norm / scale_shift / silu (below, group_norm_cpu.cpp).
+// Tests: tests/nn/test_group_norm.cpp.
 #pragma once
 
 #include "gpu/buffer.h"
 #include "gpu/commands.h"
+#include "nn/cpu_tensor.h"
 
 #include <cstdint>
 
@@ -54,3 +55,14 @@ class GroupNorm {
 };
 
 }  // namespace icube::kernels::nn
+
+namespace icube::nn::cpu {
+
+// Biased variance over (C/G) x spatial per group, eps inside the sqrt, affine per channel (PyTorch's GroupNorm).
+CpuTensor group_norm(const CpuTensor& x, int groups, const CpuTensor& weight, const CpuTensor& bias, double eps);
+// h * (1 + scale[b, c]) + shift[b, c] over the spatial axes of h [B, C, ...]; ss [B, 2C] = (scale, shift).
+CpuTensor scale_shift(CpuTensor h, const CpuTensor& ss);
+// h + e[b, c] over the spatial axes; e [B, C].
+CpuTensor add_channel_bias(CpuTensor h, const CpuTensor& e);
+
+}  // namespace icube::nn::cpu

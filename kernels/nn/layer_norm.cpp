@@ -10,7 +10,7 @@
 
 namespace icube::kernels::nn {
 
-LayerNorm::LayerNorm(gpu::Context& ctx) : ctx_(ctx), program_(ctx.program("nn/layer_norm_channels")) {}
+LayerNorm::LayerNorm(gpu::Context& ctx) : ctx_(ctx), program_(ctx.program("nn/layer_norm")) {}
 
 void LayerNorm::record(gpu::CommandList& cmd, const LayerNormShape& s, const gpu::Buffer& x, const gpu::Buffer& weight,
                        const gpu::Buffer& bias, const gpu::Buffer& y) {

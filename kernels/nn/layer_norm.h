@@ -1,14 +1,15 @@
-// LayerNorm over channels on the GPU (shaders/nn/layer_norm_channels.comp):
+// LayerNorm over channels on the GPU (shaders/nn/layer_norm.comp):
 // the transformer blocks' norm1/2/3 on tokens kept channels-first
 // ([batch, channels, tokens], the UNet's NCDHW with tokens = X*Y*Z), so the
 // transformer's linears run as 1x1 convolutions (conv3d.h) without transposes.
 // One dispatch, no barrier inside; x and y must fit one storage binding.
-// CPU reference: nn::cpu::layer_norm on the transposed tensor (layers_cpu.h).
-// Tests: tests/nn/test_layer_norm_gpu.cpp.
+// CPU reference: nn::cpu::layer_norm on the transposed tensor (below, layer_norm_cpu.cpp).
+// Tests: tests/nn/test_layer_norm.cpp.
 #pragma once
 
 #include "gpu/buffer.h"
 #include "gpu/commands.h"
+#include "nn/cpu_tensor.h"
 
 #include <cstdint>
 
@@ -32,3 +33,10 @@ class LayerNorm {
 };
 
 }  // namespace icube::kernels::nn
+
+namespace icube::nn::cpu {
+
+// Over the last axis, biased variance (PyTorch's LayerNorm).
+CpuTensor layer_norm(const CpuTensor& x, const CpuTensor& weight, const CpuTensor& bias, double eps = 1e-5);
+
+}  // namespace icube::nn::cpu

@@ -15,7 +15,7 @@
 // channel windows (as Conv3d), packed weights beyond one binding in windows of
 // whole input channels.
 // CPU references: nn::cpu::kernel_map / nn::cpu::conv3d (kernels/nn/sparse_cpu.h).
-// Tests: tests/nn/test_sparse_conv_gpu.cpp.
+// Tests: tests/nn/test_sparse_conv.cpp.
 #pragma once
 
 #include "gpu/buffer.h"

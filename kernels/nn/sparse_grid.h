@@ -11,7 +11,7 @@
 // whole sequence in two submissions (the kept count is read back to size the
 // children) with its barriers inside.
 // CPU references: nn::cpu::subdivide, max_pool, find_rows (kernels/nn/sparse_cpu.h).
-// Tests: tests/nn/test_sparse_grid_gpu.cpp.
+// Tests: tests/nn/test_sparse_grid.cpp.
 #pragma once
 
 #include "fill.h"

@@ -13,7 +13,7 @@
 // iterations in all (LP_MAX_TGSI_LOOP_ITERATIONS), and this kernel makes
 // about ceil(N / 4) * (2 * ceil(D / 8) + 1) of them (25,600 at 4,096 tokens,
 // D = 96); the host refuses shapes beyond NN_ATTN_LOOP_BUDGET on CPU devices.
-// Host module: kernels/nn/attention.{h,cpp}. Tests: tests/nn/test_attention_gpu.cpp.
+// Host module: kernels/nn/attention.{h,cpp}. Tests: tests/nn/test_attention.cpp.
 #include "shared/nn_params.h"
 #include "common/dispatch.glsl"
 

@@ -16,8 +16,8 @@
 // lanes (18.4 against 17.3 GFLOP/s at C192 16^3, 13.3 against 10.6 at C384 32^3).
 // Tensors beyond one storage binding run as windows of batch elements, output
 // and input channels (Conv3dParams); later input windows accumulate into y.
-// Host module: kernels/nn/conv3d.{h,cpp}; CPU reference: kernels/nn/layers_cpu.h.
+// Host module: kernels/nn/conv3d.{h,cpp}; CPU reference: nn::cpu::conv3d (kernels/nn/conv3d.h).
 // nn/conv3d_f16w.comp is the same kernel with the weights stored as fp16
 // (8 halves per tap and channel block, fp32 accumulation).
-// Tests: tests/nn/test_conv3d_gpu.cpp.
+// Tests: tests/nn/test_conv3d.cpp.
 #include "conv3d.glsl"

@@ -1,14 +1,14 @@
 #version 460
 #extension GL_GOOGLE_include_directive : require
 // ddim_step: one DDIM step on a v-prediction, one thread per latent element,
-// float32 in the reference's operation order (engine/diffusion/ddim_schedule.h,
+// float32 in the reference's operation order (nn::cpu::ddim_step in kernels/nn/ddim_step.h,
 // conventions §9.1-9.2):
 //   v   = cond (+ cfg_scale * (cond - uncond) with NN_DDIM_FLAG_CFG)
 //   x0  = sqrt_alpha * x - sqrt_beta * v;   eps = sqrt_alpha * v + sqrt_beta * x
 //   out = sqrt_alpha_prev * x0 + direction * eps (+ sigma * z with NN_DDIM_FLAG_NOISE)
 // `precise` keeps every product and sum rounded as written (no contraction into
 // fused multiply-adds), so the result is the CPU reference's on any device.
-// Host module: kernels/nn/sampler_step.{h,cpp}. Tests: tests/diffusion/test_sampler_step_gpu.cpp.
+// Host module: kernels/nn/ddim_step.{h,cpp}. Tests: tests/nn/test_ddim_step.cpp.
 #include "shared/nn_params.h"
 #include "common/dispatch.glsl"
 

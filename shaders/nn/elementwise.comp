@@ -8,7 +8,7 @@
 // erf_f evaluates its Taylor series below |x| = 2 and erfc's continued
 // fraction above, to about 3e-7 absolute; far negative inputs use erfc
 // directly, so gelu keeps its tiny values instead of cancelling to 0.
-// Host module: kernels/nn/elementwise.{h,cpp}. Tests: tests/nn/test_elementwise_gpu.cpp.
+// Host module: kernels/nn/elementwise.{h,cpp}. Tests: tests/nn/test_elementwise.cpp.
 #include "shared/nn_params.h"
 #include "common/dispatch.glsl"
 

@@ -6,7 +6,7 @@
 // y / (1 + exp(-y)) (NN_GN_FLAG_*), fused so the tensor is read and written once.
 // Thread i is element span_begin + i of the window's channels (span_begin > 0
 // when a group larger than one binding is applied in pieces).
-// Host module: kernels/nn/group_norm.{h,cpp}. Tests: tests/nn/test_group_norm_gpu.cpp.
+// Host module: kernels/nn/group_norm.{h,cpp}. Tests: tests/nn/test_group_norm.cpp.
 #include "shared/nn_params.h"
 #include "common/dispatch.glsl"
 

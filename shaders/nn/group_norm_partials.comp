@@ -10,7 +10,7 @@
 // group's elements [span_begin, span_end) (the window starts at span_begin):
 // the first writes the triples, the later ones (NN_GN_FLAG_CONTINUE) continue
 // them, taking the shift from the stored partial.
-// Host module: kernels/nn/group_norm.{h,cpp}. Tests: tests/nn/test_group_norm_gpu.cpp.
+// Host module: kernels/nn/group_norm.{h,cpp}. Tests: tests/nn/test_group_norm.cpp.
 #include "shared/nn_params.h"
 #include "common/dispatch.glsl"
 

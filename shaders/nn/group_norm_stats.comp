@@ -5,7 +5,7 @@
 // the group's first element, which every partial carries in .w) and writes
 // stats[bg] = (shift, mean deviation, 1 / sqrt(var + eps), 0), var the biased
 // variance as torch.nn.GroupNorm uses it.
-// Host module: kernels/nn/group_norm.{h,cpp}. Tests: tests/nn/test_group_norm_gpu.cpp.
+// Host module: kernels/nn/group_norm.{h,cpp}. Tests: tests/nn/test_group_norm.cpp.
 #include "shared/nn_params.h"
 #include "common/dispatch.glsl"
 

@@ -5,7 +5,7 @@
 // sqrt_alpha * known + sqrt_beta * z, replace the model input x where the
 // voxel's mask is set; other elements are left alone. Channel-major
 // [C][spatial]: element i is voxel i % spatial. One thread per element.
-// Host module: kernels/nn/sampler_step.{h,cpp}. Tests: tests/diffusion/test_sampler_step_gpu.cpp.
+// Host module: kernels/nn/latent_overwrite.{h,cpp}. Tests: tests/nn/test_latent_overwrite.cpp.
 #include "shared/nn_params.h"
 #include "common/dispatch.glsl"
 

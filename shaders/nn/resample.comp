@@ -4,7 +4,7 @@
 // float32, one thread per output element: NN_RS_AVGPOOL2 = mean of the 2x2x2
 // block (F.avg_pool3d(2), sizes floored), NN_RS_UPSAMPLE2 = nearest x2
 // (F.interpolate(mode="nearest") to twice the size).
-// Host module: kernels/nn/elementwise.{h,cpp}. Tests: tests/nn/test_elementwise_gpu.cpp.
+// Host module: kernels/nn/resample.{h,cpp}. Tests: tests/nn/test_resample.cpp.
 #include "shared/nn_params.h"
 #include "common/dispatch.glsl"
 

@@ -7,7 +7,7 @@
 // key (shared/nn_params.h) as two uints (low, high) for the 64-bit radix sort.
 // Coordinates stay within +-2^20 (the host checks the level's bounds).
 // Host module: kernels/nn/sparse_grid.{h,cpp}. CPU reference: nn::cpu::subdivide.
-// Tests: tests/nn/test_sparse_grid_gpu.cpp.
+// Tests: tests/nn/test_sparse_grid.cpp.
 #include "shared/nn_params.h"
 #include "common/dispatch.glsl"
 #include "sparse_keys.glsl"

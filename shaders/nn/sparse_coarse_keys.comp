@@ -4,7 +4,7 @@
 // (shared/nn_params.h) of the coarse voxel floor(ijk[r] / f), value[r] = r,
 // for the 64-bit radix sort that groups each coarse voxel's fine rows.
 // Host module: kernels/nn/sparse_grid.{h,cpp}. CPU reference: nn::cpu::max_pool.
-// Tests: tests/nn/test_sparse_grid_gpu.cpp.
+// Tests: tests/nn/test_sparse_grid.cpp.
 #include "shared/nn_params.h"
 #include "common/dispatch.glsl"
 #include "sparse_keys.glsl"

@@ -5,7 +5,7 @@
 // starts) begins: begin[q] = i and its ijk = floor(ijk[perm[i]] / f). The
 // coarse rows come out in brick order (the sort's).
 // Host module: kernels/nn/sparse_grid.{h,cpp}. CPU reference: nn::cpu::max_pool.
-// Tests: tests/nn/test_sparse_grid_gpu.cpp.
+// Tests: tests/nn/test_sparse_grid.cpp.
 #include "shared/nn_params.h"
 #include "common/dispatch.glsl"
 #include "sparse_keys.glsl"

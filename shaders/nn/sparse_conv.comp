@@ -15,7 +15,7 @@
 // Windows of input / output channels as nn/conv3d.comp (SparseConvParams);
 // p.silu applies SiLU on the final store (the VAE's ConvBlock "gcs": conv then SiLU).
 // Host module: kernels/nn/sparse_conv.{h,cpp}. CPU reference: nn::cpu::conv3d
-// on SparseTensor (kernels/nn/sparse_cpu.h). Tests: tests/nn/test_sparse_conv_gpu.cpp.
+// on SparseTensor (kernels/nn/sparse_cpu.h). Tests: tests/nn/test_sparse_conv.cpp.
 #include "shared/nn_params.h"
 #include "common/dispatch.glsl"
 

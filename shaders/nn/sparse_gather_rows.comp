@@ -4,7 +4,7 @@
 // where rows[i] < 0; channel-major [C][rows] on both sides, one thread per
 // output element. Subdivision copies each parent's features to its children
 // with it, and dense boxes fill from sparse grids (rows from a lookup).
-// Host module: kernels/nn/sparse_grid.{h,cpp}. Tests: tests/nn/test_sparse_grid_gpu.cpp.
+// Host module: kernels/nn/sparse_grid.{h,cpp}. Tests: tests/nn/test_sparse_grid.cpp.
 #include "shared/nn_params.h"
 #include "common/dispatch.glsl"
 

@@ -6,7 +6,7 @@
 // unique, so an insert only claims the first empty slot (atomicCompSwap); the
 // table's layout depends on the race, the lookups' answers do not.
 // Host module: kernels/nn/sparse_conv.{h,cpp} (SparseKernelMap). CPU reference:
-// nn::cpu::kernel_map (kernels/nn/sparse_cpu.h). Tests: tests/nn/test_sparse_conv_gpu.cpp.
+// nn::cpu::kernel_map (kernels/nn/sparse_cpu.h). Tests: tests/nn/test_sparse_conv.cpp.
 #include "shared/nn_params.h"
 #include "common/dispatch.glsl"
 #include "sparse_hash.glsl"

@@ -4,7 +4,7 @@
 // when logits[0][r] > logits[1][r] (channel 0 = exists; logits channel-major
 // [2][rows]), else 0; NaN logits drop the voxel.
 // Host module: kernels/nn/sparse_grid.{h,cpp}. CPU reference: VaeReference::decode
-// (engine/nn/vae_reference.cpp). Tests: tests/nn/test_sparse_grid_gpu.cpp.
+// (engine/nn/vae_reference.cpp). Tests: tests/nn/test_sparse_grid.cpp.
 #include "shared/nn_params.h"
 #include "common/dispatch.glsl"
 

@@ -7,7 +7,7 @@
 // Rows [row_begin, row_begin + row_count) per dispatch, kmap bound from
 // row_begin's entries (kernel maps beyond one binding run in row windows).
 // Host module: kernels/nn/sparse_conv.{h,cpp} (SparseKernelMap). CPU reference:
-// nn::cpu::kernel_map. Tests: tests/nn/test_sparse_conv_gpu.cpp.
+// nn::cpu::kernel_map. Tests: tests/nn/test_sparse_conv.cpp.
 #include "shared/nn_params.h"
 #include "common/dispatch.glsl"
 

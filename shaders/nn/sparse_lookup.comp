@@ -4,7 +4,7 @@
 // nn/sparse_hash_insert.comp, or -1 (e.g. the VAE's dense neck box filled
 // from the encoder's sparse grid).
 // Host module: kernels/nn/sparse_grid.{h,cpp}. CPU reference: nn::cpu::find_rows.
-// Tests: tests/nn/test_sparse_grid_gpu.cpp.
+// Tests: tests/nn/test_sparse_grid.cpp.
 #include "shared/nn_params.h"
 #include "common/dispatch.glsl"
 

@@ -5,7 +5,7 @@
 // features channel-major, one thread per output element; at most 512 children.
 // fVDB's definition: -inf start, inactive children skipped (they are not rows).
 // Host module: kernels/nn/sparse_grid.{h,cpp}. CPU reference: nn::cpu::max_pool.
-// Tests: tests/nn/test_sparse_grid_gpu.cpp.
+// Tests: tests/nn/test_sparse_grid.cpp.
 #include "shared/nn_params.h"
 #include "common/dispatch.glsl"
 

@@ -2,7 +2,7 @@
 #extension GL_GOOGLE_include_directive : require
 // sparse_permute: the children in brick order after the radix sort,
 // out_ijk[i] = in_ijk[perm[i]] and out_parent[i] = in_parent[perm[i]].
-// Host module: kernels/nn/sparse_grid.{h,cpp}. Tests: tests/nn/test_sparse_grid_gpu.cpp.
+// Host module: kernels/nn/sparse_grid.{h,cpp}. Tests: tests/nn/test_sparse_grid.cpp.
 #include "shared/nn_params.h"
 #include "common/dispatch.glsl"
 

@@ -2,7 +2,7 @@
 #extension GL_GOOGLE_include_directive : require
 // sparse_segments: after the coarse keys are sorted, starts[i] = 1 where key i
 // differs from key i - 1 (and at i = 0): the first fine row of each coarse voxel.
-// Host module: kernels/nn/sparse_grid.{h,cpp}. Tests: tests/nn/test_sparse_grid_gpu.cpp.
+// Host module: kernels/nn/sparse_grid.{h,cpp}. Tests: tests/nn/test_sparse_grid.cpp.
 #include "shared/nn_params.h"
 #include "common/dispatch.glsl"
 

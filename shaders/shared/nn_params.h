@@ -165,7 +165,7 @@ struct AttentionParams {
   uint pad1;
 };
 
-// layer_norm_channels: LayerNorm over the channels of every token of a
+// layer_norm: LayerNorm over the channels of every token of a
 // channels-first [batch, channels, tokens] tensor (the transformer's tokens
 // kept in the UNet's NCDHW layout), biased variance, eps inside the sqrt.
 #define NN_LN_GROUP 64

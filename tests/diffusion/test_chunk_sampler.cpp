@@ -15,7 +15,6 @@
 #include "diffusion/unet_denoiser.h"
 #include "gpu/buffer.h"
 #include "gpu_test_context.h"
-#include "nn/layers_cpu.h"
 #include "nn/random_weights.h"
 #include "nn/unet_config.h"
 #include "nn/unet_gpu.h"
@@ -130,7 +129,7 @@ TEST_CASE("chunk sampler: guidance batches the unconditional input (map and boxe
       std::fill_n(two.data.begin() + static_cast<int64_t>(x_in.data.size()) + (kC + 3) * kS, 5 * kS, 0.0f);
       const nn::CpuTensor v = inner.predict(two, t);
       nn::CpuTensor out({1, kC, kX, kY, kZ});
-      cfg_combine_cpu(v.data.data(), v.data.data() + kC * kS, 2.0f, out.data.data(), kC * kS);
+      nn::cpu::cfg_combine(v.data.data(), v.data.data() + kC * kS, 2.0f, out.data.data(), kC * kS);
       return out;
     }
   };

@@ -118,7 +118,7 @@ TEST_CASE("ddim: one step against its closed form, eta 0 and 1, at t = 999 and a
         CHECK(double{st.sigma} == doctest::Approx(sigma).epsilon(1e-5));
         const float x[3] = {0.7f, -1.3f, 2.0f}, v[3] = {-0.2f, 0.9f, 0.0f}, z[3] = {1.1f, 0.3f, -2.5f};
         float out[3];
-        ddim_step_cpu(st, x, v, z, out, 3);
+        icube::nn::cpu::ddim_step(st.coefficients(), x, v, z, out, 3);
         for (int k = 0; k < 3; ++k) {
           const double xk = x[k], vk = v[k], zk = z[k];
           const double x0 = std::sqrt(a) * xk - std::sqrt(1 - a) * vk;
@@ -145,10 +145,10 @@ TEST_CASE("ddim: one step against its closed form, eta 0 and 1, at t = 999 and a
 TEST_CASE("ddim: classifier-free guidance is cond + s (cond - uncond); s = 0 is the conditional pass") {
   const float cond[3] = {1.0f, -2.0f, 0.5f}, uncond[3] = {0.5f, -1.0f, 0.5f};
   float out[3];
-  cfg_combine_cpu(cond, uncond, 2.0f, out, 3);
+  icube::nn::cpu::cfg_combine(cond, uncond, 2.0f, out, 3);
   CHECK(out[0] == 2.0f);
   CHECK(out[1] == -4.0f);
   CHECK(out[2] == 0.5f);
-  cfg_combine_cpu(cond, uncond, 0.0f, out, 3);
+  icube::nn::cpu::cfg_combine(cond, uncond, 0.0f, out, 3);
   CHECK(out[1] == -2.0f);
 }

@@ -11,7 +11,6 @@
 #include "diffusion/chunk_sampler.h"
 #include "diffusion/unet_denoiser.h"
 #include "gpu_test_context.h"
-#include "nn/layers_cpu.h"
 #include "nn/random_weights.h"
 #include "nn/unet_config.h"
 #include "nn/unet_gpu.h"

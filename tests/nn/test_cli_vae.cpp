@@ -5,7 +5,7 @@
 
 #include "cli_test_util.h"
 #include "gpu_test_context.h"
-#include "nn/layers_cpu.h"
+#include "nn/cpu_tensor.h"
 #include "nn/safetensors.h"
 #include "nn/sparse_cpu.h"
 #include "nn/random_weights.h"

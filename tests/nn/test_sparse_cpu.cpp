@@ -2,7 +2,8 @@
 // definitions: submanifold conv = dense conv3d over the zero-filled box read at
 // the sites; max pooling, subdivision, GroupNorm over active voxels; brick
 // order; grids with negative and far-from-origin coordinates.
-#include "nn/layers_cpu.h"
+#include "nn/conv3d.h"
+#include "nn/group_norm.h"
 #include "nn/sparse_cpu.h"
 #include "sparse_test_util.h"
 

@@ -9,9 +9,9 @@
 #include "cli_test_util.h"
 #include "gpu_test_context.h"
 #include "nn/unet_case_check.h"
-#include "nn/layers_cpu.h"
 #include "nn/safetensors.h"
 #include "nn/unet_config.h"
+#include "nn/timestep_embedding.h"
 #include "nn/unet_reference.h"
 #include "nn/weights.h"
 #include "scene/atomic_file.h"
@@ -208,4 +208,13 @@ TEST_CASE("unet config: official keyword arguments, and clear errors for the res
   CHECK(error("[1]").find("is not a JSON object") != std::string::npos);
   CHECK(error("{").find("not valid JSON") != std::string::npos);
   CHECK(error("{" + base + R"(, "dropout": 0.1, "use_checkpoint": true, "use_fp16": false})") == "no error");
+}
+
+TEST_CASE("unet reference: the sinusoidal timestep embedding is [cos | sin], frequency 1 first") {
+  const nn::CpuTensor e = nn::cpu::timestep_embedding({0, 7}, 6);
+  CHECK(e.data[0] == 1.0f);   // cos(0)
+  CHECK(e.data[3] == 0.0f);   // sin(0)
+  CHECK(e.data[6] == doctest::Approx(std::cos(7.0)));
+  CHECK(e.data[9] == doctest::Approx(std::sin(7.0)));
+  CHECK(e.data[11] == doctest::Approx(std::sin(7.0 * std::exp(-std::log(10000.0) * 2.0 / 3.0))).epsilon(1e-5));
 }

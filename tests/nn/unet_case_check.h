@@ -4,7 +4,6 @@
 #pragma once
 
 #include "nn/cpu_tensor.h"
-#include "nn/layers_cpu.h"
 #include "nn/safetensors.h"
 #include "nn/unet_reference.h"
 #include "world/npy.h"

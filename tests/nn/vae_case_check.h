@@ -5,7 +5,7 @@
 // CPU reference and GPU VAE tests.
 #pragma once
 
-#include "nn/layers_cpu.h"
+#include "nn/cpu_tensor.h"
 #include "nn/sparse_cpu.h"
 #include "nn/vae_reference.h"
 #include "world/npy.h"

@@ -1,5 +1,5 @@
 // LayerNorm over channels on the GPU (kernels/nn/layer_norm.h,
-// shaders/nn/layer_norm_channels.comp) against the
+// shaders/nn/layer_norm.comp) against the
 // CPU reference (nn::cpu::layer_norm over the last axis of the transposed
 // tensor): batch 2, odd token counts, 64 and 7 channels, a large common offset
 // and a constant token (exactly the bias). Runs under the validation layer.
@@ -7,7 +7,6 @@
 
 #include "gpu_test_context.h"
 #include "nn/layer_norm.h"
-#include "nn/layers_cpu.h"
 
 #include <random>
 

@@ -1,11 +1,11 @@
 #version 460
 #extension GL_GOOGLE_include_directive : require
-// layer_norm_channels: y[b, c, t] = (x[b, c, t] - mean_t) * rstd_t * w[c] + bias[c]
+// layer_norm: y[b, c, t] = (x[b, c, t] - mean_t) * rstd_t * w[c] + bias[c]
 // with mean_t and the biased variance over the channels of token t
 // (torch.nn.LayerNorm over the last axis of [b, t, c], here on the
 // channels-first layout the UNet keeps). One thread per token; consecutive
 // threads read consecutive tokens. fp32, Welford over the channels.
-// Host module: kernels/nn/layer_norm.{h,cpp}. Tests: tests/nn/test_layer_norm_gpu.cpp.
+// Host module: kernels/nn/layer_norm.{h,cpp}. Tests: tests/nn/test_layer_norm.cpp.
 #include "shared/nn_params.h"
 #include "common/dispatch.glsl"
 

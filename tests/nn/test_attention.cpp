@@ -6,7 +6,6 @@
 
 #include "gpu_test_context.h"
 #include "nn/attention.h"
-#include "nn/layers_cpu.h"
 
 #include <cmath>
 #include <random>
@@ -92,4 +91,15 @@ TEST_CASE("attention gpu: against the CPU reference, separate and chunked qkv, h
       CHECK_THROWS_WITH_AS(attn.record(cmd, {1, 1, 96, 20000}, tiny, tiny, tiny, tiny),
                            doctest::Contains("over a CPU device's budget"), std::invalid_argument);
   });
+}
+
+TEST_CASE("nn cpu: attention with huge logits is a stable softmax; uniform keys average the values") {
+  nn::CpuTensor q({1, 1, 2, 2}, std::vector<float>{1e4f, 0.f, 0.f, 0.f});
+  nn::CpuTensor k({1, 1, 2, 2}, std::vector<float>{1e4f, 0.f, -1e4f, 0.f});
+  nn::CpuTensor v({1, 1, 2, 2}, std::vector<float>{1.f, 2.f, 3.f, 4.f});
+  const nn::CpuTensor o = nn::cpu::attention(q, k, v);
+  CHECK(o.data[0] == 1.0f);  // all weight on key 0
+  CHECK(o.data[1] == 2.0f);
+  CHECK(o.data[2] == 2.0f);  // query 1 is zero: equal weights, the mean of the values
+  CHECK(o.data[3] == 3.0f);
 }

@@ -9,7 +9,7 @@
 
 #include "gpu_test_context.h"
 #include "nn/group_norm.h"
-#include "nn/layers_cpu.h"
+#include "nn/elementwise.h"
 
 #include <random>
 
@@ -78,4 +78,20 @@ TEST_CASE("group_norm gpu: one group larger than a binding runs in spans (contin
   // The shift (the group's first element) travels with the partials: a large offset stays exact.
   check_gn({1, 32, 32, 4 * 4 * 4, 1e-5f, false, false}, 1e4f, 1.0f, 11, 2e-3, 128);
   check_gn({1, 32, 32, 9 * 9 * 9, 1e-5f, false, false}, 7.25f, 0.0f, 12, 0.0, 256);  // constant: exactly the bias
+}
+
+TEST_CASE("nn cpu: GroupNorm of a constant is its bias; statistics per group; huge values stay finite") {
+  nn::CpuTensor x({1, 64, 2, 3, 1}, 1e6f);
+  nn::CpuTensor w({64}, 3.0f), b({64}, 0.0f);
+  for (int c = 0; c < 64; ++c) b.data[static_cast<size_t>(c)] = static_cast<float>(c);
+  const nn::CpuTensor y = nn::cpu::group_norm(x, 32, w, b, 1e-5);
+  for (int c = 0; c < 64; ++c) CHECK(y.data[static_cast<size_t>(c * 6)] == static_cast<float>(c));
+  // A ramp within one group of two channels: mean and biased variance over 12 values.
+  nn::CpuTensor r({1, 2, 2, 3, 1});
+  for (int i = 0; i < 12; ++i) r.data[static_cast<size_t>(i)] = static_cast<float>(i);
+  const nn::CpuTensor yr = nn::cpu::group_norm(r, 1, nn::CpuTensor({2}, 1.0f), nn::CpuTensor({2}, 0.0f), 0.0);
+  const double sd = std::sqrt((144.0 - 1.0) / 12.0);  // variance of 0..11
+  CHECK(yr.data[0] == doctest::Approx(-5.5 / sd).epsilon(1e-6));
+  CHECK(yr.data[11] == doctest::Approx(5.5 / sd).epsilon(1e-6));
+  CHECK_THROWS_AS(nn::cpu::group_norm(r, 3, nn::CpuTensor({2}), nn::CpuTensor({2}), 1e-5), std::invalid_argument);
 }

@@ -1,14 +1,12 @@
-// The sampler's latent updates on the GPU (kernels/nn/sampler_step.h:
-// shaders/nn/ddim_step.comp and latent_overwrite.comp) against the CPU
-// reference (diffusion::cfg_combine_cpu + ddim_step_cpu): odd sizes, both
-// ends of the schedule (t = 999, the last step to alpha_prev = 1), eta 0 and
-// 1, guidance 2 and 10, large latents; the overwrite touches exactly the
-// masked voxels of every channel. Runs under the validation layer.
+// The DDIM step on the GPU (kernels/nn/ddim_step.h, shaders/nn/ddim_step.comp)
+// against the CPU reference (nn::cpu::cfg_combine + ddim_step): odd sizes,
+// both ends of the schedule (t = 999, the last step to alpha_prev = 1), eta 0
+// and 1, guidance 2 and 10, large latents. Runs under the validation layer.
 #include <doctest/doctest.h>
 
 #include "diffusion/ddim_schedule.h"
 #include "gpu_test_context.h"
-#include "nn/sampler_step.h"
+#include "nn/ddim_step.h"
 
 #include <random>
 
@@ -26,9 +24,9 @@ std::vector<float> random_vector(size_t n, float scale, uint32_t seed) {
 
 }  // namespace
 
-TEST_CASE("sampler gpu: the DDIM step with guidance and noise matches the CPU reference") {
+TEST_CASE("ddim step gpu: the DDIM step with guidance and noise matches the CPU reference") {
   gpu::Context& ctx = test::gpu_context();
-  kernels::nn::SamplerStep sampler(ctx);
+  kernels::nn::DdimStep sampler(ctx);
   for (const size_t n : {size_t{1}, size_t{1001}, size_t{8 * 17 * 9 * 5}}) {
     for (const float eta : {0.0f, 1.0f}) {
       diffusion::DdimOptions o;
@@ -46,14 +44,14 @@ TEST_CASE("sampler gpu: the DDIM step with guidance and noise matches the CPU re
           const std::vector<float> x = random_vector(n, scale, 1), vc = random_vector(n, 1.0f, 2), vu = random_vector(n, 1.0f, 3),
                                    z = random_vector(n, 1.0f, 4);
           std::vector<float> v = vc, want(n);
-          if (cfg != 1.0f) diffusion::cfg_combine_cpu(vc.data(), vu.data(), cfg, v.data(), n);
-          diffusion::ddim_step_cpu(st, x.data(), v.data(), z.data(), want.data(), n);
+          if (cfg != 1.0f) nn::cpu::cfg_combine(vc.data(), vu.data(), cfg, v.data(), n);
+          nn::cpu::ddim_step(st.coefficients(), x.data(), v.data(), z.data(), want.data(), n);
           gpu::Buffer xb = gpu::upload_vector(ctx, x, "x"), cb = gpu::upload_vector(ctx, vc, "cond"),
                       ub = gpu::upload_vector(ctx, vu, "uncond"), zb = gpu::upload_vector(ctx, z, "z");
           gpu::Buffer out(ctx, n * 4, gpu::MemoryUsage::DeviceLocal, "out");
           const kernels::nn::DdimStepCoefficients c{st.sqrt_alpha, st.sqrt_beta, st.sqrt_alpha_prev, st.direction, st.sigma};
           ctx.submit_and_wait([&](gpu::CommandList& cmd) {
-            sampler.step(cmd, c, n, xb, cb, cfg != 1.0f ? &ub : nullptr, cfg, st.sigma != 0.0f ? &zb : nullptr, out);
+            sampler.record(cmd, c, n, xb, cb, cfg != 1.0f ? &ub : nullptr, cfg, st.sigma != 0.0f ? &zb : nullptr, out);
           });
           CHECK(test::allclose(gpu::download_vector<float>(ctx, out, n), want, 1e-6 * double{scale}, 2e-6, "ddim_step"));
         }
@@ -66,29 +64,8 @@ TEST_CASE("sampler gpu: the DDIM step with guidance and noise matches the CPU re
   REQUIRE(st.sigma > 0.0f);
   gpu::Buffer b(ctx, 64);
   ctx.submit_and_wait([&](gpu::CommandList& cmd) {
-    CHECK_THROWS_WITH_AS(sampler.step(cmd, {st.sqrt_alpha, st.sqrt_beta, st.sqrt_alpha_prev, st.direction, st.sigma}, 16, b, b,
+    CHECK_THROWS_WITH_AS(sampler.record(cmd, {st.sqrt_alpha, st.sqrt_beta, st.sqrt_alpha_prev, st.direction, st.sigma}, 16, b, b,
                                       nullptr, 1.0f, nullptr, b),
                          doctest::Contains("without a noise buffer"), std::invalid_argument);
   });
-}
-
-TEST_CASE("sampler gpu: the outpainting overwrite replaces exactly the masked voxels of every channel") {
-  gpu::Context& ctx = test::gpu_context();
-  kernels::nn::SamplerStep sampler(ctx);
-  const uint32_t channels = 3;
-  const uint64_t spatial = 7 * 11 * 5;
-  const size_t n = channels * spatial;
-  std::vector<uint32_t> mask(spatial);
-  std::mt19937 rng(9);
-  for (uint32_t& m : mask) m = rng() % 3 == 0 ? 1u : 0u;
-  const std::vector<float> x = random_vector(n, 1.0f, 5), known = random_vector(n, 2.0f, 6), z = random_vector(n, 1.0f, 7);
-  float sa = 0, sb = 0;
-  diffusion::DdimSchedule({}).noise_level(990, &sa, &sb);
-  std::vector<float> want = x;
-  for (size_t i = 0; i < n; ++i)
-    if (mask[i % spatial]) want[i] = sa * known[i] + sb * z[i];
-  gpu::Buffer xb = gpu::upload_vector(ctx, x, "x"), kb = gpu::upload_vector(ctx, known, "known"),
-              mb = gpu::upload_vector(ctx, mask, "mask"), zb = gpu::upload_vector(ctx, z, "z");
-  ctx.submit_and_wait([&](gpu::CommandList& cmd) { sampler.overwrite_known(cmd, channels, spatial, sa, sb, kb, mb, zb, xb); });
-  CHECK(test::allclose(gpu::download_vector<float>(ctx, xb, n), want, 1e-6, 1e-6, "latent_overwrite"));
 }

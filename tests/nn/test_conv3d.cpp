@@ -10,7 +10,6 @@
 #include "capped_context.h"
 #include "gpu_test_context.h"
 #include "nn/conv3d.h"
-#include "nn/layers_cpu.h"
 #include "nn/float16.h"
 
 #include <algorithm>
@@ -188,4 +187,56 @@ TEST_CASE("conv3d gpu: a 1x1 convolution whose input and output both exceed one 
       MESSAGE("voxel " << v << " channel " << co << ": got " << y[co * S + v] << " want " << want);
   }
   CHECK(bad == 0);
+}
+
+// The CPU reference on cases with known answers.
+namespace {
+
+
+nn::CpuTensor cpu_random_tensor(std::vector<int64_t> shape, uint32_t seed, float scale = 1.0f) {
+  nn::CpuTensor t(std::move(shape));
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> u(-scale, scale);
+  for (float& v : t.data) v = u(rng);
+  return t;
+}
+
+}  // namespace
+
+TEST_CASE("nn cpu: conv3d equals the per-output definition (odd sizes, padding, stride 2, 1x1)") {
+  const nn::CpuTensor x = cpu_random_tensor({2, 3, 5, 4, 7}, 1);
+  const nn::CpuTensor w = cpu_random_tensor({4, 3, 3, 3, 3}, 2);
+  const nn::CpuTensor b = cpu_random_tensor({4}, 3);
+  for (const int stride : {1, 2}) {
+    const nn::CpuTensor y = nn::cpu::conv3d(x, w, &b, stride, 1);
+    const int64_t OX = (5 + 2 - 3) / stride + 1, OY = (4 + 2 - 3) / stride + 1, OZ = (7 + 2 - 3) / stride + 1;
+    REQUIRE(y.shape == std::vector<int64_t>{2, 4, OX, OY, OZ});
+    double worst = 0.0;
+    for (int64_t n = 0; n < 2; ++n)
+      for (int64_t o = 0; o < 4; ++o)
+        for (int64_t i = 0; i < OX; ++i)
+          for (int64_t j = 0; j < OY; ++j)
+            for (int64_t k = 0; k < OZ; ++k) {
+              long double s = b.data[static_cast<size_t>(o)];
+              for (int64_t c = 0; c < 3; ++c)
+                for (int64_t a = 0; a < 3; ++a)
+                  for (int64_t e = 0; e < 3; ++e)
+                    for (int64_t f = 0; f < 3; ++f) {
+                      const int64_t xi = i * stride - 1 + a, yj = j * stride - 1 + e, zk = k * stride - 1 + f;
+                      if (xi < 0 || xi >= 5 || yj < 0 || yj >= 4 || zk < 0 || zk >= 7) continue;
+                      s += static_cast<long double>(w.data[static_cast<size_t>((((o * 3 + c) * 3 + a) * 3 + e) * 3 + f)]) *
+                           x.data[static_cast<size_t>((((n * 3 + c) * 5 + xi) * 4 + yj) * 7 + zk)];
+                    }
+              const float got = y.data[static_cast<size_t>((((n * 4 + o) * OX + i) * OY + j) * OZ + k)];
+              worst = std::max(worst, std::abs(static_cast<double>(got) - static_cast<double>(s)));
+            }
+    CHECK(worst < 1e-6);
+  }
+  // 1x1: the same as a channel matrix product.
+  const nn::CpuTensor w1 = cpu_random_tensor({2, 3, 1, 1, 1}, 4);
+  const nn::CpuTensor y1 = nn::cpu::conv3d(x, w1, nullptr, 1, 0);
+  const size_t S = 5 * 4 * 7;
+  const float want = w1.data[3] * x.data[S * 3 + 10] + w1.data[4] * x.data[S * 4 + 10] + w1.data[5] * x.data[S * 5 + 10];
+  CHECK(y1.data[S * 3 + 10] == doctest::Approx(want).epsilon(1e-6));
+  CHECK_THROWS_AS(nn::cpu::conv3d(x, cpu_random_tensor({4, 2, 3, 3, 3}, 5), nullptr), std::invalid_argument);
 }

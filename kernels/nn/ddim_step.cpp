@@ -1,0 +1,41 @@
+// One DDIM step on the GPU; see ddim_step.h.
+#include "nn/ddim_step.h"
+
+#include "gpu/context.h"
+#include "nn/buffer_checks.h"
+#include "shared/nn_params.h"
+
+#include <stdexcept>
+#include <string>
+
+namespace icube::kernels::nn {
+
+DdimStep::DdimStep(gpu::Context& ctx) : ctx_(ctx), program_(ctx.program("nn/ddim_step")) {}
+
+void DdimStep::record(gpu::CommandList& cmd, const DdimStepCoefficients& c, uint64_t count, const gpu::Buffer& x,
+                      const gpu::Buffer& v_cond, const gpu::Buffer* v_uncond, float cfg_scale, const gpu::Buffer* z,
+                      const gpu::Buffer& out) {
+  if (count == 0) return;
+  const bool noise = c.sigma != 0.0f;
+  if (noise && !z) throw std::invalid_argument("ddim_step: sigma " + std::to_string(c.sigma) + " without a noise buffer");
+  require_one_binding(ctx_, "ddim_step", "latent", count);
+  const uint64_t bytes = count * 4;
+  require_buffer("ddim_step", "x", bytes, x);
+  require_buffer("ddim_step", "conditional prediction", bytes, v_cond);
+  if (v_uncond) require_buffer("ddim_step", "unconditional prediction", bytes, *v_uncond);
+  if (noise) require_buffer("ddim_step", "noise", bytes, *z);
+  require_buffer("ddim_step", "output", bytes, out);
+  shader::DdimStepParams pc{static_cast<uint32_t>(count),
+                            (v_uncond ? NN_DDIM_FLAG_CFG : 0u) | (noise ? NN_DDIM_FLAG_NOISE : 0u),
+                            cfg_scale,
+                            c.sqrt_alpha,
+                            c.sqrt_beta,
+                            c.sqrt_alpha_prev,
+                            c.direction,
+                            c.sigma};
+  cmd.dispatch(program_, gpu::Threads{count}, pc,
+               {x.binding(0, bytes), v_cond.binding(0, bytes), v_uncond ? v_uncond->binding(0, bytes) : gpu::null_binding(),
+                noise ? z->binding(0, bytes) : gpu::null_binding(), out.binding(0, bytes)});
+}
+
+}  // namespace icube::kernels::nn
