@@ -30,8 +30,8 @@
 #include "gpu/buffer.h"
 #include "gpu/commands.h"
 #include "gpu/context.h"
-#include "prefix_scan.h"
-#include "radix_sort.h"
+#include "kernels/prefix_scan.h"
+#include "kernels/radix_sort.h"
 
 #ifndef ICUBE_BENCH_BUILD_TYPE
 #define ICUBE_BENCH_BUILD_TYPE "unknown"

@@ -11,10 +11,10 @@
 // dense GPU conv at the active sites in the same run. See bench/README.md.
 #include "bench_stats.h"
 #include "gpu/context.h"
-#include "nn/conv3d.h"
-#include "nn/sparse_conv.h"
+#include "kernels/nn/conv3d.h"
+#include "kernels/nn/sparse_conv.h"
 #include "nn/random_weights.h"
-#include "nn/sparse_cpu.h"
+#include "kernels/nn/sparse_cpu.h"
 #include "nn/vae_config.h"
 #include "nn/vae_gpu.h"
 #include "scene/scene_load.h"

@@ -5,7 +5,7 @@
 // icube runtime never runs Python.
 #pragma once
 
-#include "nn/cpu_tensor.h"
+#include "kernels/nn/cpu_tensor.h"
 
 #include <nlohmann/json.hpp>
 

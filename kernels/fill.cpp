@@ -1,4 +1,4 @@
-#include "fill.h"
+#include "kernels/fill.h"
 
 #include "shared/primitives_params.h"
 

@@ -1,6 +1,6 @@
-#include "prefix_scan.h"
+#include "kernels/prefix_scan.h"
 
-#include "kernel_tiles.h"
+#include "kernels/kernel_tiles.h"
 #include "shared/primitives_params.h"
 
 #include <algorithm>

@@ -1,6 +1,6 @@
-#include "radix_sort.h"
+#include "kernels/radix_sort.h"
 
-#include "kernel_tiles.h"
+#include "kernels/kernel_tiles.h"
 #include "shared/primitives_params.h"
 
 #include <algorithm>

@@ -24,8 +24,8 @@
 
 #include "gpu/buffer.h"
 #include "gpu/commands.h"
-#include "prefix_scan.h"
-#include "subgroup_ops.h"
+#include "kernels/prefix_scan.h"
+#include "kernels/subgroup_ops.h"
 
 #include <cstdint>
 #include <vector>

@@ -1,6 +1,6 @@
-#include "reduce.h"
+#include "kernels/reduce.h"
 
-#include "kernel_tiles.h"
+#include "kernels/kernel_tiles.h"
 #include "shared/primitives_params.h"
 
 #include <algorithm>

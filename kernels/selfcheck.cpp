@@ -1,9 +1,9 @@
-#include "selfcheck.h"
+#include "kernels/selfcheck.h"
 
-#include "fill.h"
-#include "prefix_scan.h"
-#include "radix_sort.h"
-#include "reduce.h"
+#include "kernels/fill.h"
+#include "kernels/prefix_scan.h"
+#include "kernels/radix_sort.h"
+#include "kernels/reduce.h"
 
 #include <chrono>
 #include <functional>

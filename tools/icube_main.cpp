@@ -10,7 +10,7 @@
 #include "cmd_scene.h"
 #include "command_registry.h"
 #include "gpu/context.h"
-#include "selfcheck.h"
+#include "kernels/selfcheck.h"
 
 #include <CLI/CLI.hpp>
 

@@ -3,8 +3,8 @@
 
 #include "diffusion/counter_noise.h"
 #include "gpu/context.h"
-#include "nn/ddim_step.h"
-#include "nn/latent_overwrite.h"
+#include "kernels/nn/ddim_step.h"
+#include "kernels/nn/latent_overwrite.h"
 
 #include <algorithm>
 #include <chrono>

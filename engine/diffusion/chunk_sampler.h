@@ -26,7 +26,7 @@
 #pragma once
 
 #include "diffusion/ddim_schedule.h"
-#include "nn/cpu_tensor.h"
+#include "kernels/nn/cpu_tensor.h"
 
 #include <cstdint>
 #include <functional>

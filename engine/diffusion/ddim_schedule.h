@@ -23,7 +23,7 @@
 // far the plain float64 schedule is from it.
 #pragma once
 
-#include "nn/ddim_step.h"
+#include "kernels/nn/ddim_step.h"
 
 #include <cstddef>
 #include <cstdint>

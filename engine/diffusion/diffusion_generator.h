@@ -13,7 +13,7 @@
 
 #include "diffusion/chunk_sampler.h"
 #include "diffusion/latent_store.h"
-#include "nn/cpu_tensor.h"
+#include "kernels/nn/cpu_tensor.h"
 #include "nn/unet_config.h"
 #include "nn/unet_gpu.h"
 #include "nn/vae_config.h"

@@ -1,13 +1,13 @@
 // The layers of the GPU networks; see layer_recorder.h.
 #include "nn/layer_recorder.h"
 
-#include "nn/attention.h"
-#include "nn/conv3d.h"
-#include "nn/elementwise.h"
-#include "nn/group_norm.h"
-#include "nn/layer_norm.h"
-#include "nn/resample.h"
-#include "nn/sparse_conv.h"
+#include "kernels/nn/attention.h"
+#include "kernels/nn/conv3d.h"
+#include "kernels/nn/elementwise.h"
+#include "kernels/nn/group_norm.h"
+#include "kernels/nn/layer_norm.h"
+#include "kernels/nn/resample.h"
+#include "kernels/nn/sparse_conv.h"
 
 #include <stdexcept>
 

@@ -1,7 +1,7 @@
 // A network's parameters on the device; see parameter_store.h.
 #include "nn/parameter_store.h"
 
-#include "nn/conv3d.h"
+#include "kernels/nn/conv3d.h"
 #include "scene/input_error.h"
 
 namespace icube::nn {

@@ -12,7 +12,7 @@
 #pragma once
 
 #include "gpu/buffer.h"
-#include "nn/cpu_tensor.h"
+#include "kernels/nn/cpu_tensor.h"
 #include "nn/param_spec.h"
 
 #include <cstdint>

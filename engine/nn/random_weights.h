@@ -6,7 +6,7 @@
 // "_gn" in its module path and it is 1-D.
 #pragma once
 
-#include "nn/cpu_tensor.h"
+#include "kernels/nn/cpu_tensor.h"
 #include "nn/unet_reference.h"  // ParamSpec
 
 #include <cstdint>

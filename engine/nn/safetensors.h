@@ -23,7 +23,7 @@
 // tools. Tests: tests/nn/test_safetensors.cpp; fuzz: tests/fuzz/fuzz_safetensors.cpp.
 #pragma once
 
-#include "nn/float16.h"
+#include "kernels/nn/float16.h"
 
 #include <cstddef>
 #include <cstdint>

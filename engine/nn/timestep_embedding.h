@@ -4,7 +4,7 @@
 // the GPU UNet alike. Tests: tests/nn/test_unet_reference.cpp.
 #pragma once
 
-#include "nn/cpu_tensor.h"
+#include "kernels/nn/cpu_tensor.h"
 
 #include <cstdint>
 #include <vector>

@@ -22,7 +22,7 @@
 
 #include "gpu/buffer.h"
 #include "gpu/context.h"
-#include "nn/cpu_tensor.h"
+#include "kernels/nn/cpu_tensor.h"
 #include "nn/unet_reference.h"
 
 #include <map>

@@ -1,13 +1,13 @@
 // The dense diffusion UNet as a CPU reference; see unet_reference.h.
 #include "nn/unet_reference.h"
 
-#include "nn/attention.h"
-#include "nn/conv3d.h"
-#include "nn/cpu_tensor.h"
-#include "nn/elementwise.h"
-#include "nn/group_norm.h"
-#include "nn/layer_norm.h"
-#include "nn/resample.h"
+#include "kernels/nn/attention.h"
+#include "kernels/nn/conv3d.h"
+#include "kernels/nn/cpu_tensor.h"
+#include "kernels/nn/elementwise.h"
+#include "kernels/nn/group_norm.h"
+#include "kernels/nn/layer_norm.h"
+#include "kernels/nn/resample.h"
 #include "nn/timestep_embedding.h"
 
 #include <algorithm>

@@ -10,7 +10,7 @@
 // double accumulation inside them. Tests: tests/nn/test_unet_reference.cpp.
 #pragma once
 
-#include "nn/cpu_tensor.h"
+#include "kernels/nn/cpu_tensor.h"
 #include "nn/param_spec.h"
 #include "nn/unet_config.h"
 

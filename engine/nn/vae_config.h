@@ -18,7 +18,7 @@
 // input encoder) with its fVDB shape.
 #pragma once
 
-#include "nn/sparse_cpu.h"
+#include "kernels/nn/sparse_cpu.h"
 #include "nn/param_spec.h"
 
 #include <string>

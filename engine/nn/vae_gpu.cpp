@@ -3,8 +3,8 @@
 
 #include "nn/layer_recorder.h"
 #include "nn/parameter_store.h"
-#include "nn/sparse_conv.h"
-#include "nn/sparse_grid.h"
+#include "kernels/nn/sparse_conv.h"
+#include "kernels/nn/sparse_grid.h"
 
 #include <chrono>
 #include <stdexcept>

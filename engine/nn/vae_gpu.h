@@ -19,7 +19,7 @@
 #pragma once
 
 #include "gpu/context.h"
-#include "nn/cpu_tensor.h"
+#include "kernels/nn/cpu_tensor.h"
 #include "nn/vae_config.h"
 #include "nn/vae_reference.h"
 

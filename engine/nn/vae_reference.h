@@ -18,8 +18,8 @@
 // Tests: tests/nn/test_vae_reference.cpp.
 #pragma once
 
-#include "nn/cpu_tensor.h"
-#include "nn/sparse_cpu.h"
+#include "kernels/nn/cpu_tensor.h"
+#include "kernels/nn/sparse_cpu.h"
 #include "nn/vae_config.h"
 
 #include <map>

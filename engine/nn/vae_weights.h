@@ -15,7 +15,7 @@
 // checkpoint trained with them would need FvdbKernelOrder::GridOrder.
 #pragma once
 
-#include "nn/cpu_tensor.h"
+#include "kernels/nn/cpu_tensor.h"
 #include "nn/safetensors.h"
 #include "nn/vae_config.h"
 #include "nn/weights.h"

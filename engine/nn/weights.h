@@ -10,7 +10,7 @@
 // scene::InputError naming the file and the tensor.
 #pragma once
 
-#include "nn/cpu_tensor.h"
+#include "kernels/nn/cpu_tensor.h"
 #include "nn/safetensors.h"
 #include "nn/unet_reference.h"
 

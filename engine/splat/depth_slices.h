@@ -25,7 +25,7 @@
 
 #include "gpu/buffer.h"
 #include "gpu/commands.h"
-#include "prefix_scan.h"
+#include "kernels/prefix_scan.h"
 #include "splat/splat_frame.h"
 
 #include <cstdint>

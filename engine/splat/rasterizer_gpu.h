@@ -67,8 +67,8 @@
 
 #include "gpu/buffer.h"
 #include "gpu/commands.h"
-#include "prefix_scan.h"
-#include "radix_sort.h"
+#include "kernels/prefix_scan.h"
+#include "kernels/radix_sort.h"
 #include "splat/depth_slices.h"
 #include "splat/gaussians.h"
 #include "splat/splat_frame.h"

@@ -34,7 +34,7 @@
 
 #include "gpu/buffer.h"
 #include "gpu/commands.h"
-#include "prefix_scan.h"
+#include "kernels/prefix_scan.h"
 
 #include <cstdint>
 

@@ -20,8 +20,8 @@
 
 #include "gpu/buffer.h"
 #include "gpu/commands.h"
-#include "prefix_scan.h"
-#include "radix_sort.h"
+#include "kernels/prefix_scan.h"
+#include "kernels/radix_sort.h"
 
 #include <cstdint>
 #include <memory>

@@ -1,8 +1,8 @@
 // Multi-head attention host module; see attention.h.
-#include "nn/attention.h"
+#include "kernels/nn/attention.h"
 
 #include "gpu/context.h"
-#include "nn/buffer_checks.h"
+#include "kernels/nn/buffer_checks.h"
 #include "shared/nn_params.h"
 
 #include <cmath>

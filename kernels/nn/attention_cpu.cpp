@@ -1,5 +1,5 @@
 // Plain-loop CPU references of attention; see nn/attention.h (double accumulation).
-#include "nn/attention.h"
+#include "kernels/nn/attention.h"
 
 #include <algorithm>
 #include <cmath>

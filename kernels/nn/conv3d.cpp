@@ -1,9 +1,9 @@
 // Dense conv3d host module; see conv3d.h.
-#include "nn/conv3d.h"
+#include "kernels/nn/conv3d.h"
 
 #include "gpu/context.h"
-#include "nn/buffer_checks.h"
-#include "nn/float16.h"
+#include "kernels/nn/buffer_checks.h"
+#include "kernels/nn/float16.h"
 #include "shared/nn_params.h"
 
 #include <algorithm>

@@ -19,7 +19,7 @@
 
 #include "gpu/buffer.h"
 #include "gpu/commands.h"
-#include "nn/cpu_tensor.h"
+#include "kernels/nn/cpu_tensor.h"
 
 #include <cstdint>
 #include <vector>

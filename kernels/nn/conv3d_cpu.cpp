@@ -1,5 +1,5 @@
 // Plain-loop CPU references of the convolution and linear layers; see nn/conv3d.h (double accumulation).
-#include "nn/conv3d.h"
+#include "kernels/nn/conv3d.h"
 
 #include <algorithm>
 #include <cmath>

@@ -1,5 +1,5 @@
 // The CPU tensor utilities; see cpu_tensor.h.
-#include "nn/cpu_tensor.h"
+#include "kernels/nn/cpu_tensor.h"
 
 #include <algorithm>
 #include <cmath>

@@ -1,8 +1,8 @@
 // One DDIM step on the GPU; see ddim_step.h.
-#include "nn/ddim_step.h"
+#include "kernels/nn/ddim_step.h"
 
 #include "gpu/context.h"
-#include "nn/buffer_checks.h"
+#include "kernels/nn/buffer_checks.h"
 #include "shared/nn_params.h"
 
 #include <stdexcept>

@@ -1,5 +1,5 @@
 // The DDIM step's CPU references; see ddim_step.h.
-#include "nn/ddim_step.h"
+#include "kernels/nn/ddim_step.h"
 
 namespace icube::nn::cpu {
 

@@ -1,8 +1,8 @@
 // Element-wise and resampling host module; see elementwise.h.
-#include "nn/elementwise.h"
+#include "kernels/nn/elementwise.h"
 
 #include "gpu/context.h"
-#include "nn/buffer_checks.h"
+#include "kernels/nn/buffer_checks.h"
 #include "shared/nn_params.h"
 
 #include <algorithm>

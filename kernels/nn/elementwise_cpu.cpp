@@ -1,5 +1,5 @@
 // Plain-loop CPU references of the element-wise layers; see nn/elementwise.h (double accumulation).
-#include "nn/elementwise.h"
+#include "kernels/nn/elementwise.h"
 
 #include <algorithm>
 #include <cmath>

@@ -1,5 +1,5 @@
 // Exact float16 / bfloat16 conversions; see float16.h.
-#include "nn/float16.h"
+#include "kernels/nn/float16.h"
 
 #include <cmath>
 #include <cstring>

@@ -1,8 +1,8 @@
 // GroupNorm host module; see group_norm.h.
-#include "nn/group_norm.h"
+#include "kernels/nn/group_norm.h"
 
 #include "gpu/context.h"
-#include "nn/buffer_checks.h"
+#include "kernels/nn/buffer_checks.h"
 #include "shared/nn_params.h"
 
 #include <algorithm>

@@ -21,7 +21,7 @@
 
 #include "gpu/buffer.h"
 #include "gpu/commands.h"
-#include "nn/cpu_tensor.h"
+#include "kernels/nn/cpu_tensor.h"
 
 #include <cstdint>
 

@@ -1,5 +1,5 @@
 // Plain-loop CPU references of GroupNorm and its modulations; see nn/group_norm.h (double accumulation).
-#include "nn/group_norm.h"
+#include "kernels/nn/group_norm.h"
 
 #include <algorithm>
 #include <cmath>

@@ -1,8 +1,8 @@
 // Outpainting's overwrite on the GPU; see latent_overwrite.h.
-#include "nn/latent_overwrite.h"
+#include "kernels/nn/latent_overwrite.h"
 
 #include "gpu/context.h"
-#include "nn/buffer_checks.h"
+#include "kernels/nn/buffer_checks.h"
 #include "shared/nn_params.h"
 
 namespace icube::kernels::nn {

@@ -1,5 +1,5 @@
 // Outpainting's overwrite, CPU reference; see latent_overwrite.h.
-#include "nn/latent_overwrite.h"
+#include "kernels/nn/latent_overwrite.h"
 
 namespace icube::nn::cpu {
 

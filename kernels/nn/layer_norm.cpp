@@ -1,8 +1,8 @@
 // LayerNorm-over-channels host module; see layer_norm.h.
-#include "nn/layer_norm.h"
+#include "kernels/nn/layer_norm.h"
 
 #include "gpu/context.h"
-#include "nn/buffer_checks.h"
+#include "kernels/nn/buffer_checks.h"
 #include "shared/nn_params.h"
 
 #include <stdexcept>

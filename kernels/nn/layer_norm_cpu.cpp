@@ -1,5 +1,5 @@
 // Plain-loop CPU references of LayerNorm; see nn/layer_norm.h (double accumulation).
-#include "nn/layer_norm.h"
+#include "kernels/nn/layer_norm.h"
 
 #include <algorithm>
 #include <cmath>

@@ -1,8 +1,8 @@
 // The UNet's resampling on the GPU; see resample.h.
-#include "nn/resample.h"
+#include "kernels/nn/resample.h"
 
 #include "gpu/context.h"
-#include "nn/buffer_checks.h"
+#include "kernels/nn/buffer_checks.h"
 #include "shared/nn_params.h"
 
 #include <algorithm>

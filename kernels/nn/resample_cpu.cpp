@@ -1,5 +1,5 @@
 // Plain-loop CPU references of the resampling; see nn/resample.h (double accumulation).
-#include "nn/resample.h"
+#include "kernels/nn/resample.h"
 
 #include <algorithm>
 #include <cmath>

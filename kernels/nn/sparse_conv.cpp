@@ -1,8 +1,8 @@
 // Sparse kernel maps and submanifold convolution; see sparse_conv.h.
-#include "nn/sparse_conv.h"
+#include "kernels/nn/sparse_conv.h"
 
 #include "gpu/context.h"
-#include "nn/buffer_checks.h"
+#include "kernels/nn/buffer_checks.h"
 #include "shared/nn_params.h"
 
 #include <algorithm>

@@ -1,5 +1,5 @@
 // Plain-loop CPU references of the sparse layers; see sparse_cpu.h.
-#include "nn/sparse_cpu.h"
+#include "kernels/nn/sparse_cpu.h"
 
 #include <algorithm>
 #include <cmath>

@@ -20,7 +20,7 @@
 // grid stores them. Sums accumulate in double. Tests: tests/nn/test_sparse_cpu.cpp.
 #pragma once
 
-#include "nn/cpu_tensor.h"
+#include "kernels/nn/cpu_tensor.h"
 
 #include <array>
 #include <cstdint>

@@ -1,8 +1,8 @@
 // GPU sparse grid construction; see sparse_grid.h.
-#include "nn/sparse_grid.h"
+#include "kernels/nn/sparse_grid.h"
 
 #include "gpu/context.h"
-#include "nn/buffer_checks.h"
+#include "kernels/nn/buffer_checks.h"
 #include "shared/nn_params.h"
 
 #include <algorithm>

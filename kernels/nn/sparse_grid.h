@@ -14,11 +14,11 @@
 // Tests: tests/nn/test_sparse_grid.cpp.
 #pragma once
 
-#include "fill.h"
+#include "kernels/fill.h"
 #include "gpu/buffer.h"
 #include "gpu/commands.h"
-#include "prefix_scan.h"
-#include "radix_sort.h"
+#include "kernels/prefix_scan.h"
+#include "kernels/radix_sort.h"
 
 #include <array>
 #include <cstdint>

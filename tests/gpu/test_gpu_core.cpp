@@ -3,7 +3,7 @@
 // (mapped and staged), push-descriptor fallback and GPU timestamps.
 #include <doctest/doctest.h>
 
-#include "fill.h"
+#include "kernels/fill.h"
 #include "gpu/commands.h"
 #include "gpu_test_context.h"
 #include "shared/primitives_params.h"

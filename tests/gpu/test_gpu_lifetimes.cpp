@@ -6,7 +6,7 @@
 
 #include "gpu/commands.h"
 #include "gpu_test_context.h"
-#include "prefix_scan.h"
+#include "kernels/prefix_scan.h"
 #include "shared/primitives_params.h"
 
 #include <algorithm>

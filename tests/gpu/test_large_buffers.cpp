@@ -3,8 +3,8 @@
 #include <doctest/doctest.h>
 
 #include "gpu_test_context.h"
-#include "prefix_scan.h"
-#include "reduce.h"
+#include "kernels/prefix_scan.h"
+#include "kernels/reduce.h"
 
 #include <random>
 

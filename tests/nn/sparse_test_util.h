@@ -1,7 +1,7 @@
 // Random sparse grids for the sparse-layer tests (tests/nn/test_sparse_*.cpp).
 #pragma once
 
-#include "nn/sparse_cpu.h"
+#include "kernels/nn/sparse_cpu.h"
 
 #include <algorithm>
 #include <random>

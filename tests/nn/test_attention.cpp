@@ -5,7 +5,7 @@
 #include <doctest/doctest.h>
 
 #include "gpu_test_context.h"
-#include "nn/attention.h"
+#include "kernels/nn/attention.h"
 
 #include <cmath>
 #include <random>

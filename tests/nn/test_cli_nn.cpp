@@ -6,7 +6,7 @@
 
 #include "cli_test_util.h"
 #include "gpu_test_context.h"
-#include "nn/cpu_tensor.h"
+#include "kernels/nn/cpu_tensor.h"
 #include "nn/safetensors.h"
 #include "nn/unet_config.h"
 #include "nn/unet_reference.h"

@@ -5,9 +5,9 @@
 
 #include "cli_test_util.h"
 #include "gpu_test_context.h"
-#include "nn/cpu_tensor.h"
+#include "kernels/nn/cpu_tensor.h"
 #include "nn/safetensors.h"
-#include "nn/sparse_cpu.h"
+#include "kernels/nn/sparse_cpu.h"
 #include "nn/random_weights.h"
 #include "nn/vae_config.h"
 #include "scene/atomic_file.h"

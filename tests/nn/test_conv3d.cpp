@@ -9,8 +9,8 @@
 
 #include "capped_context.h"
 #include "gpu_test_context.h"
-#include "nn/conv3d.h"
-#include "nn/float16.h"
+#include "kernels/nn/conv3d.h"
+#include "kernels/nn/float16.h"
 
 #include <algorithm>
 #include <cmath>

@@ -6,7 +6,7 @@
 
 #include "diffusion/ddim_schedule.h"
 #include "gpu_test_context.h"
-#include "nn/ddim_step.h"
+#include "kernels/nn/ddim_step.h"
 
 #include <random>
 

@@ -4,7 +4,7 @@
 #include <doctest/doctest.h>
 
 #include "gpu_test_context.h"
-#include "nn/elementwise.h"
+#include "kernels/nn/elementwise.h"
 
 #include <cmath>
 #include <random>

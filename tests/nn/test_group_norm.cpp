@@ -8,8 +8,8 @@
 #include <doctest/doctest.h>
 
 #include "gpu_test_context.h"
-#include "nn/group_norm.h"
-#include "nn/elementwise.h"
+#include "kernels/nn/group_norm.h"
+#include "kernels/nn/elementwise.h"
 
 #include <random>
 

@@ -5,7 +5,7 @@
 
 #include "diffusion/ddim_schedule.h"
 #include "gpu_test_context.h"
-#include "nn/latent_overwrite.h"
+#include "kernels/nn/latent_overwrite.h"
 
 #include <random>
 

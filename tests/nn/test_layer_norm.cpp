@@ -6,7 +6,7 @@
 #include <doctest/doctest.h>
 
 #include "gpu_test_context.h"
-#include "nn/layer_norm.h"
+#include "kernels/nn/layer_norm.h"
 
 #include <random>
 

@@ -6,7 +6,7 @@
 #include <doctest/doctest.h>
 
 #include "gpu_test_context.h"
-#include "nn/conv3d.h"
+#include "kernels/nn/conv3d.h"
 #include "nn/parameter_store.h"
 #include "scene/input_error.h"
 

@@ -5,7 +5,7 @@
 #include <doctest/doctest.h>
 
 #include "gpu_test_context.h"
-#include "nn/resample.h"
+#include "kernels/nn/resample.h"
 
 #include <random>
 

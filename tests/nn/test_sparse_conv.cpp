@@ -10,9 +10,9 @@
 
 #include "capped_context.h"
 #include "gpu_test_context.h"
-#include "nn/conv3d.h"
-#include "nn/sparse_conv.h"
-#include "nn/sparse_cpu.h"
+#include "kernels/nn/conv3d.h"
+#include "kernels/nn/sparse_conv.h"
+#include "kernels/nn/sparse_cpu.h"
 #include "sparse_test_util.h"
 
 #include <algorithm>

@@ -2,9 +2,9 @@
 // definitions: submanifold conv = dense conv3d over the zero-filled box read at
 // the sites; max pooling, subdivision, GroupNorm over active voxels; brick
 // order; grids with negative and far-from-origin coordinates.
-#include "nn/conv3d.h"
-#include "nn/group_norm.h"
-#include "nn/sparse_cpu.h"
+#include "kernels/nn/conv3d.h"
+#include "kernels/nn/group_norm.h"
+#include "kernels/nn/sparse_cpu.h"
 #include "sparse_test_util.h"
 
 #include <doctest/doctest.h>

@@ -11,10 +11,10 @@
 
 #include "capped_context.h"
 #include "gpu_test_context.h"
-#include "nn/sparse_cpu.h"
+#include "kernels/nn/sparse_cpu.h"
 #include "sparse_test_util.h"
-#include "nn/sparse_conv.h"
-#include "nn/sparse_grid.h"
+#include "kernels/nn/sparse_conv.h"
+#include "kernels/nn/sparse_grid.h"
 
 #include <random>
 #include <set>

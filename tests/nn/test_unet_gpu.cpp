@@ -7,7 +7,7 @@
 
 #include "gpu_test_context.h"
 #include "nn/unet_case_check.h"
-#include "nn/cpu_tensor.h"
+#include "kernels/nn/cpu_tensor.h"
 #include "nn/safetensors.h"
 #include "nn/unet_config.h"
 #include "nn/unet_gpu.h"

@@ -3,7 +3,7 @@
 // (max |y - y_ref| / std(y_ref) <= 1e-4); shared by tests/nn/test_unet_*.cpp.
 #pragma once
 
-#include "nn/cpu_tensor.h"
+#include "kernels/nn/cpu_tensor.h"
 #include "nn/safetensors.h"
 #include "nn/unet_reference.h"
 #include "world/npy.h"

@@ -5,8 +5,8 @@
 // CPU reference and GPU VAE tests.
 #pragma once
 
-#include "nn/cpu_tensor.h"
-#include "nn/sparse_cpu.h"
+#include "kernels/nn/cpu_tensor.h"
+#include "kernels/nn/sparse_cpu.h"
 #include "nn/vae_reference.h"
 #include "world/npy.h"
 

@@ -2,7 +2,7 @@
 // fill/copy commands, including a dispatch folded past 65,535 workgroups.
 #include <doctest/doctest.h>
 
-#include "fill.h"
+#include "kernels/fill.h"
 #include "gpu_test_context.h"
 
 using namespace icube;

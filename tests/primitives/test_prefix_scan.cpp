@@ -4,7 +4,7 @@
 #include <doctest/doctest.h>
 
 #include "gpu_test_context.h"
-#include "prefix_scan.h"
+#include "kernels/prefix_scan.h"
 
 #include <random>
 

@@ -8,7 +8,7 @@
 
 #include "capped_context.h"
 #include "gpu_test_context.h"
-#include "radix_sort.h"
+#include "kernels/radix_sort.h"
 
 #include <algorithm>
 #include <cstring>

@@ -3,8 +3,8 @@
 #include <doctest/doctest.h>
 
 #include "gpu_test_context.h"
-#include "kernel_tiles.h"
-#include "reduce.h"
+#include "kernels/kernel_tiles.h"
+#include "kernels/reduce.h"
 
 #include <algorithm>
 #include <climits>
