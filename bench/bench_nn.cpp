@@ -8,16 +8,16 @@
 // weights (and bench/torch_unet.py); --unet CONFIG: one whole forward. See
 // bench/README.md.
 #include "gpu/context.h"
-#include "nn/conv3d.h"
-#include "nn/group_norm.h"
+#include "kernels/nn/conv3d.h"
+#include "kernels/nn/group_norm.h"
 #include "nn/unet_config.h"
 #include "nn/unet_gpu.h"
 #include "nn/unet_reference.h"
 #include "nn/safetensors.h"
 #include "nn/weights.h"
-#include "nn/cpu_tensor.h"
-#include "nn/elementwise.h"
-#include "nn/attention.h"
+#include "kernels/nn/cpu_tensor.h"
+#include "kernels/nn/elementwise.h"
+#include "kernels/nn/attention.h"
 #include "world/npy.h"
 #include "torch_side.h"
 
@@ -71,60 +71,31 @@ double max_rel(const std::vector<float>& got, const std::vector<float>& want) {
 
 }  // namespace
 
-int main(int argc, char** argv) {
-  CLI::App app("icube-bench-nn: network kernels and the UNet on the GPU against their CPU references and PyTorch");
+// The benchmark's settings and one method per table; main parses the options into it and runs the tables.
+struct NnBench {
   int runs = 5, warmup = 1;
   double cpu_limit_gflop = 3.0;
   bool quick = false;
   std::string unet_config;
   std::vector<int64_t> unet_grid{8, 16, 24};
-  app.add_option("--runs", runs, "Timed runs per shape (min 5 for the tables)")->capture_default_str();
-  app.add_option("--warmup", warmup, "Untimed runs first")->capture_default_str();
-  app.add_option("--cpu-limit", cpu_limit_gflop, "Run the CPU reference only on shapes up to this many GFLOP")
-      ->capture_default_str();
-  app.add_flag("--quick", quick, "Only the small shapes");
   std::string only;
-  app.add_option("--only", only, "Only the rows whose name contains this text");
   bool released_levels = false;
-  app.add_flag("--released-levels", released_levels,
-               "Also conv3d at the released model's level shapes (64^3 x 192, 32^3 x 384, 16^3 x 768: "
-               "130-520 GFLOP each, minutes per run on lavapipe)");
   bool with_torch = false;
-  app.add_flag("--torch", with_torch,
-               "Also run PyTorch's CPU ops (bench/torch_nn.py, Debian python3-torch) on the same tensors, "
-               "torch threads = LP_NUM_THREADS");
-  app.add_option("--unet", unet_config, "Also time one whole UNet forward of this config JSON (random weights)")
-      ->type_name("CONFIG");
   std::string unet_case;
-  app.add_option("--unet-case", unet_case,
-                 "Time the official reference case in this folder (models/unet_small) with fp32 and fp16 weights: "
-                 "error against its output vs run time")
-      ->type_name("DIR");
   bool unet_no_cpu = false;
-  app.add_flag("--unet-no-cpu", unet_no_cpu, "Skip the CPU reference of the --unet forward (hours at the released size)");
   std::string unet_precision = "fp32";
-  app.add_option("--unet-precision", unet_precision, "fp32 or fp16 (weights) for the --unet forward")
-      ->check(CLI::IsMember({"fp32", "fp16"}))
-      ->capture_default_str();
-  app.add_option("--unet-grid", unet_grid, "Grid of the UNet forward")->expected(3)->capture_default_str();
-  CLI11_PARSE(app, argc, argv);
-
-  gpu::Context ctx(gpu::ContextOptions::from_env());
-  std::printf("device: %s\n", ctx.info().name.c_str());
+  gpu::Context* ctx_ptr = nullptr;
   TorchSide torch_side;
-  if (with_torch) {
-    torch_side.python = python_with_torch();
-    if (torch_side.python.empty()) {
-      std::fprintf(stderr, "icube-bench-nn: --torch needs python3 with torch and numpy (apt install python3-torch)\n");
-      return 2;
-    }
-    const char* lp = std::getenv("LP_NUM_THREADS");
-    torch_side.threads = lp ? std::max(1, std::atoi(lp)) : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
-    torch_side.runs = runs;
-    torch_side.warmup = warmup;
-    torch_side.dir = std::filesystem::temp_directory_path() / ("icube-bench-nn-" + std::to_string(getpid()));
-    std::printf("PyTorch side: %d threads (LP_NUM_THREADS%s)\n", torch_side.threads, lp ? "" : " unset: all cores");
-  }
+
+  int conv3d_table();
+  int group_norm_table();
+  int attention_table();
+  int unet_case_run();
+  int unet_forward_run();
+};
+
+int NnBench::conv3d_table() {
+  gpu::Context& ctx = *ctx_ptr;
   struct Case {
     const char* what;
     kernels::nn::Conv3dShape s;
@@ -208,7 +179,11 @@ int main(int argc, char** argv) {
                 gflop / (st.min * 1e-3), cpu_ms.c_str(), rel.c_str(), t_min.c_str(), t_med.c_str(), t_rate.c_str(),
                 t_rel.c_str());
   }
+  return 0;
+}
 
+int NnBench::group_norm_table() {
+  gpu::Context& ctx = *ctx_ptr;
   std::printf("\n%-30s %9s %10s %10s %9s %12s %10s%s\n", "group_norm+ss+silu", "MB", "gpu min", "gpu med", "GB/s",
               "cpu ref ms", "max abs", torch_side.python.empty() ? "" : "  torch min  torch med      GB/s   vs torch");
   struct GnCase {
@@ -262,7 +237,11 @@ int main(int argc, char** argv) {
     std::printf("%-30s %9.1f %10.2f %10.2f %9.2f %12.0f %10.1e%s\n", c.what, mb_moved, st.min, st.median,
                 mb_moved * 1e-3 / (st.min * 1e-3), cpu, mx, torch_cols.c_str());
   }
+  return 0;
+}
 
+int NnBench::attention_table() {
+  gpu::Context& ctx = *ctx_ptr;
   std::printf("\n%-30s %9s %10s %10s %9s %12s %10s%s\n", "attention", "GFLOP", "gpu min", "gpu med", "GFLOP/s",
               "cpu ref ms", "max rel", torch_side.python.empty() ? "" : "  torch min  torch med   GFLOP/s   vs torch");
   struct AttnCase {
@@ -339,110 +318,166 @@ int main(int argc, char** argv) {
     std::printf("%-30s %9.2f %10.2f %10.2f %9.2f %12s %10s%s\n", c.what, gflop, st.min, st.median,
                 gflop / (st.min * 1e-3), cpu_ms.c_str(), rel.c_str(), torch_cols.c_str());
   }
+  return 0;
+}
 
-  if (!unet_case.empty()) {
-    const std::string d = unet_case + "/";
-    const nn::UNetConfig cfg = nn::load_unet_config(d + "config.json");
-    const nn::UNetReference spec(cfg);
-    const nn::SafetensorsFile file(d + "weights.safetensors");
-    const auto w = nn::load_weights_cpu(file, spec.parameters(), {});
-    const world::NpyArray xa = world::read_npy(d + "case_1.x.npy"), ta = world::read_npy(d + "case_1.t.npy"),
-                          ya = world::read_npy(d + "case_1.out.npy");
-    const nn::CpuTensor x(std::vector<int64_t>(xa.shape.begin(), xa.shape.end()), xa.values<float>());
-    std::printf("\n%-28s %10s %10s %12s %16s\n", "unet_small case (official)", "gpu min", "gpu med", "weights MiB",
-                "max|y-ref|/std");
-    for (const auto& [name, prec] : {std::pair{"fp32", nn::UNetGpu::Precision::F32},
-                                     std::pair{"fp16 weights", nn::UNetGpu::Precision::F16Weights}}) {
-      nn::UNetGpu net(ctx, cfg, w, prec);
-      std::vector<double> samples;
-      nn::CpuTensor y;
-      for (int r = 0; r < warmup + runs; ++r) {
-        const auto t0 = Clock::now();
-        y = net.forward(x, ta.values<int64_t>());
-        if (r >= warmup) samples.push_back(ms_since(t0));
-      }
-      const Stats st = stats(samples);
-      std::printf("%-28s %10.1f %10.1f %12.2f %16.2e\n", name, st.min, st.median,
-                  static_cast<double>(net.weight_bytes()) / 1048576.0, nn::cpu::max_abs_over_std(y.data, ya.values<float>()));
-    }
-    if (!torch_side.python.empty()) {
-      std::filesystem::create_directories(torch_side.dir);
-      const TorchSide::Result tr = run_torch_unet(torch_side, d + "config.json", d + "weights.safetensors",
-                                                  d + "case_1.x.npy", d + "case_1.t.npy");
-      if (!tr.ok) {
-        std::fprintf(stderr, "icube-bench-nn: torch side failed: %s\n", tr.error.c_str());
-        return 1;
-      }
-      std::printf("%-28s %10.1f %10.1f %12.2f %16.2e\n", "PyTorch (torch_unet.py)", tr.min_ms, tr.median_ms,
-                  static_cast<double>(file.data_bytes()) / 1048576.0, nn::cpu::max_abs_over_std(tr.y, ya.values<float>()));
-    }
-  }
-
-  if (!unet_config.empty()) {
-    const nn::UNetConfig cfg = nn::load_unet_config(unet_config);
-    nn::UNetReference ref(cfg);
-    std::fprintf(stderr, "icube-bench-nn: random weights for %s (%llu parameters)\n", unet_config.c_str(),
-                 static_cast<unsigned long long>(ref.parameter_count()));
-    std::mt19937 rng(5);
-    std::normal_distribution<float> nd(0.0f, 0.05f);
-    std::map<std::string, nn::CpuTensor> w;
-    for (const nn::ParamSpec& p : ref.parameters()) {
-      nn::CpuTensor t(p.shape);
-      for (float& f : t.data) f = nd(rng);
-      w.emplace(p.name, std::move(t));
-    }
-    nn::UNetGpu net(ctx, cfg, w, unet_precision == "fp16" ? nn::UNetGpu::Precision::F16Weights : nn::UNetGpu::Precision::F32);
-    nn::CpuTensor x({1, cfg.in_channels, unet_grid[0], unet_grid[1], unet_grid[2]});
-    for (float& f : x.data) f = nd(rng) * 20.0f;
+int NnBench::unet_case_run() {
+  gpu::Context& ctx = *ctx_ptr;
+  const std::string d = unet_case + "/";
+  const nn::UNetConfig cfg = nn::load_unet_config(d + "config.json");
+  const nn::UNetReference spec(cfg);
+  const nn::SafetensorsFile file(d + "weights.safetensors");
+  const auto w = nn::load_weights_cpu(file, spec.parameters(), {});
+  const world::NpyArray xa = world::read_npy(d + "case_1.x.npy"), ta = world::read_npy(d + "case_1.t.npy"),
+                        ya = world::read_npy(d + "case_1.out.npy");
+  const nn::CpuTensor x(std::vector<int64_t>(xa.shape.begin(), xa.shape.end()), xa.values<float>());
+  std::printf("\n%-28s %10s %10s %12s %16s\n", "unet_small case (official)", "gpu min", "gpu med", "weights MiB",
+              "max|y-ref|/std");
+  for (const auto& [name, prec] : {std::pair{"fp32", nn::UNetGpu::Precision::F32},
+                                   std::pair{"fp16 weights", nn::UNetGpu::Precision::F16Weights}}) {
+    nn::UNetGpu net(ctx, cfg, w, prec);
     std::vector<double> samples;
     nn::CpuTensor y;
     for (int r = 0; r < warmup + runs; ++r) {
       const auto t0 = Clock::now();
-      y = net.forward(x, {500});
+      y = net.forward(x, ta.values<int64_t>());
       if (r >= warmup) samples.push_back(ms_since(t0));
     }
     const Stats st = stats(samples);
-    double cpu = -1, agreement = -1;
-    if (!unet_no_cpu) {
-      ref.set_weights(w);
-      const auto t0 = Clock::now();
-      const nn::CpuTensor want = ref.forward(x, {500});
-      cpu = ms_since(t0);
-      agreement = nn::cpu::max_abs_over_std(y.data, want.data);
-    }
-    std::string torch_text;
-    if (!torch_side.python.empty()) {
-      std::filesystem::create_directories(torch_side.dir);
-      std::vector<nn::TensorToWrite> tw;
-      for (const nn::ParamSpec& p : ref.parameters()) tw.push_back(nn::f32_tensor(p.name, p.shape, w.at(p.name).data));
-      const std::string wpath = (torch_side.dir / "unet_w.safetensors").string(), xpath = (torch_side.dir / "unet_x.npy").string(),
-                        tpath = (torch_side.dir / "unet_t.npy").string();
-      nn::write_safetensors(wpath, tw);
-      tw.clear();
-      bench::save_npy(xpath, x);
-      world::write_npy(tpath, world::NpyArray::make<int64_t>({1}, std::vector<int64_t>{500}));
-      const TorchSide::Result tr = run_torch_unet(torch_side, unet_config, wpath, xpath, tpath);
-      std::filesystem::remove(wpath);
-      if (!tr.ok) {
-        std::fprintf(stderr, "icube-bench-nn: torch side failed: %s\n", tr.error.c_str());
-        return 1;
-      }
-      char buf[160];
-      std::snprintf(buf, sizeof buf, "; PyTorch min %.1f ms, median %.1f ms, max |gpu - torch| / std %.1e", tr.min_ms,
-                    tr.median_ms, nn::cpu::max_abs_over_std(y.data, tr.y));
-      torch_text = buf;
-    }
-    bool finite = true;
-    for (const float f : y.data) finite = finite && std::isfinite(f);
-    std::printf("\nUNet forward (%s, %llu parameters, %s, grid %lldx%lldx%lld): gpu min %.1f ms, median %.1f ms "
-                "(activation pool peak %.1f MiB, weights %.1f MiB, output %s); CPU reference %.0f ms; "
-                "max |gpu - cpu| / std %.1e\n",
-                unet_config.c_str(), static_cast<unsigned long long>(ref.parameter_count()), unet_precision.c_str(),
-                static_cast<long long>(unet_grid[0]), static_cast<long long>(unet_grid[1]),
-                static_cast<long long>(unet_grid[2]), st.min, st.median,
-                static_cast<double>(net.last_activation_bytes()) / 1048576.0,
-                static_cast<double>(net.weight_bytes()) / 1048576.0, finite ? "finite" : "NOT FINITE", cpu, agreement);
-    if (!torch_text.empty()) std::printf("  %s\n", torch_text.c_str() + 2);
+    std::printf("%-28s %10.1f %10.1f %12.2f %16.2e\n", name, st.min, st.median,
+                static_cast<double>(net.weight_bytes()) / 1048576.0, nn::cpu::max_abs_over_std(y.data, ya.values<float>()));
   }
+  if (!torch_side.python.empty()) {
+    std::filesystem::create_directories(torch_side.dir);
+    const TorchSide::Result tr = run_torch_unet(torch_side, d + "config.json", d + "weights.safetensors",
+                                                d + "case_1.x.npy", d + "case_1.t.npy");
+    if (!tr.ok) {
+      std::fprintf(stderr, "icube-bench-nn: torch side failed: %s\n", tr.error.c_str());
+      return 1;
+    }
+    std::printf("%-28s %10.1f %10.1f %12.2f %16.2e\n", "PyTorch (torch_unet.py)", tr.min_ms, tr.median_ms,
+                static_cast<double>(file.data_bytes()) / 1048576.0, nn::cpu::max_abs_over_std(tr.y, ya.values<float>()));
+  }
+  return 0;
+}
+
+int NnBench::unet_forward_run() {
+  gpu::Context& ctx = *ctx_ptr;
+  const nn::UNetConfig cfg = nn::load_unet_config(unet_config);
+  nn::UNetReference ref(cfg);
+  std::fprintf(stderr, "icube-bench-nn: random weights for %s (%llu parameters)\n", unet_config.c_str(),
+               static_cast<unsigned long long>(ref.parameter_count()));
+  std::mt19937 rng(5);
+  std::normal_distribution<float> nd(0.0f, 0.05f);
+  std::map<std::string, nn::CpuTensor> w;
+  for (const nn::ParamSpec& p : ref.parameters()) {
+    nn::CpuTensor t(p.shape);
+    for (float& f : t.data) f = nd(rng);
+    w.emplace(p.name, std::move(t));
+  }
+  nn::UNetGpu net(ctx, cfg, w, unet_precision == "fp16" ? nn::UNetGpu::Precision::F16Weights : nn::UNetGpu::Precision::F32);
+  nn::CpuTensor x({1, cfg.in_channels, unet_grid[0], unet_grid[1], unet_grid[2]});
+  for (float& f : x.data) f = nd(rng) * 20.0f;
+  std::vector<double> samples;
+  nn::CpuTensor y;
+  for (int r = 0; r < warmup + runs; ++r) {
+    const auto t0 = Clock::now();
+    y = net.forward(x, {500});
+    if (r >= warmup) samples.push_back(ms_since(t0));
+  }
+  const Stats st = stats(samples);
+  double cpu = -1, agreement = -1;
+  if (!unet_no_cpu) {
+    ref.set_weights(w);
+    const auto t0 = Clock::now();
+    const nn::CpuTensor want = ref.forward(x, {500});
+    cpu = ms_since(t0);
+    agreement = nn::cpu::max_abs_over_std(y.data, want.data);
+  }
+  std::string torch_text;
+  if (!torch_side.python.empty()) {
+    std::filesystem::create_directories(torch_side.dir);
+    std::vector<nn::TensorToWrite> tw;
+    for (const nn::ParamSpec& p : ref.parameters()) tw.push_back(nn::f32_tensor(p.name, p.shape, w.at(p.name).data));
+    const std::string wpath = (torch_side.dir / "unet_w.safetensors").string(), xpath = (torch_side.dir / "unet_x.npy").string(),
+                      tpath = (torch_side.dir / "unet_t.npy").string();
+    nn::write_safetensors(wpath, tw);
+    tw.clear();
+    bench::save_npy(xpath, x);
+    world::write_npy(tpath, world::NpyArray::make<int64_t>({1}, std::vector<int64_t>{500}));
+    const TorchSide::Result tr = run_torch_unet(torch_side, unet_config, wpath, xpath, tpath);
+    std::filesystem::remove(wpath);
+    if (!tr.ok) {
+      std::fprintf(stderr, "icube-bench-nn: torch side failed: %s\n", tr.error.c_str());
+      return 1;
+    }
+    char buf[160];
+    std::snprintf(buf, sizeof buf, "; PyTorch min %.1f ms, median %.1f ms, max |gpu - torch| / std %.1e", tr.min_ms,
+                  tr.median_ms, nn::cpu::max_abs_over_std(y.data, tr.y));
+    torch_text = buf;
+  }
+  bool finite = true;
+  for (const float f : y.data) finite = finite && std::isfinite(f);
+  std::printf("\nUNet forward (%s, %llu parameters, %s, grid %lldx%lldx%lld): gpu min %.1f ms, median %.1f ms "
+              "(activation pool peak %.1f MiB, weights %.1f MiB, output %s); CPU reference %.0f ms; "
+              "max |gpu - cpu| / std %.1e\n",
+              unet_config.c_str(), static_cast<unsigned long long>(ref.parameter_count()), unet_precision.c_str(),
+              static_cast<long long>(unet_grid[0]), static_cast<long long>(unet_grid[1]),
+              static_cast<long long>(unet_grid[2]), st.min, st.median,
+              static_cast<double>(net.last_activation_bytes()) / 1048576.0,
+              static_cast<double>(net.weight_bytes()) / 1048576.0, finite ? "finite" : "NOT FINITE", cpu, agreement);
+  if (!torch_text.empty()) std::printf("  %s\n", torch_text.c_str() + 2);
+  return 0;
+}
+
+int main(int argc, char** argv) {
+  NnBench b;
+  CLI::App app("icube-bench-nn: network kernels and the UNet on the GPU against their CPU references and PyTorch");
+  app.add_option("--runs", b.runs, "Timed runs per shape (min 5 for the tables)")->capture_default_str();
+  app.add_option("--warmup", b.warmup, "Untimed runs first")->capture_default_str();
+  app.add_option("--cpu-limit", b.cpu_limit_gflop, "Run the CPU reference only on shapes up to this many GFLOP")
+      ->capture_default_str();
+  app.add_flag("--quick", b.quick, "Only the small shapes");
+  app.add_option("--only", b.only, "Only the rows whose name contains this text");
+  app.add_flag("--released-levels", b.released_levels,
+               "Also conv3d at the released model's level shapes (64^3 x 192, 32^3 x 384, 16^3 x 768: "
+               "130-520 GFLOP each, minutes per run on lavapipe)");
+  app.add_flag("--torch", b.with_torch,
+               "Also run PyTorch's CPU ops (bench/torch_nn.py, Debian python3-torch) on the same tensors, "
+               "torch threads = LP_NUM_THREADS");
+  app.add_option("--unet", b.unet_config, "Also time one whole UNet forward of this config JSON (random weights)")
+      ->type_name("CONFIG");
+  app.add_option("--unet-case", b.unet_case,
+                 "Time the official reference case in this folder (models/unet_small) with fp32 and fp16 weights: "
+                 "error against its output vs run time")
+      ->type_name("DIR");
+  app.add_flag("--unet-no-cpu", b.unet_no_cpu, "Skip the CPU reference of the --unet forward (hours at the released size)");
+  app.add_option("--unet-precision", b.unet_precision, "fp32 or fp16 (weights) for the --unet forward")
+      ->check(CLI::IsMember({"fp32", "fp16"}))
+      ->capture_default_str();
+  app.add_option("--unet-grid", b.unet_grid, "Grid of the UNet forward")->expected(3)->capture_default_str();
+  CLI11_PARSE(app, argc, argv);
+
+  gpu::Context ctx(gpu::ContextOptions::from_env());
+  b.ctx_ptr = &ctx;
+  std::printf("device: %s\n", ctx.info().name.c_str());
+  if (b.with_torch) {
+    b.torch_side.python = python_with_torch();
+    if (b.torch_side.python.empty()) {
+      std::fprintf(stderr, "icube-bench-nn: --torch needs python3 with torch and numpy (apt install python3-torch)\n");
+      return 2;
+    }
+    const char* lp = std::getenv("LP_NUM_THREADS");
+    b.torch_side.threads = lp ? std::max(1, std::atoi(lp)) : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+    b.torch_side.runs = b.runs;
+    b.torch_side.warmup = b.warmup;
+    b.torch_side.dir = std::filesystem::temp_directory_path() / ("icube-bench-nn-" + std::to_string(getpid()));
+    std::printf("PyTorch side: %d threads (LP_NUM_THREADS%s)\n", b.torch_side.threads, lp ? "" : " unset: all cores");
+  }
+  for (int (NnBench::*table)() : {&NnBench::conv3d_table, &NnBench::group_norm_table, &NnBench::attention_table})
+    if (const int rc = (b.*table)()) return rc;
+  if (!b.unet_case.empty())
+    if (const int rc = b.unet_case_run()) return rc;
+  if (!b.unet_config.empty()) return b.unet_forward_run();
   return 0;
 }

@@ -226,32 +226,25 @@ DistanceStats distance_stats(std::vector<double> v, double tolerance) {
   return s;
 }
 
-PackageEval evaluate_package(gpu::Context& ctx, const std::string& package, const scene::Scene& sc,
-                             const PackageEvalOptions& o) {
-  const scene::PackageLayout pkg(package);
-  const scene::PackageCheck check = scene::check_package(package, false);
-  if (!check.complete) throw std::runtime_error(check.problem);
-  PackageEval ev;
-  ev.package = package;
-  const std::string frames_dir = pkg.frames().string();
-  const render::FramesMeta meta = render::read_frames_meta(frames_dir);
-  const size_t n = meta.poses.size();
-  ev.frames = n;
-  ev.width = meta.width;
-  ev.height = meta.height;
-  ev.key_frames = read_key_frames(pkg.lift_report(), n);
-  const std::set<size_t> keys(ev.key_frames.begin(), ev.key_frames.end());
-  const splat::SplatScene gs = splat::read_splat_scene(pkg.splat_scene().string());
-  if (gs.has_objects())
-    for (size_t f = 0; f < n; ++f)
-      if (splat_frame_of(meta, f) >= gs.frames())
-        throw scene::InputError(pkg.splat_scene().string(), "/frames",
-                                std::to_string(gs.frames()) + " frames, but package frame " + std::to_string(f) +
-                                    " needs frame " + std::to_string(splat_frame_of(meta, f)));
-  const splat::SkyImage sky = splat::read_sky_png(pkg.sky().string());
+namespace {
 
-  // ---- novel views ----
-  auto t0 = Clock::now();
+// What the evaluations read from the package once.
+struct PackageContents {
+  scene::PackageLayout pkg;
+  std::string frames_dir;
+  render::FramesMeta meta;
+  std::set<size_t> keys;  // the key frames
+  splat::SplatScene gs;
+  splat::SkyImage sky;
+};
+
+// Novel views at T+offset of every key frame T and spread held-out frames, rendered from the Gaussians.
+void evaluate_novel_views(gpu::Context& ctx, const PackageContents& c, const PackageEvalOptions& o, PackageEval& ev) {
+  const auto t0 = Clock::now();
+  const render::FramesMeta& meta = c.meta;
+  const size_t n = meta.poses.size();
+  const std::set<size_t>& keys = c.keys;
+  const splat::SplatScene& gs = c.gs;
   std::map<size_t, size_t> wanted;  // frame -> index in ev.rendered (filled below)
   for (int off : o.offsets)
     for (size_t T : ev.key_frames)
@@ -264,11 +257,11 @@ PackageEval evaluate_package(gpu::Context& ctx, const std::string& package, cons
   for (size_t i = 0; i < m; ++i) spread.push_back(held[(2 * i + 1) * held.size() / (2 * m)]);
   for (size_t f : spread) wanted[f] = 0;
   if (!wanted.empty()) {
-    HeldOutRenderer renderer(ctx, gs, sky, meta.pixels);
+    HeldOutRenderer renderer(ctx, gs, c.sky, meta.pixels);
     size_t done = 0;
     for (auto& [f, idx] : wanted) {
       idx = ev.rendered.size();
-      ev.rendered.push_back(renderer.evaluate(frames_dir, meta, f));
+      ev.rendered.push_back(renderer.evaluate(c.frames_dir, meta, f));
       if (o.progress) o.progress("novel views", ++done, wanted.size());
     }
   }
@@ -306,11 +299,15 @@ PackageEval evaluate_package(gpu::Context& ctx, const std::string& package, cons
   for (size_t i = 0; i < ev.rendered.size(); ++i)
     if (!keep.count(i)) ev.rendered[i].rendered_rgb = {}, ev.rendered[i].reference_rgb = {};
   ev.seconds_novel = seconds_since(t0);
+}
 
-  // ---- map alignment ----
-  t0 = Clock::now();
-  const fs::path clip = clip_folder(pkg);
-  const world::VoxelGrid world = world::load_world(pkg.world().string());
+// The map drawn into the frames against their paint, and the paint's ground points against the map.
+void evaluate_map_alignment(const PackageContents& c, const scene::Scene& sc, const world::VoxelGrid& world,
+                            const PackageEvalOptions& o, PackageEval& ev) {
+  const auto t0 = Clock::now();
+  const fs::path clip = clip_folder(c.pkg);
+  const render::FramesMeta& meta = c.meta;
+  const size_t n = meta.poses.size();
   // Map heights against the world's ground: a map's z and the prior's road surface can differ (a
   // Waymo map's elevation model), which would shift every sample in the image without any horizontal
   // misalignment. The offset of each sample to the top face of the first ground-class voxel of its
@@ -414,9 +411,15 @@ PackageEval evaluate_package(gpu::Context& ctx, const std::string& package, cons
   ev.map.lane_lines = distance_stats(d_lines, o.map_tolerance_px);
   ev.map.marking_to_map = distance_stats(d_marks, o.paint_tolerance_m);
   ev.seconds_map = seconds_since(t0);
+}
 
-  // ---- LiDAR agreement ----
-  t0 = Clock::now();
+// LiDAR sweeps of the voxels (with each frame's cars) against sweeps of the Gaussians from the same poses.
+void evaluate_lidar_agreement(gpu::Context& ctx, const PackageContents& c, const scene::Scene& sc,
+                              const world::VoxelGrid& world, const PackageEvalOptions& o, PackageEval& ev) {
+  const auto t0 = Clock::now();
+  const render::FramesMeta& meta = c.meta;
+  const size_t n = meta.poses.size();
+  const uint32_t W = meta.width, H = meta.height;
   std::vector<size_t> lidar_frames;
   for (size_t f = 0; f < n; ++f)
     if (f < meta.source_time_indices.size() && meta.source_time_indices[f] >= 0 &&
@@ -455,7 +458,7 @@ PackageEval evaluate_package(gpu::Context& ctx, const std::string& package, cons
     splat::LidarGaussianSequenceOptions so;
     for (const size_t f : pick) so.scene_frames.push_back(splat_frame_of(meta, f));
     so.on_frame = [&](const render::LidarScan& s) { gaussian_scans.push_back(s); };
-    splat::cast_lidar_gaussian_sequence(caster, gs, traj, so);
+    splat::cast_lidar_gaussian_sequence(caster, c.gs, traj, so);
     for (size_t i = 0; i < pick.size(); ++i) {
       const render::LidarScan& s = gaussian_scans[i];
       const glm::dmat4 w2c = glm::inverse(meta.poses[pick[i]]);
@@ -487,6 +490,40 @@ PackageEval evaluate_package(gpu::Context& ctx, const std::string& package, cons
     ev.lidar.in_view = lidar_stats(err_view, rays_v, both_v, vo_v, go_v);
   }
   ev.seconds_lidar = seconds_since(t0);
+}
+
+}  // namespace
+
+PackageEval evaluate_package(gpu::Context& ctx, const std::string& package, const scene::Scene& sc,
+                             const PackageEvalOptions& o) {
+  const scene::PackageLayout pkg(package);
+  const scene::PackageCheck check = scene::check_package(package, false);
+  if (!check.complete) throw std::runtime_error(check.problem);
+  PackageEval ev;
+  ev.package = package;
+  PackageContents c{pkg, pkg.frames().string(), {}, {}, {}, {}};
+  c.meta = render::read_frames_meta(c.frames_dir);
+  const render::FramesMeta& meta = c.meta;
+  const size_t n = meta.poses.size();
+  ev.frames = n;
+  ev.width = meta.width;
+  ev.height = meta.height;
+  ev.key_frames = read_key_frames(pkg.lift_report(), n);
+  c.keys = std::set<size_t>(ev.key_frames.begin(), ev.key_frames.end());
+  c.gs = splat::read_splat_scene(pkg.splat_scene().string());
+  const splat::SplatScene& gs = c.gs;
+  if (gs.has_objects())
+    for (size_t f = 0; f < n; ++f)
+      if (splat_frame_of(meta, f) >= gs.frames())
+        throw scene::InputError(pkg.splat_scene().string(), "/frames",
+                                std::to_string(gs.frames()) + " frames, but package frame " + std::to_string(f) +
+                                    " needs frame " + std::to_string(splat_frame_of(meta, f)));
+  c.sky = splat::read_sky_png(pkg.sky().string());
+
+  evaluate_novel_views(ctx, c, o, ev);
+  const world::VoxelGrid world = world::load_world(pkg.world().string());
+  evaluate_map_alignment(c, sc, world, o, ev);
+  evaluate_lidar_agreement(ctx, c, sc, world, o, ev);
   return ev;
 }
 
