@@ -1,21 +1,16 @@
 // Counter-based Gaussian noise; see counter_noise.h.
 #include "diffusion/counter_noise.h"
 
+#include <Random123/philox.h>
+
 #include <cmath>
 
 namespace icube::diffusion {
 
 std::array<uint32_t, 4> philox4x32_10(std::array<uint32_t, 4> c, std::array<uint32_t, 2> k) {
-  constexpr uint32_t kMul0 = 0xD2511F53u, kMul1 = 0xCD9E8D57u;   // Philox4x32 multipliers
-  constexpr uint32_t kWeyl0 = 0x9E3779B9u, kWeyl1 = 0xBB67AE85u;  // key schedule (golden ratio, sqrt(3) - 1)
-  for (int round = 0; round < 10; ++round) {
-    const uint64_t p0 = uint64_t{kMul0} * c[0], p1 = uint64_t{kMul1} * c[2];
-    c = {static_cast<uint32_t>(p1 >> 32) ^ c[1] ^ k[0], static_cast<uint32_t>(p1), static_cast<uint32_t>(p0 >> 32) ^ c[3] ^ k[1],
-         static_cast<uint32_t>(p0)};
-    k[0] += kWeyl0;
-    k[1] += kWeyl1;
-  }
-  return c;
+  const r123::Philox4x32_R<10> philox;
+  const r123::Philox4x32_R<10>::ctr_type out = philox({{c[0], c[1], c[2], c[3]}}, {{k[0], k[1]}});
+  return {out[0], out[1], out[2], out[3]};
 }
 
 void normal_noise(const NoiseStream& s, uint64_t first, float* out, size_t n) {

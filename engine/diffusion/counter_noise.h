@@ -2,7 +2,8 @@
 // (seed, chunk, step, purpose) is a pure function of those five numbers, so a
 // world is the same on any device, thread count and chunk order, and one chunk
 // can be regenerated alone. Philox4x32-10 (Salmon et al., "Parallel random
-// numbers: as easy as 1, 2, 3", SC 2011; the constants of Random123) keyed by
+// numbers: as easy as 1, 2, 3", SC 2011; Random123's own implementation, Debian
+// librandom123-dev) keyed by
 // the 64-bit seed, counter (e / 4, step, chunk, purpose), gives 4 uint32; each
 // pair (u1, u2), u = (x + 0.5) / 2^32, becomes two normals by Box-Muller in
 // double, sqrt(-2 ln u1) * (cos, sin)(2 pi u2), rounded to float. Made on the

@@ -8,6 +8,8 @@
 //   otherwise          the extension: .json, .tfrecord / .tfrecord-NNNNN-of-NNNNN, .xodr
 #include "scene/scene_load.h"
 
+#include "scene/tfrecord.h"
+
 #include "scene/scene_json.h"
 #include "scene/waymo_reader.h"
 
@@ -31,21 +33,6 @@ const char* const kSupported =
     "supported: icube scene JSON (.json), Waymo Open Motion Dataset Scenario TFRecord (.tfrecord), "
     "OpenDRIVE 1.4-1.8 (.xodr)";
 
-// CRC32C (Castagnoli, reflected polynomial 0x82F63B78), bitwise: only 8 bytes are hashed here.
-uint32_t crc32c(const uint8_t* data, size_t size) {
-  uint32_t crc = 0xFFFFFFFFu;
-  for (size_t i = 0; i < size; ++i) {
-    crc ^= data[i];
-    for (int k = 0; k < 8; ++k) crc = (crc >> 1) ^ (0x82F63B78u & (0u - (crc & 1u)));
-  }
-  return crc ^ 0xFFFFFFFFu;
-}
-
-uint32_t masked_crc32c(const uint8_t* data, size_t size) {
-  const uint32_t c = crc32c(data, size);
-  return ((c >> 15) | (c << 17)) + 0xA282EAD8u;
-}
-
 uint64_t load_le(const uint8_t* p, int bytes) {
   uint64_t v = 0;
   for (int i = bytes - 1; i >= 0; --i) v = (v << 8) | p[i];
@@ -64,7 +51,7 @@ bool looks_like_tfrecord(std::string_view head) {
   if (head.size() < 12) return false;
   const auto* p = reinterpret_cast<const uint8_t*>(head.data());
   const uint64_t length = load_le(p, 8);
-  return length > 0 && length <= kMaxPlausibleRecord && uint32_t(load_le(p + 8, 4)) == masked_crc32c(p, 8);
+  return length > 0 && length <= kMaxPlausibleRecord && uint32_t(load_le(p + 8, 4)) == mask_crc32c(crc32c(p, 8));
 }
 
 // The name of the XML root element, "" when `s` is not XML or the prolog runs past the sniffed bytes.
