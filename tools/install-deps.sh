@@ -8,7 +8,7 @@ packages=(
   libvulkan-dev mesa-vulkan-drivers vulkan-validationlayers vulkan-tools glslang-tools
   libglfw3-dev libglm-dev libimgui-dev libtinygltf-dev libstb-dev
   doctest-dev nlohmann-json3-dev libcli11-dev libpugixml-dev
-  libavcodec-dev libavformat-dev libavutil-dev libswscale-dev zlib1g-dev libssl-dev
+  libavcodec-dev libavformat-dev libavutil-dev libswscale-dev zlib1g-dev libssl-dev librandom123-dev libspng-dev
   python3-numpy
   xvfb xauth
 )

@@ -1,5 +1,5 @@
-// PNG writers: 8-bit through stb_image_write, 16-bit grey through a small
-// chunk writer (IHDR/IDAT/IEND, CRC-32) around stb's zlib compressor.
+// PNG writers: each path through the encoder measured fastest for it
+// (bench/README.md, "PNG encoders"); see png_write.h.
 #include "scene/png_write.h"
 
 #include "scene/atomic_file.h"
@@ -20,6 +20,8 @@
 
 #include <zlib.h>
 #pragma GCC diagnostic pop
+
+#include <spng.h>
 
 #include <array>
 #include <cstdlib>
@@ -46,96 +48,81 @@ void append_to_string(void* context, void* data, int size) {
   static_cast<std::string*>(context)->append(static_cast<const char*>(data), static_cast<size_t>(size));
 }
 
-uint32_t crc32(const uint8_t* data, size_t n, uint32_t crc = 0) {
-  static const std::array<uint32_t, 256> table = [] {
-    std::array<uint32_t, 256> t{};
-    for (uint32_t i = 0; i < 256; ++i) {
-      uint32_t c = i;
-      for (int k = 0; k < 8; ++k) c = (c & 1u) ? 0xEDB88320u ^ (c >> 1) : c >> 1;
-      t[i] = c;
-    }
-    return t;
-  }();
-  crc = ~crc;
-  for (size_t i = 0; i < n; ++i) crc = table[(crc ^ data[i]) & 0xFFu] ^ (crc >> 8);
-  return ~crc;
-}
-
 void put_be32(std::string& out, uint32_t v) {
   for (int shift = 24; shift >= 0; shift -= 8) out.push_back(static_cast<char>((v >> shift) & 0xFFu));
 }
 
-void put_chunk(std::string& out, const char type[4], const uint8_t* data, size_t n) {
+void put_chunk(std::string& out, const char type[4], const uint8_t* data, size_t n) {  // length, type, data, CRC-32
   put_be32(out, static_cast<uint32_t>(n));
   std::string body(type, 4);
   if (n) body.append(reinterpret_cast<const char*>(data), n);
   out += body;
-  put_be32(out, crc32(reinterpret_cast<const uint8_t*>(body.data()), body.size()));
+  put_be32(out, static_cast<uint32_t>(::crc32(0L, reinterpret_cast<const Bytef*>(body.data()), static_cast<uInt>(body.size()))));
 }
 
 uint8_t paeth(int a, int b, int c) {
   const int p = a + b - c, pa = std::abs(p - a), pb = std::abs(p - b), pc = std::abs(p - c);
-  return static_cast<uint8_t>(pa <= pb && pa <= pc ? a : (pb <= pc ? b : c));
+  return static_cast<uint8_t>(pa <= pb && pa <= pc ? a : pb <= pc ? b : c);
 }
 
-// Filters one row of `n` bytes with filter `type` (0-4), `bpp` bytes per pixel.
-void filter_row(int type, const uint8_t* row, const uint8_t* prior, size_t n, size_t bpp, uint8_t* out) {
-  for (size_t i = 0; i < n; ++i) {
-    const int a = i >= bpp ? row[i - bpp] : 0, b = prior ? prior[i] : 0, c = (prior && i >= bpp) ? prior[i - bpp] : 0;
-    int predicted = 0;
-    switch (type) {
-      case 1: predicted = a; break;
-      case 2: predicted = b; break;
-      case 3: predicted = (a + b) / 2; break;
-      case 4: predicted = paeth(a, b, c); break;
-      default: break;
-    }
-    out[i] = static_cast<uint8_t>(row[i] - predicted);
+// 16-bit grey, PngSpeed::Fast: every row Paeth-filtered, zlib level 1, one IDAT. Kept beside libspng
+// because it is measurably faster on this one path (bench/README.md, "PNG encoders": 3.7 against
+// 4.7 ms for an 832 x 480 instance map at the same size).
+std::string encode_gray16_paeth_fast(const uint16_t* samples, size_t w, size_t h) {
+  const size_t stride = w * 2;
+  std::vector<uint8_t> be(stride * h);  // PNG samples are big-endian
+  for (size_t i = 0; i < w * h; ++i) {
+    be[2 * i] = static_cast<uint8_t>(samples[i] >> 8);
+    be[2 * i + 1] = static_cast<uint8_t>(samples[i] & 0xFFu);
   }
-}
-
-// PNG from rows of `stride` bytes with `bpp` bytes per pixel: each row filtered with the filter
-// that gives the smallest sum of |signed residuals| (the usual heuristic; Fast: Paeth), then zlib.
-std::string encode_rows(const uint8_t* rows, size_t stride, size_t h, size_t bpp, int width, int height,
-                        uint8_t bit_depth, uint8_t colour_type, PngSpeed speed) {
-  std::vector<uint8_t> raw((stride + 1) * h), trial(stride), best(stride);
+  std::vector<uint8_t> raw((stride + 1) * h);
   for (size_t y = 0; y < h; ++y) {
-    const uint8_t* row = rows + y * stride;
-    const uint8_t* prior = y ? rows + (y - 1) * stride : nullptr;
-    uint64_t best_cost = std::numeric_limits<uint64_t>::max();
-    int best_type = 0;
-    // Fast: Paeth alone (the best single filter for photographs; zero on flat masks).
-    for (int type = speed == PngSpeed::Fast ? 4 : 0; type <= 4; ++type) {
-      filter_row(type, row, prior, stride, bpp, trial.data());
-      uint64_t cost = 0;
-      for (uint8_t v : trial) cost += static_cast<uint64_t>(v < 128 ? v : 256 - v);
-      if (cost < best_cost) best_cost = cost, best_type = type, best.swap(trial);
+    const uint8_t* row = be.data() + y * stride;
+    const uint8_t* prior = y ? row - stride : nullptr;
+    uint8_t* out = &raw[y * (stride + 1)];
+    out[0] = 4;  // Paeth
+    for (size_t i = 0; i < stride; ++i) {
+      const int a = i >= 2 ? row[i - 2] : 0, b = prior ? prior[i] : 0, c = prior && i >= 2 ? prior[i - 2] : 0;
+      out[i + 1] = static_cast<uint8_t>(row[i] - paeth(a, b, c));
     }
-    raw[y * (stride + 1)] = static_cast<uint8_t>(best_type);
-    std::copy(best.begin(), best.end(), raw.begin() + static_cast<long>(y * (stride + 1) + 1));
   }
-  std::string out("\x89PNG\r\n\x1a\n", 8);
+  std::string png("\x89PNG\r\n\x1a\n", 8);
   std::string ihdr;
-  put_be32(ihdr, static_cast<uint32_t>(width));
-  put_be32(ihdr, static_cast<uint32_t>(height));
-  ihdr.push_back(static_cast<char>(bit_depth));
-  ihdr.push_back(static_cast<char>(colour_type));
-  ihdr += std::string("\x00\x00\x00", 3);  // deflate, adaptive filtering, no interlace
-  put_chunk(out, "IHDR", reinterpret_cast<const uint8_t*>(ihdr.data()), ihdr.size());
-  if (speed == PngSpeed::Fast) {
-    uLongf zlen = compressBound(static_cast<uLong>(raw.size()));
-    std::vector<uint8_t> z(zlen);
-    if (compress2(z.data(), &zlen, raw.data(), static_cast<uLong>(raw.size()), 1) != Z_OK)
-      throw std::runtime_error("png: zlib compression failed");
-    put_chunk(out, "IDAT", z.data(), static_cast<size_t>(zlen));
-  } else {
-    int zlen = 0;
-    unsigned char* z = stbi_zlib_compress(raw.data(), static_cast<int>(raw.size()), &zlen, 8);
-    if (!z) throw std::runtime_error("png: zlib compression failed");
-    put_chunk(out, "IDAT", z, static_cast<size_t>(zlen));
-    std::free(z);
-  }
-  put_chunk(out, "IEND", nullptr, 0);
+  put_be32(ihdr, static_cast<uint32_t>(w));
+  put_be32(ihdr, static_cast<uint32_t>(h));
+  ihdr += std::string("\x10\x00\x00\x00\x00", 5);  // 16-bit grey, deflate, adaptive filtering, no interlace
+  put_chunk(png, "IHDR", reinterpret_cast<const uint8_t*>(ihdr.data()), ihdr.size());
+  uLongf zlen = compressBound(static_cast<uLong>(raw.size()));
+  std::vector<uint8_t> z(zlen);
+  if (compress2(z.data(), &zlen, raw.data(), static_cast<uLong>(raw.size()), 1) != Z_OK)
+    throw std::runtime_error("png: zlib compression failed");
+  put_chunk(png, "IDAT", z.data(), static_cast<size_t>(zlen));
+  put_chunk(png, "IEND", nullptr, 0);
+  return png;
+}
+
+// libspng: zlib `level`, the filters in `filters` (SPNG_FILTER_CHOICE_*), 8-bit samples or 16-bit ones
+// in host order (libspng writes them big-endian).
+std::string encode_spng(const void* samples, size_t bytes, int width, int height, uint8_t bit_depth, uint8_t colour_type,
+                        int level, int filters) {
+  spng_ctx* ctx = spng_ctx_new(SPNG_CTX_ENCODER);
+  if (!ctx) throw std::runtime_error("png: out of memory");
+  spng_set_option(ctx, SPNG_ENCODE_TO_BUFFER, 1);
+  spng_set_option(ctx, SPNG_IMG_COMPRESSION_LEVEL, level);
+  spng_set_option(ctx, SPNG_FILTER_CHOICE, filters);
+  spng_ihdr ihdr{};
+  ihdr.width = static_cast<uint32_t>(width);
+  ihdr.height = static_cast<uint32_t>(height);
+  ihdr.bit_depth = bit_depth;
+  ihdr.color_type = colour_type;
+  int err = spng_set_ihdr(ctx, &ihdr);
+  if (!err) err = spng_encode_image(ctx, samples, bytes, SPNG_FMT_PNG, SPNG_ENCODE_FINALIZE);
+  size_t len = 0;
+  void* buf = err ? nullptr : spng_get_png_buffer(ctx, &len, &err);
+  spng_ctx_free(ctx);
+  if (!buf) throw std::runtime_error(std::string("png: libspng: ") + spng_strerror(err));
+  std::string out(static_cast<const char*>(buf), len);
+  std::free(buf);
   return out;
 }
 
@@ -145,10 +132,10 @@ std::string encode_png(const uint8_t* pixels, int width, int height, int channel
   if (channels < 1 || channels > 4) throw std::invalid_argument("png: channels must be 1..4, got " + std::to_string(channels));
   check_size(width, height, channels);
   if (speed == PngSpeed::Fast) {
-    static constexpr uint8_t kColourType[5] = {0, 0, 4, 2, 6};  // grey, grey+alpha, RGB, RGBA
-    const size_t stride = static_cast<size_t>(width) * static_cast<size_t>(channels);
-    return encode_rows(pixels, stride, static_cast<size_t>(height), static_cast<size_t>(channels), width, height, 8,
-                       kColourType[channels], speed);
+    static constexpr uint8_t kColourType[5] = {0, SPNG_COLOR_TYPE_GRAYSCALE, SPNG_COLOR_TYPE_GRAYSCALE_ALPHA,
+                                               SPNG_COLOR_TYPE_TRUECOLOR, SPNG_COLOR_TYPE_TRUECOLOR_ALPHA};
+    const size_t bytes = static_cast<size_t>(width) * static_cast<size_t>(height) * static_cast<size_t>(channels);
+    return encode_spng(pixels, bytes, width, height, 8, kColourType[channels], 1, SPNG_FILTER_CHOICE_PAETH);
   }
   std::string out;
   if (!stbi_write_png_to_func(append_to_string, &out, width, height, channels, pixels, width * channels))
@@ -159,13 +146,9 @@ std::string encode_png(const uint8_t* pixels, int width, int height, int channel
 
 std::string encode_png_gray16(const uint16_t* samples, int width, int height, PngSpeed speed) {
   check_size(width, height, 2);
-  const size_t w = static_cast<size_t>(width), h = static_cast<size_t>(height), stride = w * 2;
-  std::vector<uint8_t> be(stride * h);  // PNG samples are big-endian
-  for (size_t i = 0; i < w * h; ++i) {
-    be[2 * i] = static_cast<uint8_t>(samples[i] >> 8);
-    be[2 * i + 1] = static_cast<uint8_t>(samples[i] & 0xFFu);
-  }
-  return encode_rows(be.data(), stride, h, 2, width, height, 16, 0, speed);
+  const size_t w = static_cast<size_t>(width), h = static_cast<size_t>(height);
+  if (speed == PngSpeed::Fast) return encode_gray16_paeth_fast(samples, w, h);
+  return encode_spng(samples, w * h * 2, width, height, 16, SPNG_COLOR_TYPE_GRAYSCALE, 8, SPNG_FILTER_CHOICE_ALL);
 }
 
 void write_png(const std::string& path, const uint8_t* pixels, int width, int height, int channels) {

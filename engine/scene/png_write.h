@@ -1,11 +1,15 @@
 // PNG encoding to memory and atomic PNG files (formats.md §10).
 //
-// 8-bit images (grey, grey+alpha, RGB, RGBA) go through stb_image_write.
-// 16-bit grey (depth in cm, instance ids) and PngSpeed::Fast have their own
-// small encoder (stb_image_write only writes 8-bit samples, slowly): samples are stored big-endian as
-// PNG requires (colour type 0, bit depth 16), rows filtered adaptively, and
-// compressed with stb's zlib. No gamma/sRGB chunks are written, so data PNGs
-// read back exactly.
+// Each path goes through the encoder measured fastest for it on the package's
+// images (icube-bench-png, bench/README.md "PNG encoders"; every candidate
+// decodes to the same pixels):
+//   8-bit Small   stb_image_write (its zlib; faster than libspng at zlib 6-8, files ~40 % larger)
+//   8-bit Fast    libspng, zlib 1, Paeth (1.4x faster than our own Paeth + zlib 1, same size)
+//   16-bit Small  libspng, zlib 8, adaptive filters (1.7x faster than our filter + stb zlib, 1/6 the size)
+//   16-bit Fast   our own Paeth rows + zlib 1 (1.25x faster than libspng's at the same size: the
+//                 one path where the hand-written encoder is kept)
+// 16-bit samples are written big-endian as PNG requires (grey, bit depth 16).
+// No gamma/sRGB chunks are written, so data PNGs read back exactly.
 #pragma once
 
 #include <cstdint>
@@ -13,9 +17,8 @@
 
 namespace icube::scene {
 
-// Small: stb's encoder (its zlib at level 8). Fast: Paeth-filtered rows and zlib's deflate at
-// level 1 (on an 832 x 480 frame ~4x faster than Small and ~20 % smaller: stb's deflate is weak), for frames written while the next
-// renders (icube frames render). Both decode to the same pixels.
+// Small: the smaller files (Stage 2's buffers, sheets). Fast: Paeth rows at zlib level 1, for frames
+// written while the next renders (icube frames render). Both decode to the same pixels.
 enum class PngSpeed { Small, Fast };
 
 // Rows are tightly packed (width · channels bytes); channels 1-4.
