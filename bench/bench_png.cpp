@@ -36,34 +36,10 @@ struct Image {
   std::vector<uint16_t> gray16;
 };
 
-// libspng at a zlib level and a filter choice; 16-bit samples in host order (libspng's encoder swaps them
-// to PNG's big-endian itself: handing it big-endian samples round-trips byte-swapped).
+// libspng at a zlib level and a filter choice (scene::encode_png_libspng).
 std::string spng_encode(const Image& im, int level, int filters) {
-  spng_ctx* ctx = spng_ctx_new(SPNG_CTX_ENCODER);
-  if (!ctx) throw std::runtime_error("spng_ctx_new failed");
-  spng_set_option(ctx, SPNG_ENCODE_TO_BUFFER, 1);
-  spng_set_option(ctx, SPNG_IMG_COMPRESSION_LEVEL, level);
-  spng_set_option(ctx, SPNG_FILTER_CHOICE, filters);
-  spng_ihdr ihdr{};
-  ihdr.width = static_cast<uint32_t>(im.width);
-  ihdr.height = static_cast<uint32_t>(im.height);
-  ihdr.bit_depth = im.channels == 3 ? 8 : 16;
-  ihdr.color_type = im.channels == 3 ? SPNG_COLOR_TYPE_TRUECOLOR : SPNG_COLOR_TYPE_GRAYSCALE;
-  spng_set_ihdr(ctx, &ihdr);
-  const void* data = im.rgb.data();
-  size_t bytes = im.rgb.size();
-  if (im.channels == 1) {
-    data = im.gray16.data();
-    bytes = im.gray16.size() * 2;
-  }
-  int err = spng_encode_image(ctx, data, bytes, SPNG_FMT_PNG, SPNG_ENCODE_FINALIZE);
-  size_t len = 0;
-  void* buf = err ? nullptr : spng_get_png_buffer(ctx, &len, &err);
-  spng_ctx_free(ctx);
-  if (!buf) throw std::runtime_error(std::string("spng: ") + spng_strerror(err));
-  std::string out(static_cast<const char*>(buf), len);
-  std::free(buf);
-  return out;
+  return scene::encode_png_libspng(im.rgb.data(), im.channels == 1 ? im.gray16.data() : nullptr, im.width, im.height,
+                                   im.channels, level, filters);
 }
 
 std::string ours(const Image& im, scene::PngSpeed speed) {

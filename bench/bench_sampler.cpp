@@ -174,6 +174,66 @@ void write_plot(const std::vector<Row>& rows, int ref_steps, const std::string& 
 
 }  // namespace
 
+// The UNet behind the host form of the Denoiser only: the sampler's default device path then reads the
+// input back, runs the UNet on host tensors and uploads its prediction (a latent through the host).
+struct HostTensorDenoiser final : diffusion::Denoiser {
+  nn::UNetGpu& net;
+  explicit HostTensorDenoiser(nn::UNetGpu& n) : net(n) {}
+  nn::CpuTensor predict(const nn::CpuTensor& x_in, int t) override {
+    return net.forward(x_in, std::vector<int64_t>(static_cast<size_t>(x_in.shape[0]), t));
+  }
+};
+
+// --traffic: bytes between host and device and time per step, guidance 2 with eta 0, eta 1, and
+// outpainting (half the cells known), for both denoiser forms, and what the sampler before the
+// device path moved (its transfer list: the UNet's input and output, then x, both predictions and
+// the noise up and x down for the step, x and the noise up and x down for the overwrite).
+void run_traffic(gpu::Context& ctx, nn::UNetGpu& net, const nn::CpuTensor& cond, int model_channels, int runs, uint64_t seed) {
+  const int64_t S = cond.shape[1] * cond.shape[2] * cond.shape[3];
+  const uint64_t n = 8 * static_cast<uint64_t>(S), lat = n * 4;
+  diffusion::KnownLatents known;
+  known.mask.assign(static_cast<size_t>(S), 0);
+  known.values.assign(static_cast<size_t>(n), 0.5f);
+  for (size_t v = 0; v < known.mask.size(); v += 2) known.mask[v] = 1;
+  std::printf("\n| case | denoiser | host bytes per step | old sampler's bytes per step | min ms per step | median ms per step |\n"
+              "|---|---|---|---|---|---|\n");
+  struct Case {
+    const char* name;
+    float eta;
+    bool outpaint;
+  };
+  for (const Case c : {Case{"guidance 2, eta 0", 0.0f, false}, Case{"guidance 2, eta 1", 1.0f, false},
+                       Case{"guidance 2, eta 0, outpainting", 0.0f, true}}) {
+    diffusion::SamplerOptions o;
+    o.ddim.steps = 10;
+    o.ddim.eta = c.eta;
+    o.cfg_scale = 2.0f;
+    o.seed = seed;
+    const uint64_t B = 2, old = B * (8 + 8) * static_cast<uint64_t>(S) * 4 + B * model_channels * 4 + B * lat +  // UNet in, out
+                                (2 + B) * lat + (c.eta != 0.0f ? lat : 0) +                                      // step
+                                (c.outpaint ? 3 * lat : 0);                                                      // overwrite
+    diffusion::UNetDenoiser device(net);
+    HostTensorDenoiser host(net);
+    for (diffusion::Denoiser* d : {static_cast<diffusion::Denoiser*>(&device), static_cast<diffusion::Denoiser*>(&host)}) {
+      diffusion::sample_chunk(*d, 8, cond, c.outpaint ? &known : nullptr, 0, o, &ctx);  // warm-up
+      std::vector<double> ms;
+      uint64_t bytes = 0;
+      for (int r = 0; r < runs; ++r) {
+        const Clock::time_point t0 = Clock::now();
+        const diffusion::ChunkSample cs = diffusion::sample_chunk(*d, 8, cond, c.outpaint ? &known : nullptr, 0, o, &ctx);
+        ms.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count() / static_cast<double>(cs.steps.size()));
+        bytes = 0;
+        for (const diffusion::StepTiming& st : cs.steps) bytes = std::max(bytes, st.host_bytes);
+      }
+      const bench::Summary sm = bench::summarize(ms);
+      std::printf("| %s | %s | %llu (max over steps) | %llu | %.1f | %.1f |\n", c.name,
+                  d == &device ? "UNetDenoiser (device tensors)" : "host tensors", static_cast<unsigned long long>(bytes),
+                  static_cast<unsigned long long>(old), sm.min_ms, sm.median_ms);
+      std::fflush(stdout);
+    }
+  }
+}
+
 int main(int argc, char** argv) {
   CLI::App app{"icube-bench-sampler: DDIM steps, eta, fp16 weights and guidance against run time (latent error, voxel agreement)"};
   int grid = 8, runs = 5, ref_steps = 1000;
@@ -190,6 +250,10 @@ int main(int argc, char** argv) {
   app.add_option("--model", unet_model, "UNet config or preset (random weights)")->capture_default_str();
   app.add_option("--vae-model", vae_model, "VAE config or preset (random weights)")->capture_default_str();
   app.add_option("--png", png, "Write the error-against-time plot here")->type_name("PLOT.png");
+  bool traffic = false;
+  app.add_flag("--traffic", traffic,
+               "Only the host<->device bytes and time per step: the latent on the device (UNetDenoiser) against a "
+               "denoiser that takes and returns host tensors, side by side");
   CLI11_PARSE(app, argc, argv);
   if (grid % 8 != 0) {
     std::fprintf(stderr, "icube-bench-sampler: --grid %d is not a multiple of 8 (the UNet halves it three times)\n", grid);
@@ -218,6 +282,10 @@ int main(int argc, char** argv) {
       o.seed = seed;
       return diffusion::sample_chunk(d, 8, cond, nullptr, 0, o, &ctx).latent.data;
     };
+    if (traffic) {
+      run_traffic(ctx, net32, cond, ucfg.model_channels, runs, seed);
+      return 0;
+    }
     std::map<float, std::pair<std::vector<float>, Decoded>> refs;
     for (const float cfg : cfgs) {
       const Clock::time_point t0 = Clock::now();

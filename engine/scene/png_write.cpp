@@ -131,12 +131,7 @@ std::string encode_spng(const void* samples, size_t bytes, int width, int height
 std::string encode_png(const uint8_t* pixels, int width, int height, int channels, PngSpeed speed) {
   if (channels < 1 || channels > 4) throw std::invalid_argument("png: channels must be 1..4, got " + std::to_string(channels));
   check_size(width, height, channels);
-  if (speed == PngSpeed::Fast) {
-    static constexpr uint8_t kColourType[5] = {0, SPNG_COLOR_TYPE_GRAYSCALE, SPNG_COLOR_TYPE_GRAYSCALE_ALPHA,
-                                               SPNG_COLOR_TYPE_TRUECOLOR, SPNG_COLOR_TYPE_TRUECOLOR_ALPHA};
-    const size_t bytes = static_cast<size_t>(width) * static_cast<size_t>(height) * static_cast<size_t>(channels);
-    return encode_spng(pixels, bytes, width, height, 8, kColourType[channels], 1, SPNG_FILTER_CHOICE_PAETH);
-  }
+  if (speed == PngSpeed::Fast) return encode_png_libspng(pixels, nullptr, width, height, channels, 1, SPNG_FILTER_CHOICE_PAETH);
   std::string out;
   if (!stbi_write_png_to_func(append_to_string, &out, width, height, channels, pixels, width * channels))
     throw std::runtime_error("png: stb_image_write failed to encode a " + std::to_string(width) + " x " +
@@ -148,7 +143,22 @@ std::string encode_png_gray16(const uint16_t* samples, int width, int height, Pn
   check_size(width, height, 2);
   const size_t w = static_cast<size_t>(width), h = static_cast<size_t>(height);
   if (speed == PngSpeed::Fast) return encode_gray16_paeth_fast(samples, w, h);
-  return encode_spng(samples, w * h * 2, width, height, 16, SPNG_COLOR_TYPE_GRAYSCALE, 8, SPNG_FILTER_CHOICE_ALL);
+  return encode_png_libspng(nullptr, samples, width, height, 1, 8, SPNG_FILTER_CHOICE_ALL);
+}
+
+std::string encode_png_libspng(const uint8_t* pixels, const uint16_t* gray16, int width, int height, int channels,
+                               int zlib_level, int filter_choice) {
+  static constexpr uint8_t kColourType[5] = {0, SPNG_COLOR_TYPE_GRAYSCALE, SPNG_COLOR_TYPE_GRAYSCALE_ALPHA,
+                                             SPNG_COLOR_TYPE_TRUECOLOR, SPNG_COLOR_TYPE_TRUECOLOR_ALPHA};
+  if (gray16) {
+    check_size(width, height, 2);
+    return encode_spng(gray16, static_cast<size_t>(width) * static_cast<size_t>(height) * 2, width, height, 16,
+                       SPNG_COLOR_TYPE_GRAYSCALE, zlib_level, filter_choice);
+  }
+  if (channels < 1 || channels > 4) throw std::invalid_argument("png: channels must be 1..4, got " + std::to_string(channels));
+  check_size(width, height, channels);
+  const size_t bytes = static_cast<size_t>(width) * static_cast<size_t>(height) * static_cast<size_t>(channels);
+  return encode_spng(pixels, bytes, width, height, 8, kColourType[channels], zlib_level, filter_choice);
 }
 
 void write_png(const std::string& path, const uint8_t* pixels, int width, int height, int channels) {

@@ -27,6 +27,12 @@ std::string encode_png(const uint8_t* pixels, int width, int height, int channel
 // Host-order uint16 samples, one per pixel.
 std::string encode_png_gray16(const uint16_t* samples, int width, int height, PngSpeed speed = PngSpeed::Small);
 
+// libspng at an explicit zlib level (0-9) and filter choice (spng.h's SPNG_FILTER_CHOICE_* bits): 8-bit
+// samples (channels 1-4), or 16-bit grey when `gray16` is given (host order). The paths above use it
+// where it was measured fastest; icube-bench-png compares it at other settings.
+std::string encode_png_libspng(const uint8_t* pixels, const uint16_t* gray16, int width, int height, int channels,
+                               int zlib_level, int filter_choice);
+
 // encode_*, then write_file_atomic(path, ...).
 void write_png(const std::string& path, const uint8_t* pixels, int width, int height, int channels);
 void write_png_gray16(const std::string& path, const uint16_t* samples, int width, int height);

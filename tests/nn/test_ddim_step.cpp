@@ -6,23 +6,14 @@
 
 #include "diffusion/ddim_schedule.h"
 #include "gpu_test_context.h"
+#include "nn/random_vector.h"
 #include "kernels/nn/ddim_step.h"
 
 #include <random>
 
 using namespace icube;
 
-namespace {
-
-std::vector<float> random_vector(size_t n, float scale, uint32_t seed) {
-  std::mt19937 rng(seed);
-  std::normal_distribution<float> nd(0.0f, scale);
-  std::vector<float> v(n);
-  for (float& f : v) f = nd(rng);
-  return v;
-}
-
-}  // namespace
+using test::random_vector;
 
 TEST_CASE("ddim step gpu: the DDIM step with guidance and noise matches the CPU reference") {
   gpu::Context& ctx = test::gpu_context();

@@ -5,23 +5,14 @@
 
 #include "diffusion/ddim_schedule.h"
 #include "gpu_test_context.h"
+#include "nn/random_vector.h"
 #include "kernels/nn/latent_overwrite.h"
 
 #include <random>
 
 using namespace icube;
 
-namespace {
-
-std::vector<float> random_vector(size_t n, float scale, uint32_t seed) {
-  std::mt19937 rng(seed);
-  std::normal_distribution<float> nd(0.0f, scale);
-  std::vector<float> v(n);
-  for (float& f : v) f = nd(rng);
-  return v;
-}
-
-}  // namespace
+using test::random_vector;
 
 TEST_CASE("latent overwrite gpu: replaces exactly the masked voxels of every channel, as the CPU reference") {
   gpu::Context& ctx = test::gpu_context();
