@@ -78,6 +78,7 @@ struct NnBench {
   bool quick = false;
   std::string unet_config;
   std::vector<int64_t> unet_grid{8, 16, 24};
+  int64_t unet_batch = 1;
   std::string only;
   bool released_levels = false;
   bool with_torch = false;
@@ -376,13 +377,13 @@ int NnBench::unet_forward_run() {
     w.emplace(p.name, std::move(t));
   }
   nn::UNetGpu net(ctx, cfg, w, unet_precision == "fp16" ? nn::UNetGpu::Precision::F16Weights : nn::UNetGpu::Precision::F32);
-  nn::CpuTensor x({1, cfg.in_channels, unet_grid[0], unet_grid[1], unet_grid[2]});
+  nn::CpuTensor x({unet_batch, cfg.in_channels, unet_grid[0], unet_grid[1], unet_grid[2]});
   for (float& f : x.data) f = nd(rng) * 20.0f;
   std::vector<double> samples;
   nn::CpuTensor y;
   for (int r = 0; r < warmup + runs; ++r) {
     const auto t0 = Clock::now();
-    y = net.forward(x, {500});
+    y = net.forward(x, std::vector<int64_t>(static_cast<size_t>(unet_batch), 500));
     if (r >= warmup) samples.push_back(ms_since(t0));
   }
   const Stats st = stats(samples);
@@ -390,7 +391,7 @@ int NnBench::unet_forward_run() {
   if (!unet_no_cpu) {
     ref.set_weights(w);
     const auto t0 = Clock::now();
-    const nn::CpuTensor want = ref.forward(x, {500});
+    const nn::CpuTensor want = ref.forward(x, std::vector<int64_t>(static_cast<size_t>(unet_batch), 500));
     cpu = ms_since(t0);
     agreement = nn::cpu::max_abs_over_std(y.data, want.data);
   }
@@ -404,7 +405,8 @@ int NnBench::unet_forward_run() {
     nn::write_safetensors(wpath, tw);
     tw.clear();
     bench::save_npy(xpath, x);
-    world::write_npy(tpath, world::NpyArray::make<int64_t>({1}, std::vector<int64_t>{500}));
+    world::write_npy(tpath, world::NpyArray::make<int64_t>({static_cast<uint64_t>(unet_batch)},
+                                                           std::vector<int64_t>(static_cast<size_t>(unet_batch), 500)));
     const TorchSide::Result tr = run_torch_unet(torch_side, unet_config, wpath, xpath, tpath);
     std::filesystem::remove(wpath);
     if (!tr.ok) {
@@ -418,11 +420,11 @@ int NnBench::unet_forward_run() {
   }
   bool finite = true;
   for (const float f : y.data) finite = finite && std::isfinite(f);
-  std::printf("\nUNet forward (%s, %llu parameters, %s, grid %lldx%lldx%lld): gpu min %.1f ms, median %.1f ms "
+  std::printf("\nUNet forward (%s, %llu parameters, %s, batch %lld, grid %lldx%lldx%lld): gpu min %.1f ms, median %.1f ms "
               "(activation pool peak %.1f MiB, weights %.1f MiB, output %s); CPU reference %.0f ms; "
               "max |gpu - cpu| / std %.1e\n",
               unet_config.c_str(), static_cast<unsigned long long>(ref.parameter_count()), unet_precision.c_str(),
-              static_cast<long long>(unet_grid[0]), static_cast<long long>(unet_grid[1]),
+              static_cast<long long>(unet_batch), static_cast<long long>(unet_grid[0]), static_cast<long long>(unet_grid[1]),
               static_cast<long long>(unet_grid[2]), st.min, st.median,
               static_cast<double>(net.last_activation_bytes()) / 1048576.0,
               static_cast<double>(net.weight_bytes()) / 1048576.0, finite ? "finite" : "NOT FINITE", cpu, agreement);
@@ -456,6 +458,9 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember({"fp32", "fp16"}))
       ->capture_default_str();
   app.add_option("--unet-grid", b.unet_grid, "Grid of the UNet forward")->expected(3)->capture_default_str();
+  app.add_option("--unet-batch", b.unet_batch, "Batch of the UNet forward (2: a guided sampling step)")
+      ->check(CLI::Range(int64_t{1}, int64_t{8}))
+      ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
 
   gpu::Context ctx(gpu::ContextOptions::from_env());

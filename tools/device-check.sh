@@ -2,11 +2,15 @@
 # The checks for a lent GPU machine (the workplace's `device` tool), as one
 # prepared run: the test suite under the validation layer on the real driver
 # (tests), one forward of the released diffusion UNet at the 64^3 chunk latent
-# (unet: issue 18's measurement), the benchmarks' GPU timings (bench) and the
-# demo town through Stages 1-3 with the CLI (lift). Pack first on this machine
+# (unet: issue 18's measurement), the benchmarks' GPU timings (bench), the
+# demo town through Stages 1-3 with the CLI (lift), and issue 38's performance
+# run (perf: the network kernels at the released shapes, the released UNet's
+# 64^3 batch-2 forward in fp32 and fp16, a full-chunk VAE decode, splatting 1 M
+# Gaussians at 1080p, then one table of them). Pack first on this machine
 # with tools/device-pack.sh; .gl/ holds Debian's libglvnd .debs (the NVIDIA
 # ICD needs libGLdispatch; see the device tool's README). Then run:
-#   run(command="tools/device-check.sh [unet] [tests] [bench] [lift]", carry=[".dev", ".gl"], timeout_s=560)
+#   run(command="tools/device-check.sh [unet] [tests] [bench] [lift] [perf]", carry=[".dev", ".gl"], timeout_s=560)
+# (perf alone takes ~6 min on an H200 at today's kernels; run it by itself.)
 # Every step has its own time limit so the whole run ends inside the lease;
 # logs go to $OUT (the tool brings them back), a summary is printed last.
 set -u
@@ -24,7 +28,7 @@ nv_icd=/usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json
 built_in=/work/main
 if [[ ! -e $built_in/assets ]]; then mkdir -p "$(dirname $built_in)" && ln -sfn "$PWD" "$built_in"; fi
 bin=/tmp/dev/bin
-steps="$*"  # a subset of: unet tests bench lift (default: all)
+steps="$*"  # a subset of: unet tests bench lift perf (default: all but perf)
 summary=()
 step() {  # step NAME LIMIT_S CMD...: runs CMD with a limit, log in $out/NAME.txt
   local name=$1 limit=$2; shift 2
@@ -38,8 +42,8 @@ step() {  # step NAME LIMIT_S CMD...: runs CMD with a limit, log in $out/NAME.tx
 nvidia-smi --query-gpu=name,driver_version,clocks.sm,memory.used --format=csv 2>&1 | tee "$out/gpu.txt"
 ls /usr/local/nvidia/share/vulkan/icd.d /usr/share/vulkan/icd.d /etc/vulkan/icd.d 2>&1 | head
 step devices 30 env VK_LOADER_DEBUG=error,warn,driver "$bin/icube" devices
-grep -q "H200" "$out/devices.txt" || { echo "no NVIDIA Vulkan device: stopping"; exit 1; }
-want() { [[ $# -eq 0 || " $steps " == *" $1 "* ]]; }
+grep -qi "NVIDIA" "$out/devices.txt" || { echo "no NVIDIA Vulkan device: stopping"; exit 1; }
+want() { [[ ( -z $steps && $1 != perf ) || " $steps " == *" $1 "* ]]; }
 if want unet; then
   # Issue 18: one forward of the released UNet (812 M parameters) at 64^3, batch 1, fp32 and fp16 weights.
   step unet64 160 "$bin/icube-bench-nn" --only none --unet infinicube-diffusion --unet-grid 64 64 64 \
@@ -66,6 +70,25 @@ if want lift; then
   step demo_frames 60 "$bin/icube" frames render $d/world.icw --scene $d/scene.json --frames 0:60:2 -o $d/frames
   step demo_lift 60 "$bin/icube" lift $d/world.icw $d/frames --scene $d/scene.json -o $d/lifted
   cp $d/lifted/eval.png "$out/" 2>/dev/null
+fi
+if want perf; then
+  # Issue 38: the learned stages at GPU speed, old and new binaries alike (the same steps), one table at the end.
+  step perf_kernels 100 "$bin/icube-bench-nn" --only released --released-levels --runs 5 --warmup 1 --cpu-limit 0
+  step perf_unet_fp32 120 "$bin/icube-bench-nn" --only none --unet infinicube-diffusion --unet-grid 64 64 64 \
+    --unet-batch 2 --unet-no-cpu --runs 3 --warmup 1
+  step perf_unet_fp16 100 "$bin/icube-bench-nn" --only none --unet infinicube-diffusion --unet-grid 64 64 64 \
+    --unet-batch 2 --unet-no-cpu --unet-precision fp16 --runs 3 --warmup 1
+  step perf_vae 60 "$bin/icube-bench-sparse" --vae-decode 64 64 64 --vae-model infinicube-vae --runs 3 --warmup 1
+  step perf_splat 45 "$bin/icube-bench-splat" --gaussians 1000000 --sizes 1920x1080 --runs 5 --no-cpu
+  {
+    echo "| measurement | result |"
+    echo "|---|---|"
+    grep -E "^released" "$out/perf_kernels.txt" | sed -E 's/^(.{30})(.*)$/| \1 | \2 |/'
+    for f in perf_unet_fp32 perf_unet_fp16; do grep -E "^UNet forward" "$out/$f.txt" | sed -E "s/^/| $f | /; s/$/ |/"; done
+    grep -iE "decode" "$out/perf_vae.txt" | tail -n 3 | sed -E 's/^/| perf_vae | /; s/$/ |/'
+    grep -E "1920x1080" "$out/perf_splat.txt" | tail -n 3 | sed -E 's/^/| perf_splat | /; s/$/ |/'
+  } > "$out/perf_table.md"
+  cat "$out/perf_table.md"
 fi
 echo "== summary (t+$(( $(date +%s) - t0 )) s)"
 printf '%s\n' "${summary[@]}"
