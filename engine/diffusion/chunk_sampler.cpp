@@ -2,6 +2,7 @@
 #include "diffusion/chunk_sampler.h"
 
 #include "diffusion/counter_noise.h"
+#include "gpu/commands.h"
 #include "gpu/context.h"
 #include "kernels/nn/ddim_step.h"
 #include "kernels/nn/latent_overwrite.h"
@@ -17,6 +18,14 @@ namespace icube::diffusion {
 namespace {
 
 using Clock = std::chrono::steady_clock;
+
+// Kernel or copy writes, then kernels or copies that read or overwrite them.
+constexpr gpu::MemoryDependency kWritesBeforeNextSubmission{
+    VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT,
+    VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT | VK_ACCESS_2_TRANSFER_WRITE_BIT,
+    VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT,
+    VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_SAMPLED_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT |
+        VK_ACCESS_2_TRANSFER_READ_BIT | VK_ACCESS_2_TRANSFER_WRITE_BIT};
 
 double ms_since(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
 
@@ -122,13 +131,9 @@ ChunkSample sample_on_device(Denoiser& denoiser, const ChunkDims& d, const nn::C
   std::vector<float> host_noise(d.n);
   normal_noise({o.seed, chunk_index, 0, NoisePurpose::InitialLatent}, 0, host_noise.data(), d.n);
   gpu::upload(ctx, *x, host_noise.data(), bytes);
-  // Orders the previous submission's compute and transfer writes before this one's reads.
-  auto after_previous = [](gpu::CommandList& cmd) {
-    cmd.barrier(gpu::deps::kComputeToTransfer);
-    cmd.barrier(gpu::deps::kTransferToTransfer);
-    cmd.barrier(gpu::deps::kTransferToCompute);
-    cmd.barrier(gpu::deps::kComputeToCompute);
-  };
+  // Orders the previous submission's kernel and copy writes (the denoiser's, the step's, uploads) before
+  // this one's kernels and copies.
+  auto after_previous = [](gpu::CommandList& cmd) { cmd.barrier(kWritesBeforeNextSubmission); };
 
   ChunkSample out;
   if (progress) progress(0, sched.size());

@@ -6,16 +6,6 @@
 
 namespace icube::nn {
 
-namespace {
-
-std::string shape_text(const std::vector<int64_t>& shape) {
-  std::string s = "[";
-  for (size_t i = 0; i < shape.size(); ++i) s += (i ? ", " : "") + std::to_string(shape[i]);
-  return s + "]";
-}
-
-}  // namespace
-
 void ParameterStore::fail(const std::string& name, const std::string& what) const {
   throw scene::InputError(options_.source, "tensor '" + scene::printable(name, 120) + "'", options_.network + ": " + what);
 }

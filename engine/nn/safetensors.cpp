@@ -1,6 +1,8 @@
 // .safetensors reader and writer; see safetensors.h.
 #include "nn/safetensors.h"
 
+#include "kernels/nn/cpu_tensor.h"
+
 #include "scene/atomic_file.h"
 #include "scene/input_error.h"
 
@@ -51,11 +53,7 @@ uint64_t TensorInfo::numel() const {
   return n;
 }
 
-std::string TensorInfo::shape_text() const {
-  std::string s = "[";
-  for (size_t i = 0; i < shape.size(); ++i) s += (i ? ", " : "") + std::to_string(shape[i]);
-  return s + "]";
-}
+std::string TensorInfo::shape_text() const { return nn::shape_text(shape); }
 
 SafetensorsFile::SafetensorsFile(const std::string& path) {
   path_ = path;

@@ -91,11 +91,8 @@ struct UNetGpu::Impl {
   void check_input(const std::vector<int64_t>& x_shape, const std::vector<int64_t>& t) const {
     const UNetConfig& c = tree.config();
     if (x_shape.size() != 5 || x_shape[1] != c.in_channels)
-    {
-      std::string dims;
-      for (const int64_t d : x_shape) dims += (dims.empty() ? "" : ", ") + std::to_string(d);
-      throw std::invalid_argument("UNet: input [" + dims + "] is not [B, " + std::to_string(c.in_channels) + ", X, Y, Z]");
-    }
+      throw std::invalid_argument("UNet: input " + shape_text(x_shape) + " is not [B, " + std::to_string(c.in_channels) +
+                                  ", X, Y, Z]");
     if (static_cast<int64_t>(t.size()) != x_shape[0])
       throw std::invalid_argument("UNet: " + std::to_string(t.size()) + " timesteps for a batch of " + std::to_string(x_shape[0]));
     check_unet_grid(c, x_shape[2], x_shape[3], x_shape[4]);

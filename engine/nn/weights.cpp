@@ -15,7 +15,6 @@ std::string without_dots(std::string s) {
   return s;
 }
 
-std::string shape_text(const std::vector<int64_t>& s) { return CpuTensor(s).shape_text(); }
 
 }  // namespace
 

@@ -102,6 +102,7 @@ class GenerateJob {
   scene::Diagnostics& diag;
   CameraPath cp;
   const render::Trajectory* traj = nullptr;
+  render::AppearancePrompt prompt;
   nlohmann::ordered_json inputs, options;
   std::string fingerprint;
   GenerateResult result;
@@ -132,7 +133,7 @@ void GenerateJob::check_inputs() {
     throw std::invalid_argument("generate takes one camera pass; the trajectory file holds " +
                                 std::to_string(cp.passes.size()));
   traj = &cp.passes[0];
-  render::parse_prompt(a.prompt);  // a bad prompt is refused before any stage
+  prompt = render::parse_prompt(a.prompt);  // a bad prompt is refused before any stage
   if (!a.frames_from.empty() && fs::is_directory(a.frames_from)) {  // before any stage: one frame per camera pose
     const size_t n = render::png_files(a.frames_from).size();
     if (n != traj->size())
@@ -268,7 +269,7 @@ std::string GenerateJob::frames_stage() {
   fo.progress = progress_of("frames", "frames");
   render::render_frames(*ctx, shared_overlay(), *static_world, &*cp.scene, mesh, cp.K, *traj, a.prompt, fo, fdir.string());
   write_trajectory();
-  return render::parse_prompt(a.prompt).summary();
+  return prompt.summary();
 }
 
 // Stage 3: the static Gaussians, the moving cars and the sky from the frames.

@@ -66,8 +66,8 @@ uint8_t paeth(int a, int b, int c) {
 }
 
 // 16-bit grey, PngSpeed::Fast: every row Paeth-filtered, zlib level 1, one IDAT. Kept beside libspng
-// because it is measurably faster on this one path (bench/README.md, "PNG encoders": 3.7 against
-// 4.7 ms for an 832 x 480 instance map at the same size).
+// because it is measurably faster on this one path (bench/README.md, "PNG encoders": 1.65 against
+// 2.75 ms for an 832 x 480 instance map at the same size).
 std::string encode_gray16_paeth_fast(const uint16_t* samples, size_t w, size_t h) {
   const size_t stride = w * 2;
   std::vector<uint8_t> be(stride * h);  // PNG samples are big-endian

@@ -6,7 +6,7 @@
 //   8-bit Small   stb_image_write (its zlib; faster than libspng at zlib 6-8, files ~40 % larger)
 //   8-bit Fast    libspng, zlib 1, Paeth (1.4x faster than our own Paeth + zlib 1, same size)
 //   16-bit Small  libspng, zlib 8, adaptive filters (1.7x faster than our filter + stb zlib, 1/6 the size)
-//   16-bit Fast   our own Paeth rows + zlib 1 (1.25x faster than libspng's at the same size: the
+//   16-bit Fast   our own Paeth rows + zlib 1 (1.7x faster than libspng's at the same size: the
 //                 one path where the hand-written encoder is kept)
 // 16-bit samples are written big-endian as PNG requires (grey, bit depth 16).
 // No gamma/sRGB chunks are written, so data PNGs read back exactly.

@@ -13,6 +13,13 @@
 
 namespace icube::nn {
 
+// "[2, 3, 4]": a tensor shape as messages show it.
+inline std::string shape_text(const std::vector<int64_t>& shape) {
+  std::string s = "[";
+  for (size_t i = 0; i < shape.size(); ++i) s += (i ? ", " : "") + std::to_string(shape[i]);
+  return s + "]";
+}
+
 struct CpuTensor {
   std::vector<int64_t> shape;
   std::vector<float> data;
@@ -35,11 +42,7 @@ struct CpuTensor {
   size_t rank() const { return shape.size(); }
   // Elements per item of the first axis (a batch element).
   int64_t per_item() const { return shape.empty() ? 1 : numel() / shape[0]; }
-  std::string shape_text() const {
-    std::string s = "[";
-    for (size_t i = 0; i < shape.size(); ++i) s += (i ? ", " : "") + std::to_string(shape[i]);
-    return s + "]";
-  }
+  std::string shape_text() const { return nn::shape_text(shape); }
 };
 
 namespace cpu {
