@@ -2,8 +2,8 @@
 // v-prediction with optional classifier-free guidance and step noise, float32
 // in the reference's operation order. Coefficients come from the caller (the
 // schedule lives in engine/diffusion/ddim_schedule.h); no barrier inside: the
-// caller orders the denoiser's output before record(). Latents must fit one
-// storage binding (a 64^3 x 8 chunk latent is 8 MiB).
+// caller orders the denoiser's output before record(). A latent over one
+// storage binding runs in windows of elements.
 // CPU references (below, ddim_step_cpu.cpp): nn::cpu::ddim_step, cfg_combine.
 // Tests: tests/nn/test_ddim_step.cpp.
 #pragma once
@@ -29,9 +29,13 @@ class DdimStep {
               const gpu::Buffer& v_cond, const gpu::Buffer* v_uncond, float cfg_scale, const gpu::Buffer* z,
               const gpu::Buffer& out);
 
+  // Tests: pretend one binding holds at most `bytes` (0 = the device's limit).
+  void set_max_binding_bytes(uint64_t bytes) { max_binding_bytes_ = bytes; }
+
  private:
   gpu::Context& ctx_;
   gpu::Program& program_;
+  uint64_t max_binding_bytes_ = 0;
 };
 
 }  // namespace icube::kernels::nn

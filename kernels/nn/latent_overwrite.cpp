@@ -5,6 +5,10 @@
 #include "kernels/nn/buffer_checks.h"
 #include "shared/nn_params.h"
 
+#include <algorithm>
+#include <stdexcept>
+#include <string>
+
 namespace icube::kernels::nn {
 
 LatentOverwrite::LatentOverwrite(gpu::Context& ctx) : ctx_(ctx), program_(ctx.program("nn/latent_overwrite")) {}
@@ -14,15 +18,28 @@ void LatentOverwrite::record(gpu::CommandList& cmd, uint32_t channels, uint64_t 
                                   const gpu::Buffer& x) {
   const uint64_t count = uint64_t{channels} * spatial;
   if (count == 0) return;
-  require_one_binding(ctx_, "latent_overwrite", "latent", count);
   const uint64_t bytes = count * 4;
   require_buffer("latent_overwrite", "known latents", bytes, known);
   require_buffer("latent_overwrite", "mask", spatial * 4, mask);
   require_buffer("latent_overwrite", "noise", bytes, z);
   require_buffer("latent_overwrite", "x", bytes, x);
-  shader::LatentOverwriteParams pc{static_cast<uint32_t>(count), static_cast<uint32_t>(spatial), sqrt_alpha, sqrt_beta};
-  cmd.dispatch(program_, gpu::Threads{count}, pc,
-               {x.binding(0, bytes), known.binding(0, bytes), mask.binding(0, spatial * 4), z.binding(0, bytes)});
+  // The mask (one channel's voxels) is bound whole; the latent over one binding goes in windows of
+  // elements, the same range of x, known and z (disjoint writes, no barrier between them).
+  const uint64_t fit = window_elements(ctx_, max_binding_bytes_);
+  if (spatial > fit)
+    throw std::invalid_argument("latent_overwrite: a mask of " + std::to_string(spatial) + " voxels exceeds one storage binding (" +
+                                std::to_string(fit) + " values)");
+  shader::LatentOverwriteParams pc{0, static_cast<uint32_t>(spatial), sqrt_alpha, sqrt_beta, 0, 0};
+  for (uint64_t first = 0; first < count; first += fit) {
+    const uint64_t n = std::min(fit, count - first);
+    const ElementWindow xw = element_window(ctx_, x, first, n);
+    pc.count = static_cast<uint32_t>(n);
+    pc.first = static_cast<uint32_t>(first);
+    pc.offset = xw.offset;
+    cmd.dispatch(program_, gpu::Threads{n}, pc,
+                 {xw.binding, element_window(ctx_, known, first, n).binding, mask.binding(0, spatial * 4),
+                  element_window(ctx_, z, first, n).binding});
+  }
 }
 
 }  // namespace icube::kernels::nn

@@ -3,7 +3,8 @@
 // sqrt_beta z[c][v] where mask[v] != 0 (mask: uint32 per voxel), every channel.
 // With sqrt_beta 0 and z = known the cells get the known latents exactly. No
 // barrier inside: the caller orders the overwrite before the next denoiser
-// call. Latents must fit one storage binding.
+// call. A latent over one storage binding runs in windows of elements (the
+// mask, one channel's voxels, is bound whole).
 // CPU reference (below, latent_overwrite_cpu.cpp): nn::cpu::latent_overwrite.
 // Tests: tests/nn/test_latent_overwrite.cpp.
 #pragma once
@@ -23,9 +24,13 @@ class LatentOverwrite {
   void record(gpu::CommandList& cmd, uint32_t channels, uint64_t spatial, float sqrt_alpha, float sqrt_beta,
               const gpu::Buffer& known, const gpu::Buffer& mask, const gpu::Buffer& z, const gpu::Buffer& x);
 
+  // Tests: pretend one binding holds at most `bytes` (0 = the device's limit).
+  void set_max_binding_bytes(uint64_t bytes) { max_binding_bytes_ = bytes; }
+
  private:
   gpu::Context& ctx_;
   gpu::Program& program_;
+  uint64_t max_binding_bytes_ = 0;
 };
 
 }  // namespace icube::kernels::nn

@@ -21,8 +21,9 @@ layout(std430, binding = 3) readonly buffer Noise { float z_in[]; };
 layout(std430, binding = 4) writeonly buffer Out { float x_out[]; };
 
 void main() {
-  const uint i = ICUBE_THREAD_LINEAR();
-  if (i >= p.count) return;
+  const uint t = ICUBE_THREAD_LINEAR();
+  if (t >= p.count) return;
+  const uint i = p.offset + t;  // one window of the latent (the same offset in every binding)
   const float x = x_in[i];
   precise float v = v_cond[i];
   if ((p.flags & NN_DDIM_FLAG_CFG) != 0u) v = v + p.cfg_scale * (v - v_uncond[i]);

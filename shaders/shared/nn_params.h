@@ -119,13 +119,16 @@ struct DdimStepParams {
   float sqrt_alpha_prev;  // sqrt(a_prev)
   float direction;        // sqrt(max(0, 1 - a_prev - sigma^2))
   float sigma;
+  uint offset;            // element offset of the window inside every binding (element_window)
 };
 
 struct LatentOverwriteParams {
-  uint count;    // elements (channels * spatial)
+  uint count;    // elements of this window
   uint spatial;  // voxels per channel (the mask's length)
   float sqrt_alpha;
   float sqrt_beta;
+  uint first;    // the window's first element of the latent (its voxel: (first + i) % spatial)
+  uint offset;   // its element offset inside the x, known and noise bindings (element_window)
 };
 
 struct ResampleParams {
@@ -286,9 +289,9 @@ ICUBE_CHECK_LAYOUT(AttentionParams, scale, 36);
 ICUBE_CHECK_SIZE(ElementwiseParams, 32);
 ICUBE_CHECK_LAYOUT(ElementwiseParams, y_offset, 24);
 ICUBE_CHECK_SIZE(ResampleParams, 32);
-ICUBE_CHECK_SIZE(DdimStepParams, 32);
+ICUBE_CHECK_SIZE(DdimStepParams, 36);
 ICUBE_CHECK_LAYOUT(DdimStepParams, sigma, 28);
-ICUBE_CHECK_SIZE(LatentOverwriteParams, 16);
+ICUBE_CHECK_SIZE(LatentOverwriteParams, 24);
 ICUBE_CHECK_LAYOUT(ResampleParams, x_offset, 20);
 ICUBE_CHECK_LAYOUT(GroupNormParams, eps, 20);
 

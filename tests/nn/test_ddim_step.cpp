@@ -60,3 +60,25 @@ TEST_CASE("ddim step gpu: the DDIM step with guidance and noise matches the CPU 
                          doctest::Contains("without a noise buffer"), std::invalid_argument);
   });
 }
+
+TEST_CASE("ddim step gpu: a latent over one storage binding runs in element windows, bit for bit") {
+  // Bindings of 400 bytes: 1001 elements in windows of ~96 (odd size, unaligned window ends), guidance and
+  // noise on; the same bytes as one dispatch.
+  gpu::Context& ctx = test::gpu_context();
+  const size_t n = 1001;
+  diffusion::DdimOptions o;
+  const diffusion::DdimStep st = diffusion::DdimSchedule(o).step(5);
+  REQUIRE(st.sigma > 0.0f);
+  const std::vector<float> x = random_vector(n, 1.0f, 1), vc = random_vector(n, 1.0f, 2), vu = random_vector(n, 1.0f, 3),
+                           z = random_vector(n, 1.0f, 4);
+  gpu::Buffer xb = gpu::upload_vector(ctx, x), cb = gpu::upload_vector(ctx, vc), ub = gpu::upload_vector(ctx, vu),
+              zb = gpu::upload_vector(ctx, z), whole(ctx, n * 4), windowed(ctx, n * 4);
+  for (const uint64_t cap : {uint64_t{0}, uint64_t{400}}) {
+    kernels::nn::DdimStep step(ctx);
+    step.set_max_binding_bytes(cap);
+    ctx.submit_and_wait([&](gpu::CommandList& cmd) {
+      step.record(cmd, st.coefficients(), n, xb, cb, &ub, 2.0f, &zb, cap ? windowed : whole);
+    });
+  }
+  CHECK(gpu::download_vector<float>(ctx, windowed, n) == gpu::download_vector<float>(ctx, whole, n));
+}

@@ -36,3 +36,29 @@ TEST_CASE("latent overwrite gpu: replaces exactly the masked voxels of every cha
   ctx.submit_and_wait([&](gpu::CommandList& cmd) { overwrite.record(cmd, channels, spatial, sa, sb, kb, mb, zb, xb); });
   CHECK(test::allclose(gpu::download_vector<float>(ctx, xb, n), want, 1e-6, 1e-6, "latent_overwrite"));
 }
+
+TEST_CASE("latent overwrite gpu: a latent over one storage binding runs in element windows, bit for bit") {
+  // Bindings of 1600 bytes (the 385-voxel mask fits whole): 3 channels in windows of 396 that start inside a
+  // channel, so each window finds its voxels from its first element.
+  gpu::Context& ctx = test::gpu_context();
+  const uint32_t channels = 3;
+  const uint64_t spatial = 7 * 11 * 5;
+  const size_t n = channels * spatial;
+  std::vector<uint32_t> mask(spatial);
+  for (size_t v = 0; v < spatial; ++v) mask[v] = v % 3 == 1 ? 1u : 0u;
+  const std::vector<float> x = random_vector(n, 1.0f, 5), known = random_vector(n, 2.0f, 6), z = random_vector(n, 1.0f, 7);
+  std::vector<float> want = x;
+  nn::cpu::latent_overwrite(want, mask, known, 0.6f, 0.8f, &z);
+  gpu::Buffer kb = gpu::upload_vector(ctx, known), mb = gpu::upload_vector(ctx, mask), zb = gpu::upload_vector(ctx, z);
+  gpu::Buffer xb = gpu::upload_vector(ctx, x);
+  kernels::nn::LatentOverwrite overwrite(ctx);
+  overwrite.set_max_binding_bytes(1600);
+  ctx.submit_and_wait([&](gpu::CommandList& cmd) { overwrite.record(cmd, channels, spatial, 0.6f, 0.8f, kb, mb, zb, xb); });
+  CHECK(test::allclose(gpu::download_vector<float>(ctx, xb, n), want, 1e-6, 1e-6, "latent_overwrite windows"));
+  // A mask over one binding is refused by name.
+  overwrite.set_max_binding_bytes(256);
+  ctx.submit_and_wait([&](gpu::CommandList& cmd) {
+    CHECK_THROWS_WITH_AS(overwrite.record(cmd, channels, spatial, 0.6f, 0.8f, kb, mb, zb, xb),
+                         doctest::Contains("a mask of 385 voxels exceeds one storage binding"), std::invalid_argument);
+  });
+}
