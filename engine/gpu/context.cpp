@@ -190,10 +190,17 @@ void Context::create_device() {
   f11.pNext = &f12;
   f12.pNext = &f13;
   if (d.atomic_float_add) f13.pNext = &atomic_float;
+  VkPhysicalDeviceCooperativeMatrixFeaturesNV coopmat{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_COOPERATIVE_MATRIX_FEATURES_NV};
+  coopmat.cooperativeMatrix = VK_TRUE;
+  if (d.cooperative_matrix_nv) {
+    coopmat.pNext = f2.pNext;
+    f2.pNext = &coopmat;
+  }
 
   std::vector<const char*> extensions;
   if (d.push_descriptor) extensions.push_back(VK_KHR_PUSH_DESCRIPTOR_EXTENSION_NAME);
   if (d.atomic_float_add) extensions.push_back(VK_EXT_SHADER_ATOMIC_FLOAT_EXTENSION_NAME);
+  if (d.cooperative_matrix_nv) extensions.push_back(VK_NV_COOPERATIVE_MATRIX_EXTENSION_NAME);
   for (const char* e : options_.extra_device_extensions) extensions.push_back(e);
 
   VkDeviceCreateInfo dci{VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO};

@@ -27,7 +27,24 @@ static bool has_extension(const std::vector<VkExtensionProperties>& exts, const 
                      [&](const VkExtensionProperties& e) { return std::string(e.extensionName) == name; });
 }
 
-static DeviceInfo query_one(VkPhysicalDevice pd, uint32_t index) {
+// Whether the NV cooperative-matrix properties list 16 x 16 x 16 fp16 A/B with fp32 C/D at subgroup scope.
+static bool has_f16_coopmat_16x16x16(VkInstance instance, VkPhysicalDevice pd) {
+  auto props_fn = reinterpret_cast<PFN_vkGetPhysicalDeviceCooperativeMatrixPropertiesNV>(
+      vkGetInstanceProcAddr(instance, "vkGetPhysicalDeviceCooperativeMatrixPropertiesNV"));
+  if (!props_fn) return false;
+  uint32_t count = 0;
+  if (props_fn(pd, &count, nullptr) != VK_SUCCESS || count == 0) return false;
+  std::vector<VkCooperativeMatrixPropertiesNV> props(count, {VK_STRUCTURE_TYPE_COOPERATIVE_MATRIX_PROPERTIES_NV});
+  if (props_fn(pd, &count, props.data()) != VK_SUCCESS) return false;
+  for (const VkCooperativeMatrixPropertiesNV& m : props)
+    if (m.MSize == 16 && m.NSize == 16 && m.KSize == 16 && m.AType == VK_COMPONENT_TYPE_FLOAT16_NV &&
+        m.BType == VK_COMPONENT_TYPE_FLOAT16_NV && m.CType == VK_COMPONENT_TYPE_FLOAT32_NV &&
+        m.DType == VK_COMPONENT_TYPE_FLOAT32_NV && m.scope == VK_SCOPE_SUBGROUP_NV)
+      return true;
+  return false;
+}
+
+static DeviceInfo query_one(VkInstance instance, VkPhysicalDevice pd, uint32_t index) {
   DeviceInfo d;
   d.index = index;
   d.handle = pd;
@@ -116,6 +133,7 @@ static DeviceInfo query_one(VkPhysicalDevice pd, uint32_t index) {
   vkEnumerateDeviceExtensionProperties(pd, nullptr, &ecount, exts.data());
   d.push_descriptor = has_extension(exts, VK_KHR_PUSH_DESCRIPTOR_EXTENSION_NAME);
   bool has_atomic_float = has_extension(exts, VK_EXT_SHADER_ATOMIC_FLOAT_EXTENSION_NAME);
+  const bool has_coopmat_nv = has_extension(exts, VK_NV_COOPERATIVE_MATRIX_EXTENSION_NAME);
 
   if (basic.apiVersion >= VK_API_VERSION_1_3) {
     VkPhysicalDeviceShaderAtomicFloatFeaturesEXT atomic_float{
@@ -128,6 +146,11 @@ static DeviceInfo query_one(VkPhysicalDevice pd, uint32_t index) {
     f11.pNext = &f12;
     f12.pNext = &f13;
     if (has_atomic_float) f13.pNext = &atomic_float;
+    VkPhysicalDeviceCooperativeMatrixFeaturesNV coopmat{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_COOPERATIVE_MATRIX_FEATURES_NV};
+    if (has_coopmat_nv) {
+      coopmat.pNext = f2.pNext;
+      f2.pNext = &coopmat;
+    }
     vkGetPhysicalDeviceFeatures2(pd, &f2);
     d.shader_int64 = f2.features.shaderInt64;
     d.shader_float64 = f2.features.shaderFloat64;
@@ -142,6 +165,8 @@ static DeviceInfo query_one(VkPhysicalDevice pd, uint32_t index) {
     d.subgroup_size_control = f13.subgroupSizeControl;
     d.compute_full_subgroups = f13.computeFullSubgroups;
     d.atomic_float_add = has_atomic_float && atomic_float.shaderBufferFloat32AtomicAdd;
+    d.cooperative_matrix_nv = has_coopmat_nv && coopmat.cooperativeMatrix && f12.shaderFloat16 &&
+                              has_f16_coopmat_16x16x16(instance, pd);
     if (!d.synchronization2 && d.unusable_reason.empty()) d.unusable_reason = "no synchronization2";
   }
   const VkSubgroupFeatureFlags needed = VK_SUBGROUP_FEATURE_BASIC_BIT | VK_SUBGROUP_FEATURE_ARITHMETIC_BIT |
@@ -158,7 +183,7 @@ std::vector<DeviceInfo> query_devices(VkInstance instance) {
   std::vector<VkPhysicalDevice> handles(count);
   vkEnumeratePhysicalDevices(instance, &count, handles.data());
   std::vector<DeviceInfo> out;
-  for (uint32_t i = 0; i < count; ++i) out.push_back(query_one(handles[i], i));
+  for (uint32_t i = 0; i < count; ++i) out.push_back(query_one(instance, handles[i], i));
   return out;
 }
 
@@ -259,7 +284,7 @@ std::string describe_device(const DeviceInfo& d) {
     << yn(d.buffer_device_address) << " scalar_block_layout=" << yn(d.scalar_block_layout)
     << " int64=" << yn(d.shader_int64) << " float64=" << yn(d.shader_float64) << " float16=" << yn(d.shader_float16) << " int8=" << yn(d.shader_int8)
     << " storage8/16=" << yn(d.storage_8bit) << "/" << yn(d.storage_16bit) << " atomic_float_add="
-    << yn(d.atomic_float_add) << "\n";
+    << yn(d.atomic_float_add) << " cooperative_matrix_nv=" << yn(d.cooperative_matrix_nv) << "\n";
   return o.str();
 }
 

@@ -63,6 +63,11 @@ struct DeviceInfo {
   bool synchronization2 = false;
   bool host_query_reset = false;
   bool atomic_float_add = false;
+  // VK_NV_cooperative_matrix with 16 x 16 x 16 fp16 x fp16 -> fp32 fragments at subgroup
+  // scope (NVIDIA). The KHR extension is not used: Debian 12's glslang 12 cannot compile
+  // GL_KHR_cooperative_matrix, so AMD and Intel (RADV and ANV expose only KHR) take the
+  // shared-memory path.
+  bool cooperative_matrix_nv = false;
 
   // A device is usable when it has a compute queue, Vulkan 1.3 and synchronization2.
   uint32_t compute_queue_family = UINT32_MAX;

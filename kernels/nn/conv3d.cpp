@@ -7,6 +7,7 @@
 #include "shared/nn_params.h"
 
 #include <algorithm>
+#include <cstdlib>
 #include <numeric>
 #include <stdexcept>
 #include <string>
@@ -36,11 +37,66 @@ std::vector<uint16_t> pack_conv3d_weights_f16(const std::vector<float>& w, uint3
   return out;
 }
 
+const char* conv3d_path_name(Conv3dPath path) {
+  switch (path) {
+    case Conv3dPath::kRegisterTile: return "register";
+    case Conv3dPath::kSharedTile: return "tiled";
+    case Conv3dPath::kCoopMatrix: return "coopmat";
+    case Conv3dPath::kCoopMatrixEmulated: return "emulated";
+  }
+  return "?";
+}
+
+namespace {
+
+// Why `path` cannot run on `device` ("" when it can).
+std::string path_unavailable(Conv3dPath path, const gpu::DeviceInfo& device) {
+  if (path == Conv3dPath::kCoopMatrix && !(device.cooperative_matrix_nv && device.subgroup_size == 32))
+    return "the device has no VK_NV_cooperative_matrix with fp16 16x16x16 fragments and subgroups of 32";
+  if (path == Conv3dPath::kCoopMatrixEmulated && !device.shader_float16)
+    return "the device has no shaderFloat16 (fp16 shared tiles)";
+  return "";
+}
+
+}  // namespace
+
+Conv3dPath default_conv3d_path(const gpu::DeviceInfo& device, bool f16_weights) {
+  if (const char* env = std::getenv("ICUBE_CONV_PATH"); env && *env) {
+    const std::string v = env;
+    Conv3dPath path;
+    if (v == "register") path = Conv3dPath::kRegisterTile;
+    else if (v == "tiled") path = Conv3dPath::kSharedTile;
+    else if (v == "coopmat") path = Conv3dPath::kCoopMatrix;
+    else if (v == "emulated") path = Conv3dPath::kCoopMatrixEmulated;
+    else throw std::invalid_argument("ICUBE_CONV_PATH=" + v + ": expected register, tiled, coopmat or emulated");
+    if (const std::string why = path_unavailable(path, device); !why.empty())
+      throw std::invalid_argument("ICUBE_CONV_PATH=" + v + ": " + why);
+    return path;
+  }
+  if (device.type == VK_PHYSICAL_DEVICE_TYPE_CPU) return Conv3dPath::kRegisterTile;
+  if (f16_weights && path_unavailable(Conv3dPath::kCoopMatrix, device).empty()) return Conv3dPath::kCoopMatrix;
+  return Conv3dPath::kSharedTile;
+}
+
 Conv3d::Conv3d(gpu::Context& ctx) : ctx_(ctx) {
-  for (int k = 0; k < 2; ++k)
-    for (int f16 = 0; f16 < 2; ++f16)
-      programs_[k][f16] = &ctx.program(f16 ? "nn/conv3d_f16w" : "nn/conv3d",
-                                       gpu::SpecConstants{}.set(0, k == 0 ? 3u : 1u /* NN_K */));
+  // Create the default paths' programs now, so pipeline creation does not land inside a timed forward.
+  for (const bool f16 : {false, true})
+    for (const uint32_t k : {3u, 1u}) program(path(f16), k, f16);
+}
+
+Conv3dPath Conv3d::path(bool f16_weights) const {
+  return forced_path_ ? *forced_path_ : default_conv3d_path(ctx_.info(), f16_weights);
+}
+
+gpu::Program& Conv3d::program(Conv3dPath path, uint32_t kernel, bool f16_weights) {
+  static const char* const kNames[4][2] = {{"nn/conv3d", "nn/conv3d_f16w"},
+                                           {"nn/conv3d_tiled", "nn/conv3d_tiled_f16w"},
+                                           {"nn/conv3d_coopmat", "nn/conv3d_coopmat_f16w"},
+                                           {"nn/conv3d_coopmat_emulated", "nn/conv3d_coopmat_emulated_f16w"}};
+  if (const std::string why = path_unavailable(path, ctx_.info()); !why.empty())
+    throw std::invalid_argument(std::string("conv3d: the ") + conv3d_path_name(path) + " path: " + why);
+  return ctx_.program(kNames[static_cast<int>(path)][f16_weights ? 1 : 0],
+                      gpu::SpecConstants{}.set(0, kernel /* NN_K */));
 }
 
 void Conv3d::record(gpu::CommandList& cmd, const Conv3dShape& s, const gpu::Buffer& x, const gpu::Buffer& w,
@@ -78,20 +134,31 @@ void Conv3d::record(gpu::CommandList& cmd, const Conv3dShape& s, const gpu::Buff
   pc.size_y = s.y;
   pc.size_z = s.z;
   pc.kernel = s.kernel;
-  pc.voxel_tiles = static_cast<uint32_t>(gpu::div_up(uint64_t{s.x} * s.y * gpu::div_up(s.z, NN_CONV_ZRUN), NN_CONV_GROUP));
+  const Conv3dPath conv_path = path(s.f16_weights);
+  gpu::Program& prog = program(conv_path, s.kernel, s.f16_weights);
+  // Workgroup shape per path: the register tile covers NN_CONV_GROUP runs of NN_CONV_ZRUN voxels and 8
+  // channels; the tiled paths a 64 x 64 block of voxels and channels.
+  const bool register_tile = conv_path == Conv3dPath::kRegisterTile;
+  const bool coop = conv_path == Conv3dPath::kCoopMatrix || conv_path == Conv3dPath::kCoopMatrixEmulated;
+  const uint32_t group_size = register_tile ? NN_CONV_GROUP : coop ? NN_CONV_COOP_GROUP : NN_CONV_TILED_GROUP;
+  const uint32_t co_block = register_tile ? NN_CONV_CO_TILE : coop ? NN_CONV_COOP_BN : NN_CONV_TILED_BN;
+  static_assert(NN_CONV_TILED_BM == NN_CONV_COOP_BM, "one voxel tile for both tiled paths");
+  pc.voxel_tiles = static_cast<uint32_t>(
+      register_tile ? gpu::div_up(uint64_t{s.x} * s.y * gpu::div_up(s.z, NN_CONV_ZRUN), NN_CONV_GROUP)
+                    : gpu::div_up(S, NN_CONV_TILED_BM));
   pc.has_bias = bias ? 1u : 0u;
   gpu::BufferBinding wb = w_windows ? gpu::null_binding() : w.binding(0, w_bytes);
   const gpu::BufferBinding bb = bias ? bias->binding(0, uint64_t{s.out_channels} * 4) : gpu::null_binding();
   auto dispatch = [&](uint32_t batch, const gpu::BufferBinding& xb, const gpu::BufferBinding& yb) {
     pc.batch = batch;
-    pc.co_blocks = static_cast<uint32_t>(gpu::div_up(pc.co_count, NN_CONV_CO_TILE));
+    pc.co_blocks = static_cast<uint32_t>(gpu::div_up(pc.co_count, co_block));
     const uint64_t groups = uint64_t{pc.voxel_tiles} * pc.co_blocks * batch;
-    cmd.dispatch(*programs_[s.kernel == 3 ? 0 : 1][s.f16_weights ? 1 : 0], gpu::Threads{groups * NN_CONV_GROUP}, pc,
-                 {xb, wb, bb, yb});
+    cmd.dispatch(prog, gpu::Threads{groups * group_size}, pc, {xb, wb, bb, yb});
   };
-  // An invocation makes about ci_count * (1 + k + k^2) loop iterations (the z-taps unroll); lavapipe
-  // stops one after 65,535, so input channels go in windows of at most kMaxChannelsPerDispatch.
-  constexpr uint64_t kMaxChannelsPerDispatch = 4096;
+  // An invocation of the register tile makes about ci_count * (1 + k + k^2) loop iterations (the z-taps
+  // unroll), the shared tile ci_count * k^3 / 16; lavapipe stops one after 65,535, so input channels go in
+  // windows of at most kMaxChannelsPerDispatch. The emulated fragments loop ~1,100 times per K step of 32.
+  const uint64_t kMaxChannelsPerDispatch = conv_path == Conv3dPath::kCoopMatrixEmulated ? 48 : 4096;
   const uint64_t texel_limit = ctx_.info().max_texel_buffer_elements * 4;
   if (!w_windows && x_bytes <= std::min(limit, texel_limit) && y_bytes <= limit &&
       s.in_channels <= kMaxChannelsPerDispatch) {

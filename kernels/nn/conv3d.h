@@ -1,7 +1,10 @@
-// Dense 3-D convolution on the GPU (shaders/nn/conv3d.comp): NCDHW float32,
+// Dense 3-D convolution on the GPU: NCDHW float32,
 // kernel 1 or 3, stride 1, zero padding kernel/2 (sizes kept), with bias —
 // the convolutions of the diffusion UNet's ResBlocks, input and output heads
-// and 1x1 skips. Weights are packed once on the host (pack_conv3d_weights) into
+// and 1x1 skips. Three kernels (Conv3dPath): the register tile for lavapipe
+// (shaders/nn/conv3d.comp), a shared-memory implicit GEMM for GPUs
+// (conv3d_tiled.comp) and its tensor-core form (conv3d_coopmat.comp), all on the
+// same bindings, windows and push constants. Weights are packed once on the host (pack_conv3d_weights) into
 // [in_channels * k^3][out_channels padded to 8] so a workgroup reads its 8 output
 // channels of one tap as two vec4s. The input is bound as an R32_SFLOAT texel
 // buffer (texel_window in buffer_checks.h), the rest as storage buffers.
@@ -22,9 +25,30 @@
 #include "kernels/nn/cpu_tensor.h"
 
 #include <cstdint>
+#include <optional>
 #include <vector>
 
+namespace icube::gpu {
+struct DeviceInfo;
+}
+
 namespace icube::kernels::nn {
+
+// Which kernel runs a convolution. Chosen per device and precision when recorded
+// (default_conv3d_path); tests and benchmarks may force one (Conv3d::force_path).
+enum class Conv3dPath {
+  kRegisterTile,        // nn/conv3d*.comp: CPU devices (lavapipe): register tiles, texel gathers, no shared memory
+  kSharedTile,          // nn/conv3d_tiled*.comp: GPUs: shared-memory implicit GEMM, fp32 FMA
+  kCoopMatrix,          // nn/conv3d_coopmat*.comp: NVIDIA tensor cores (fp16 operands, fp32 sums)
+  kCoopMatrixEmulated,  // nn/conv3d_coopmat_emulated*.comp: the same tiling written out per lane (tests)
+};
+const char* conv3d_path_name(Conv3dPath path);
+
+// CPU devices: the register tile. GPUs: with fp16 weights the cooperative-matrix kernel where the device has
+// it (DeviceInfo::cooperative_matrix_nv, subgroups of 32), else the shared tile. ICUBE_CONV_PATH=
+// register|tiled|coopmat|emulated overrides it (benchmarks compare paths side by side with it); an unknown
+// value or a path the device lacks is an error.
+Conv3dPath default_conv3d_path(const gpu::DeviceInfo& device, bool f16_weights);
 
 struct Conv3dShape {
   uint32_t batch = 1, in_channels = 1, out_channels = 1;
@@ -54,12 +78,16 @@ class Conv3d {
 
   // Tests: pretend one binding holds at most `bytes` (0 = the device's limit), to exercise the windows cheaply.
   void set_max_binding_bytes(uint64_t bytes) { max_binding_bytes_ = bytes; }
+  // Tests and benchmarks: run every convolution on `path` (nullopt: default_conv3d_path).
+  void force_path(std::optional<Conv3dPath> path) { forced_path_ = path; }
+  // The path record() takes for weights of this precision.
+  Conv3dPath path(bool f16_weights) const;
 
  private:
+  gpu::Program& program(Conv3dPath path, uint32_t kernel, bool f16_weights);
   gpu::Context& ctx_;
-  // [kernel 3, kernel 1][fp32, fp16 weights]: the kernel size is a specialization constant.
-  gpu::Program* programs_[2][2];
   uint64_t max_binding_bytes_ = 0;
+  std::optional<Conv3dPath> forced_path_;
 };
 
 }  // namespace icube::kernels::nn

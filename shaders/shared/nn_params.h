@@ -12,6 +12,23 @@
 #define NN_CONV_ZRUN 8
 #define NN_CONV_CO_TILE 8
 
+// conv3d on discrete GPUs (conv3d_tiled*.comp): a shared-memory implicit GEMM
+// with M = voxels, N = output channels, K = input channels x taps. A workgroup
+// of NN_CONV_TILED_GROUP threads computes an NN_CONV_TILED_BM x NN_CONV_TILED_BN
+// block, each thread a 4 x 4 register micro-tile, over K in double-buffered
+// steps of NN_CONV_TILED_BK.
+#define NN_CONV_TILED_GROUP 256
+#define NN_CONV_TILED_BM 64
+#define NN_CONV_TILED_BN 64
+#define NN_CONV_TILED_BK 16
+// The cooperative-matrix form (conv3d_coopmat*.comp): 4 subgroups of 32, each
+// a 32 x 32 quarter of the 64 x 64 block as 2 x 2 fragments of 16 x 16 x 16
+// (fp16 A and B, fp32 accumulators), K in steps of NN_CONV_COOP_BK.
+#define NN_CONV_COOP_GROUP 128
+#define NN_CONV_COOP_BM 64
+#define NN_CONV_COOP_BN 64
+#define NN_CONV_COOP_BK 32
+
 ICUBE_SHADER_NAMESPACE_BEGIN
 
 // conv3d: dense NCDHW float32, stride 1, padding kernel / 2 (sizes kept).
@@ -29,13 +46,14 @@ struct Conv3dParams {
   uint co_count;
   uint ci_begin;
   uint ci_count;
-  uint co_blocks;     // ceil(co_count / NN_CONV_CO_TILE)
+  uint co_blocks;     // ceil(co_count / NN_CONV_CO_TILE) (tiled paths: / 64)
   uint co_vec4s;      // packed weight row length in vec4s: ceil(out_channels / 8) * 2
   uint size_x;
   uint size_y;
   uint size_z;
   uint kernel;        // 1 or 3 (the pipeline is specialised on it: NN_K)
-  uint voxel_tiles;   // ceil(X * Y * ceil(Z / NN_CONV_ZRUN) / NN_CONV_GROUP)
+  uint voxel_tiles;   // register path: ceil(X * Y * ceil(Z / NN_CONV_ZRUN) / NN_CONV_GROUP);
+                      // tiled and cooperative-matrix paths: ceil(X * Y * Z / 64)
   uint has_bias;
   uint accumulate;
   uint x_offset;      // elements: channel ci_begin of the first batch element
