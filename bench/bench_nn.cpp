@@ -1,6 +1,6 @@
 // icube-bench-nn: the network layer's kernels against their CPU references and,
 // with --torch, PyTorch's CPU ops on the same tensors, side by side in one run:
-// conv3d (dense NCDHW, 3x3x3 and 1x1; --released-levels adds the released
+// conv3d (dense NCDHW, 3x3x3 and 1x1, every kernel path side by side: --conv-paths; --released-levels adds the released
 // model's 64^3 and 32^3 levels), GroupNorm (+ scale-shift + SiLU) and
 // attention at the diffusion UNet's shapes; GPU time per record (submit + wait,
 // after a warm-up), GFLOP/s or GB/s, and the max difference to each competitor
@@ -85,6 +85,7 @@ struct NnBench {
   std::string unet_case;
   bool unet_no_cpu = false;
   std::string unet_precision = "fp32";
+  std::vector<std::string> conv_variants{"register", "tiled", "tiled-fp16", "coopmat-fp16"};
   gpu::Context* ctx_ptr = nullptr;
   TorchSide torch_side;
 
@@ -116,70 +117,98 @@ int NnBench::conv3d_table() {
     cases.push_back({"released L1 C384->384, 32^3", {1, 384, 384, 32, 32, 32, 3}});
     cases.push_back({"released L0 C192->192, 64^3", {1, 192, 192, 64, 64, 64, 3}});
   }
-  std::printf("%-30s %9s %10s %10s %9s %12s %10s %10s %10s %9s %10s\n", "conv3d", "GFLOP", "gpu min", "gpu med",
-              "GFLOP/s", "cpu ref ms", "max rel", "torch min", "torch med", "GFLOP/s", "vs torch");
+  // The kernel variants side by side: path x weight precision (Conv3dPath; fp16 = packed fp16 weights).
+  struct Variant {
+    std::string name;
+    kernels::nn::Conv3dPath path;
+    bool f16 = false;
+  };
+  std::vector<Variant> variants;
+  for (const std::string& v : conv_variants) {
+    const bool f16 = v.size() > 5 && v.compare(v.size() - 5, 5, "-fp16") == 0;
+    const std::string base = f16 ? v.substr(0, v.size() - 5) : v;
+    kernels::nn::Conv3dPath path;
+    if (base == "register") path = kernels::nn::Conv3dPath::kRegisterTile;
+    else if (base == "tiled") path = kernels::nn::Conv3dPath::kSharedTile;
+    else if (base == "coopmat") path = kernels::nn::Conv3dPath::kCoopMatrix;
+    else if (base == "emulated") path = kernels::nn::Conv3dPath::kCoopMatrixEmulated;
+    else {
+      std::fprintf(stderr, "icube-bench-nn: --conv-paths: unknown variant %s\n", v.c_str());
+      return 2;
+    }
+    if (path == kernels::nn::Conv3dPath::kCoopMatrix && !ctx.info().cooperative_matrix_nv) {
+      std::printf("(conv3d %s skipped: the device has no VK_NV_cooperative_matrix)\n", v.c_str());
+      continue;
+    }
+    variants.push_back({v, path, f16});
+  }
+  std::printf("%-30s %-14s %9s %10s %10s %9s %12s %10s %10s %10s %9s %10s\n", "conv3d", "path", "GFLOP", "gpu min",
+              "gpu med", "GFLOP/s", "cpu ref ms", "max rel", "torch min", "torch med", "GFLOP/s", "vs torch");
   kernels::nn::Conv3d conv(ctx);
   for (const Case& c : cases) {
     if (!only.empty() && std::string(c.what).find(only) == std::string::npos) continue;
-    const auto& s = c.s;
     std::mt19937 rng(7);
     std::uniform_real_distribution<float> u(-1.f, 1.f);
-    nn::CpuTensor x({s.batch, s.in_channels, s.x, s.y, s.z});
+    const auto& shape = c.s;
+    nn::CpuTensor x({shape.batch, shape.in_channels, shape.x, shape.y, shape.z});
     for (float& v : x.data) v = u(rng);
-    const int64_t k = s.kernel;
-    nn::CpuTensor w({s.out_channels, s.in_channels, k, k, k});
+    const int64_t k = shape.kernel;
+    nn::CpuTensor w({shape.out_channels, shape.in_channels, k, k, k});
     for (float& v : w.data) v = u(rng) * 0.1f;
-    nn::CpuTensor b({s.out_channels});
+    nn::CpuTensor b({shape.out_channels});
     for (float& v : b.data) v = u(rng);
     gpu::Buffer xb = gpu::upload_vector(ctx, x.data);
-    gpu::Buffer wb = gpu::upload_vector(ctx, kernels::nn::pack_conv3d_weights(w.data, s.out_channels, s.in_channels, s.kernel));
+    gpu::Buffer wb32 = gpu::upload_vector(
+        ctx, kernels::nn::pack_conv3d_weights(w.data, shape.out_channels, shape.in_channels, shape.kernel));
+    gpu::Buffer wb16 = gpu::upload_vector(
+        ctx, kernels::nn::pack_conv3d_weights_f16(w.data, shape.out_channels, shape.in_channels, shape.kernel));
     gpu::Buffer bb = gpu::upload_vector(ctx, b.data);
-    const size_t ny = static_cast<size_t>(s.batch) * s.out_channels * s.voxels();
+    const size_t ny = static_cast<size_t>(shape.batch) * shape.out_channels * shape.voxels();
     gpu::Buffer yb(ctx, ny * 4);
-    std::vector<double> samples;
-    for (int r = 0; r < warmup + runs; ++r) {
-      const auto t0 = Clock::now();
-      ctx.submit_and_wait([&](gpu::CommandList& cmd) { conv.record(cmd, s, xb, wb, &bb, yb); });
-      if (r >= warmup) samples.push_back(ms_since(t0));
-    }
-    const Stats st = stats(samples);
-    const double gflop = static_cast<double>(s.flops()) * 1e-9;
-    std::string cpu_ms = "-", rel = "-";
+    const double gflop = static_cast<double>(shape.flops()) * 1e-9;
+    // The references, once per shape: the CPU's (timed) and PyTorch's.
+    std::string cpu_ms = "-";
+    std::vector<float> want;
     if (gflop <= cpu_limit_gflop) {
       const auto t0 = Clock::now();
-      const nn::CpuTensor want = nn::cpu::conv3d(x, w, &b, 1, static_cast<int>(k / 2));
+      want = nn::cpu::conv3d(x, w, &b, 1, static_cast<int>(k / 2)).data;
       cpu_ms = std::to_string(static_cast<int>(ms_since(t0)));
-      const std::vector<float> got = gpu::download_vector<float>(ctx, yb, ny);
-      double mx = 0, ref = 0;
-      for (size_t i = 0; i < ny; ++i) {
-        mx = std::max(mx, std::abs(static_cast<double>(got[i]) - static_cast<double>(want.data[i])));
-        ref = std::max(ref, std::abs(static_cast<double>(want.data[i])));
-      }
-      char buf[32];
-      std::snprintf(buf, sizeof buf, "%.1e", mx / std::max(ref, 1e-30));
-      rel = buf;
     }
-    std::string t_min = "-", t_med = "-", t_rate = "-", t_rel = "-";
+    TorchSide::Result tr;
     if (!torch_side.python.empty()) {
-      const TorchSide::Result tr = torch_side.run({{"op", "conv3d"}}, {{"x", &x}, {"w", &w}, {"b", &b}});
+      tr = torch_side.run({{"op", "conv3d"}}, {{"x", &x}, {"w", &w}, {"b", &b}});
       if (!tr.ok) {
         std::fprintf(stderr, "icube-bench-nn: torch side failed: %s\n", tr.error.c_str());
         return 1;
       }
-      char buf[64];
-      std::snprintf(buf, sizeof buf, "%.2f", tr.min_ms);
-      t_min = buf;
-      std::snprintf(buf, sizeof buf, "%.2f", tr.median_ms);
-      t_med = buf;
-      std::snprintf(buf, sizeof buf, "%.1f", gflop / (tr.min_ms * 1e-3));
-      t_rate = buf;
-      std::snprintf(buf, sizeof buf, "%.1e", max_rel(gpu::download_vector<float>(ctx, yb, ny), tr.y));
-      t_rel = buf;
     }
-    std::printf("%-30s %9.2f %10.2f %10.2f %9.2f %12s %10s %10s %10s %9s %10s\n", c.what, gflop, st.min, st.median,
-                gflop / (st.min * 1e-3), cpu_ms.c_str(), rel.c_str(), t_min.c_str(), t_med.c_str(), t_rate.c_str(),
-                t_rel.c_str());
+    for (const Variant& var : variants) {
+      kernels::nn::Conv3dShape s = shape;
+      s.f16_weights = var.f16;
+      conv.force_path(var.path);
+      std::vector<double> samples;
+      for (int r = 0; r < warmup + runs; ++r) {
+        const auto t0 = Clock::now();
+        ctx.submit_and_wait([&](gpu::CommandList& cmd) { conv.record(cmd, s, xb, var.f16 ? wb16 : wb32, &bb, yb); });
+        if (r >= warmup) samples.push_back(ms_since(t0));
+      }
+      const Stats st = stats(samples);
+      const std::vector<float> got = gpu::download_vector<float>(ctx, yb, ny);
+      char rel[32] = "-";
+      if (!want.empty()) std::snprintf(rel, sizeof rel, "%.1e", max_rel(got, want));
+      char t_min[32] = "-", t_med[32] = "-", t_rate[32] = "-", t_rel[32] = "-";
+      if (tr.ok) {
+        std::snprintf(t_min, sizeof t_min, "%.2f", tr.min_ms);
+        std::snprintf(t_med, sizeof t_med, "%.2f", tr.median_ms);
+        std::snprintf(t_rate, sizeof t_rate, "%.1f", gflop / (tr.min_ms * 1e-3));
+        std::snprintf(t_rel, sizeof t_rel, "%.1e", max_rel(got, tr.y));
+      }
+      std::printf("%-30s %-14s %9.2f %10.2f %10.2f %9.2f %12s %10s %10s %10s %9s %10s\n", c.what, var.name.c_str(),
+                  gflop, st.min, st.median, gflop / (st.min * 1e-3), cpu_ms.c_str(), rel, t_min, t_med, t_rate, t_rel);
+      std::fflush(stdout);
+    }
   }
+  conv.force_path(std::nullopt);
   return 0;
 }
 
@@ -444,6 +473,11 @@ int main(int argc, char** argv) {
   app.add_flag("--released-levels", b.released_levels,
                "Also conv3d at the released model's level shapes (64^3 x 192, 32^3 x 384, 16^3 x 768: "
                "130-520 GFLOP each, minutes per run on lavapipe)");
+  app.add_option("--conv-paths", b.conv_variants,
+                 "conv3d kernels side by side: register, tiled, coopmat, emulated, each optionally -fp16 (fp16 "
+                 "weights; coopmat's operands are fp16 either way); coopmat is skipped on devices without it")
+      ->delimiter(',')
+      ->capture_default_str();
   app.add_flag("--torch", b.with_torch,
                "Also run PyTorch's CPU ops (bench/torch_nn.py, Debian python3-torch) on the same tensors, "
                "torch threads = LP_NUM_THREADS");
