@@ -6,7 +6,7 @@
 //                     [--seed N] [--record SEL] [--extrapolate N] [--threads N] [--no-vehicles]
 //                     [--vehicle-mesh FILE [--mesh-axes F,U] | --vehicle-meshes JSON] [--png top.png]
 //     diffusion:      --model CONFIG|PRESET --weights UNET.safetensors --vae VAE.safetensors [--vae-model CONFIG|PRESET]
-//                     [--steps N] [--eta E] [--cfg S] [--precision fp32|fp16] [--scale-factor S] [--keep-latents DIR]
+//                     [--steps N] [--sampler ddim|dpm++2m] [--eta E] [--cfg S] [--precision fp32|fp16] [--scale-factor S] [--keep-latents DIR]
 //   icube world plot WORLD -o top.png [--max-pixels N]
 #include "cli_common.h"
 #include "command_registry.h"
@@ -53,7 +53,9 @@ struct BuildArgs {
   // --generator diffusion
   std::string model, weights, vae, vae_model, precision = "fp32", keep_latents;
   int steps = 100;
+  std::string sampler = "ddim";
   float eta = 1.0f, cfg = 2.0f;
+  bool eta_given = false;
   double scale_factor = 1.0;
   bool scale_given = false;
 };
@@ -133,7 +135,9 @@ std::unique_ptr<diffusion::DiffusionGenerator> make_diffusion_generator(const Bu
 
   diffusion::DiffusionGeneratorOptions o;
   o.sampler.ddim.steps = a.steps;
-  o.sampler.ddim.eta = a.eta;
+  o.sampler.kind = a.sampler == "dpm++2m" ? diffusion::SamplerKind::kDpmSolver2M : diffusion::SamplerKind::kDdim;
+  // DPM-Solver++ is deterministic: eta defaults to 0 there, and a given eta != 0 is refused.
+  o.sampler.ddim.eta = o.sampler.kind == diffusion::SamplerKind::kDpmSolver2M && !a.eta_given ? 0.0f : a.eta;
   o.sampler.cfg_scale = a.cfg;
   o.sampler.seed = a.seed;
   o.scale_factor = scale.value;
@@ -143,13 +147,14 @@ std::unique_ptr<diffusion::DiffusionGenerator> make_diffusion_generator(const Bu
   o.progress = [&bar, current = std::make_shared<size_t>(SIZE_MAX)](size_t chunk, size_t done, size_t total) {
     if (*current != chunk) {
       *current = chunk;
-      bar.emplace("world build: chunk " + std::to_string(chunk), "DDIM steps");
+      bar.emplace("world build: chunk " + std::to_string(chunk), "sampling steps");
     }
     bar->update(done, total);
   };
   ctx.emplace(gpu::ContextOptions::from_env());
-  std::fprintf(stderr, "world build: diffusion UNet %s (%s), VAE %s (%s), %d DDIM steps, eta %g, cfg %g, scale_factor %g (%s)\n",
-               a.weights.c_str(), a.model.c_str(), a.vae.c_str(), vae_model.c_str(), a.steps, static_cast<double>(a.eta),
+  std::fprintf(stderr, "world build: diffusion UNet %s (%s), VAE %s (%s), %d %s steps, eta %g, cfg %g, scale_factor %g (%s)\n",
+               a.weights.c_str(), a.model.c_str(), a.vae.c_str(), vae_model.c_str(), a.steps,
+               diffusion::sampler_kind_name(o.sampler.kind), static_cast<double>(o.sampler.ddim.eta),
                static_cast<double>(a.cfg), scale.value, scale.source.c_str());
   return std::make_unique<diffusion::DiffusionGenerator>(*ctx, s, mode, unet_cfg, unet_w, vae_cfg, vae_w, o);
 }
@@ -277,9 +282,15 @@ void add_world_build_commands(CLI::App& app) {
   build->add_option("--vae-model", a->vae_model,
                     "diffusion: VAE config or preset (default: vae_config.json beside --vae, else infinicube-vae)")
       ->type_name("CONFIG");
-  build->add_option("--steps", a->steps, "diffusion: DDIM steps")->check(CLI::Range(1, 1000))->capture_default_str();
+  build->add_option("--steps", a->steps, "diffusion: sampling steps")->check(CLI::Range(1, 1000))->capture_default_str();
+  build->add_option("--sampler", a->sampler,
+                    "diffusion: ddim (the official sampler) or dpm++2m (DPM-Solver++ 2M, deterministic; "
+                    "bench/README.md gives the steps at which it matches DDIM's error)")
+      ->check(CLI::IsMember({"ddim", "dpm++2m"}))
+      ->capture_default_str();
   build->add_option("--eta", a->eta, "diffusion: DDIM eta (1: the official stochastic sampler, 0: deterministic)")
       ->check(CLI::Range(0.0, 10.0))
+      ->each([a](const std::string&) { a->eta_given = true; })
       ->capture_default_str();
   build->add_option("--cfg", a->cfg, "diffusion: guidance scale s, v = cond + s (cond - uncond); 1 = one pass (the official "
                                      "CLI's default), 2 = the official full pipeline's")

@@ -2,9 +2,11 @@
 #include "diffusion/chunk_sampler.h"
 
 #include "diffusion/counter_noise.h"
+#include "diffusion/dpm_solver.h"
 #include "gpu/commands.h"
 #include "gpu/context.h"
 #include "kernels/nn/ddim_step.h"
+#include "kernels/nn/dpm_solver_step.h"
 #include "kernels/nn/latent_overwrite.h"
 
 #include <algorithm>
@@ -61,8 +63,9 @@ uint64_t transferred_since(const gpu::HostTransferBytes& before) {
 ChunkSample sample_on_host(Denoiser& denoiser, const ChunkDims& d, const nn::CpuTensor& cond, const KnownLatents* known,
                            uint32_t chunk_index, const SamplerOptions& o, const std::function<void(size_t, size_t)>& progress) {
   const DdimSchedule sched(o.ddim);
+  const bool dpm = o.kind == SamplerKind::kDpmSolver2M;
   ChunkSample out;
-  std::vector<float> x(d.n), z(d.n);
+  std::vector<float> x(d.n), z(d.n), x0_prev, x0(dpm ? d.n : 0);
   normal_noise({o.seed, chunk_index, 0, NoisePurpose::InitialLatent}, 0, x.data(), d.n);
   nn::CpuTensor input = conditioned_batch(d, cond);
   if (progress) progress(0, sched.size());
@@ -84,7 +87,7 @@ ChunkSample sample_on_host(Denoiser& denoiser, const ChunkDims& d, const nn::Cpu
     if (v.shape != d.prediction_shape())
       throw std::invalid_argument("sample_chunk: the denoiser returned a tensor of another shape than [B, C, X, Y, Z]");
     t0 = Clock::now();
-    const bool noise = st.sigma != 0.0f;
+    const bool noise = !dpm && st.sigma != 0.0f;
     if (noise) normal_noise({o.seed, chunk_index, static_cast<uint32_t>(st.t), NoisePurpose::StepNoise}, 0, z.data(), d.n);
     std::vector<float> guided;
     const float* vp = v.data.data();
@@ -94,7 +97,14 @@ ChunkSample sample_on_host(Denoiser& denoiser, const ChunkDims& d, const nn::Cpu
       vp = guided.data();
     }
     std::vector<float> next(d.n);
-    nn::cpu::ddim_step(st.coefficients(), x.data(), vp, noise ? z.data() : nullptr, next.data(), d.n);
+    if (dpm) {
+      const kernels::nn::DpmSolverStepCoefficients c = dpm_solver_coefficients(sched, i);
+      nn::cpu::dpm_solver_step(c, x.data(), vp, c.second_order() ? x0_prev.data() : nullptr, next.data(), x0.data(), d.n);
+      x0_prev.swap(x0);
+      x0.resize(d.n);
+    } else {
+      nn::cpu::ddim_step(st.coefficients(), x.data(), vp, noise ? z.data() : nullptr, next.data(), d.n);
+    }
     x.swap(next);
     timing.step_ms = ms_since(t0);
     out.steps.push_back(timing);
@@ -110,7 +120,9 @@ ChunkSample sample_on_device(Denoiser& denoiser, const ChunkDims& d, const nn::C
                              uint32_t chunk_index, const SamplerOptions& o, gpu::Context& ctx,
                              const std::function<void(size_t, size_t)>& progress) {
   const DdimSchedule sched(o.ddim);
+  const bool dpm = o.kind == SamplerKind::kDpmSolver2M;
   kernels::nn::DdimStep step_kernel(ctx);
+  kernels::nn::DpmSolverStep dpm_kernel(ctx);
   kernels::nn::LatentOverwrite overwrite_kernel(ctx);
   const uint64_t bytes = d.n * 4, element_bytes = static_cast<uint64_t>(d.C + 8) * d.spatial * 4;
   const gpu::Buffer input = gpu::upload_vector(ctx, conditioned_batch(d, cond).data, "sampler denoiser input");
@@ -123,6 +135,14 @@ ChunkSample sample_on_device(Denoiser& denoiser, const ChunkDims& d, const nn::C
   const gpu::Buffer z(ctx, bytes, gpu::MemoryUsage::DeviceLocal, "sampler noise");
   gpu::Buffer* x = &latent_a;
   gpu::Buffer* next = &latent_b;
+  // DPM-Solver++: this step's data prediction and the previous step's.
+  std::optional<gpu::Buffer> x0_a, x0_b;
+  if (dpm) {
+    x0_a.emplace(ctx, bytes, gpu::MemoryUsage::DeviceLocal, "sampler data prediction");
+    x0_b.emplace(ctx, bytes, gpu::MemoryUsage::DeviceLocal, "sampler data prediction");
+  }
+  gpu::Buffer* x0 = dpm ? &*x0_a : nullptr;
+  gpu::Buffer* x0_prev = dpm ? &*x0_b : nullptr;
   std::optional<gpu::Buffer> known_b, mask_b;
   if (d.outpaint) {
     known_b.emplace(gpu::upload_vector(ctx, known->values, "sampler known latents"));
@@ -160,7 +180,7 @@ ChunkSample sample_on_device(Denoiser& denoiser, const ChunkDims& d, const nn::C
     denoiser.predict_on_device(ctx, input, d.input_shape(), st.t, v);
     timing.denoise_ms = ms_since(t0);
     t0 = Clock::now();
-    const bool noise = st.sigma != 0.0f;
+    const bool noise = !dpm && st.sigma != 0.0f;
     if (noise) {
       normal_noise({o.seed, chunk_index, static_cast<uint32_t>(st.t), NoisePurpose::StepNoise}, 0, host_noise.data(), d.n);
       gpu::upload(ctx, z, host_noise.data(), bytes);
@@ -170,9 +190,14 @@ ChunkSample sample_on_device(Denoiser& denoiser, const ChunkDims& d, const nn::C
       cmd.copy_buffer(v.binding(0, bytes), v_cond.binding(0, bytes));
       if (d.cfg) cmd.copy_buffer(v.binding(bytes, bytes), v_uncond->binding(0, bytes));
       cmd.barrier(gpu::deps::kTransferToCompute);
-      step_kernel.record(cmd, st.coefficients(), d.n, *x, v_cond, d.cfg ? &*v_uncond : nullptr, o.cfg_scale, noise ? &z : nullptr, *next);
+      const gpu::Buffer* uncond = d.cfg ? &*v_uncond : nullptr;
+      if (dpm)
+        dpm_kernel.record(cmd, dpm_solver_coefficients(sched, i), d.n, *x, v_cond, uncond, o.cfg_scale, x0_prev, *next, *x0);
+      else
+        step_kernel.record(cmd, st.coefficients(), d.n, *x, v_cond, uncond, o.cfg_scale, noise ? &z : nullptr, *next);
     });
     std::swap(x, next);
+    std::swap(x0, x0_prev);
     timing.step_ms = ms_since(t0);
     timing.host_bytes = transferred_since(before);
     out.steps.push_back(timing);
@@ -188,6 +213,15 @@ ChunkSample sample_on_device(Denoiser& denoiser, const ChunkDims& d, const nn::C
 }
 
 }  // namespace
+
+const char* sampler_kind_name(SamplerKind kind) { return kind == SamplerKind::kDpmSolver2M ? "dpm++2m" : "ddim"; }
+
+void check_sampler_options(const SamplerOptions& o) {
+  const DdimSchedule schedule(o.ddim);
+  if (o.kind == SamplerKind::kDpmSolver2M && o.ddim.eta != 0.0f)
+    throw std::invalid_argument("sampler dpm++2m is deterministic: eta " + std::to_string(o.ddim.eta) +
+                                " applies to ddim only (use eta 0)");
+}
 
 bool KnownLatents::any() const { return std::any_of(mask.begin(), mask.end(), [](uint32_t m) { return m != 0; }); }
 
@@ -208,6 +242,7 @@ ChunkSample sample_chunk(Denoiser& denoiser, int latent_channels, const nn::CpuT
   if (cond.shape.size() != 4 || cond.shape[0] != 8)
     throw std::invalid_argument("sample_chunk: the condition volume is not [8, X, Y, Z]");
   if (latent_channels < 1) throw std::invalid_argument("sample_chunk: " + std::to_string(latent_channels) + " latent channels");
+  check_sampler_options(o);
   ChunkDims d;
   d.C = latent_channels;
   d.X = cond.shape[1];

@@ -1,6 +1,6 @@
 // Stage 1's sampler for one chunk (conventions §9.1-9.3): the chunk's latent
 // [C, X, Y, Z] starts as counter-based noise and is denoised by DDIM over the
-// schedule; at every step the denoiser sees the latent concatenated with the
+// schedule (or DPM-Solver++ 2M over the same timesteps: SamplerKind); at every step the denoiser sees the latent concatenated with the
 // chunk's condition volume [8, X, Y, Z] (position, map and box channels,
 // world/conditions.h) and predicts v. With guidance scale s != 1 a second,
 // unconditional input (map and box channels zeroed, positions kept) runs in
@@ -59,12 +59,23 @@ struct KnownLatents {
   bool any() const;
 };
 
+// The solver that takes the latent from noise to the sample, over the same timesteps (ddim's steps).
+enum class SamplerKind {
+  kDdim,         // DDIM with ddim.eta (the official sampler)
+  kDpmSolver2M,  // DPM-Solver++ (2M), deterministic: ddim.eta must be 0 (diffusion/dpm_solver.h)
+};
+const char* sampler_kind_name(SamplerKind kind);  // "ddim", "dpm++2m"
+
 struct SamplerOptions {
-  DdimOptions ddim;
+  SamplerKind kind = SamplerKind::kDdim;
+  DdimOptions ddim;  // timesteps, schedule and DDIM's eta
   float cfg_scale = 1.0f;
   uint64_t seed = 0;
   bool final_overwrite = true;  // set the known cells to the clean known latents after the last step
 };
+
+// std::invalid_argument on options no sampler can run (the schedule's own checks; eta != 0 with DPM-Solver++).
+void check_sampler_options(const SamplerOptions& options);
 
 struct StepTiming {
   int t = 0;
@@ -78,7 +89,7 @@ struct ChunkSample {
 };
 
 // cond: [8, X, Y, Z]. progress(0, n) before the first step, progress(i, n) after each. Throws std::invalid_argument on shapes that do not
-// fit (cond not 8 channels, known arrays of the wrong length).
+// fit (cond not 8 channels, known arrays of the wrong length) and on DPM-Solver++ with eta != 0.
 ChunkSample sample_chunk(Denoiser& denoiser, int latent_channels, const nn::CpuTensor& cond, const KnownLatents* known,
                          uint32_t chunk_index, const SamplerOptions& options, gpu::Context* ctx = nullptr,
                          const std::function<void(size_t, size_t)>& progress = {});

@@ -66,8 +66,7 @@ DiffusionGenerator::DiffusionGenerator(gpu::Context& ctx, const scene::Scene& sc
                                 " (the UNet needs " + std::to_string(c + world::kCondChannels) + " in, " + std::to_string(c) +
                                 " out)");
   if (!(options.scale_factor > 0.0)) throw std::invalid_argument("diffusion: scale_factor must be positive");
-  DdimSchedule check(options.sampler.ddim);  // bad steps / eta: an error before any work
-  (void)check;
+  check_sampler_options(options.sampler);  // bad steps / eta: an error before any work
   impl_ = std::make_unique<Impl>(ctx, scene, mode, unet, unet_weights, vae, vae_weights, options);
 }
 

@@ -140,6 +140,25 @@ struct DdimStepParams {
   uint offset;            // element offset of the window inside every binding (element_window)
 };
 
+// dpm_solver_step: one DPM-Solver++ (2M) step on a v-prediction (kernels/nn/dpm_solver_step.h):
+//   v = cond (+ cfg_scale (cond - uncond)); x0 = alpha_t x - sigma_t v;
+//   out = c_x x + c_0 x0 (+ c_1 x0_prev with NN_DPM_FLAG_SECOND_ORDER); x0_out = x0.
+#define NN_DPM_GROUP 64
+#define NN_DPM_FLAG_CFG 1u
+#define NN_DPM_FLAG_SECOND_ORDER 2u
+
+struct DpmSolverStepParams {
+  uint count;
+  uint flags;
+  float cfg_scale;
+  float alpha_t;  // sqrt(a_t)
+  float sigma_t;  // sqrt(1 - a_t)
+  float c_x;
+  float c_0;
+  float c_1;
+  uint offset;    // element offset of the window inside every binding (element_window)
+};
+
 struct LatentOverwriteParams {
   uint count;    // elements of this window
   uint spatial;  // voxels per channel (the mask's length)
@@ -310,6 +329,8 @@ ICUBE_CHECK_SIZE(ResampleParams, 32);
 ICUBE_CHECK_SIZE(DdimStepParams, 36);
 ICUBE_CHECK_LAYOUT(DdimStepParams, sigma, 28);
 ICUBE_CHECK_SIZE(LatentOverwriteParams, 24);
+ICUBE_CHECK_SIZE(DpmSolverStepParams, 36);
+ICUBE_CHECK_LAYOUT(DpmSolverStepParams, c_1, 28);
 ICUBE_CHECK_LAYOUT(ResampleParams, x_offset, 20);
 ICUBE_CHECK_LAYOUT(GroupNormParams, eps, 20);
 
