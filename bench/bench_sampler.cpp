@@ -6,8 +6,9 @@
 // on a small latent grid (--grid N: N^3 latent cells, synthetic conditions:
 // positions, a road band, a box heading). Per guidance scale a 1000-step
 // eta 0 reference from the same seed; then DDIM with 10 / 25 / 50 / 100 steps
-// at eta 0 and 1, fp16 weights, and guidance 1 / 2 / 5 / 10 against their own
-// references. Reported: latent error RMS(x - x_ref) / std(x_ref), the decoded
+// at eta 0 and 1, fp16 weights, guidance 1 / 2 / 5 / 10 against their own
+// references, and DPM-Solver++ (2M) at 5 to 100 steps (the fewest steps at which
+// it reaches DDIM-100's error is printed). Reported: latent error RMS(x - x_ref) / std(x_ref), the decoded
 // voxels' agreement (cells occupied in either, same class in both), and run
 // time (min / median of --runs, after one warm-up), as a table; --png writes
 // the error-against-time plot. See bench/README.md.
@@ -27,6 +28,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -106,6 +108,7 @@ double latent_error(const std::vector<float>& x, const std::vector<float>& ref) 
 
 struct Row {
   std::string label;
+  diffusion::SamplerKind sampler = diffusion::SamplerKind::kDdim;
   int steps = 0;
   float eta = 0, cfg = 0;
   bool fp16 = false;
@@ -142,9 +145,10 @@ void write_plot(const std::vector<Row>& rows, int ref_steps, const std::string& 
     std::snprintf(t, sizeof(t), "1e%d", static_cast<int>(d));
     cv.draw_text(10, static_cast<int>(a.y) - 7, t, axis, 2);
   }
-  cv.draw_text(L, 10, "DDIM latent error vs run time (" + std::to_string(ref_steps) + "-step eta 0 references)", axis, 2);
+  cv.draw_text(L, 10, "Sampler latent error vs run time (" + std::to_string(ref_steps) + "-step DDIM eta 0 references)", axis, 2);
   cv.draw_text(W / 2 - 60, H - 30, "run time per sample (median)", axis, 2);
-  const scene::Rgba eta0{31, 119, 180, 255}, eta1{255, 127, 14, 255}, fp16{44, 160, 44, 255}, cfgc{214, 39, 40, 255};
+  const scene::Rgba eta0{31, 119, 180, 255}, eta1{255, 127, 14, 255}, fp16{44, 160, 44, 255}, cfgc{214, 39, 40, 255},
+      dpm{148, 103, 189, 255};
   auto series = [&](auto pick, scene::Rgba c) {
     std::vector<glm::dvec2> pts;
     for (const Row& r : rows)
@@ -156,15 +160,16 @@ void write_plot(const std::vector<Row>& rows, int ref_steps, const std::string& 
   series([](const Row& r) { return r.cfg == 2.0f && !r.fp16 && r.eta == 1.0f && r.label.starts_with("steps"); }, eta1);
   series([](const Row& r) { return r.fp16; }, fp16);
   series([](const Row& r) { return r.label.starts_with("cfg"); }, cfgc);
+  series([](const Row& r) { return r.sampler == diffusion::SamplerKind::kDpmSolver2M; }, dpm);
   for (const Row& r : rows)
-    if (r.error > 0 && (r.label.starts_with("steps") || r.fp16)) {
+    if (r.error > 0 && (r.label.starts_with("steps") || r.fp16 || r.sampler == diffusion::SamplerKind::kDpmSolver2M)) {
       const glm::dvec2 p = px(r.time.median_ms / 1000, r.error);
       cv.draw_text(static_cast<int>(p.x) + 7, static_cast<int>(p.y) - 14, std::to_string(r.steps), axis, 1);
     }
   int y = T + 10;
   for (const auto& [name, c] : std::vector<std::pair<std::string, scene::Rgba>>{
            {"eta 0, cfg 2 (labels: steps)", eta0}, {"eta 1, cfg 2", eta1}, {"fp16 weights, eta 0, cfg 2", fp16},
-           {"cfg 1/2/5/10 at 50 steps", cfgc}}) {
+           {"cfg 1/2/5/10 at 50 steps", cfgc}, {"DPM-Solver++ 2M, cfg 2", dpm}}) {
     cv.fill_rect(W - 390, y + 2, W - 378, y + 14, c);
     cv.draw_text(W - 370, y, name, axis, 2);
     y += 22;
@@ -235,9 +240,11 @@ void run_traffic(gpu::Context& ctx, nn::UNetGpu& net, const nn::CpuTensor& cond,
 }
 
 int main(int argc, char** argv) {
-  CLI::App app{"icube-bench-sampler: DDIM steps, eta, fp16 weights and guidance against run time (latent error, voxel agreement)"};
+  CLI::App app{"icube-bench-sampler: DDIM steps, eta, fp16 weights, guidance and DPM-Solver++ (2M) against run time (latent "
+               "error, voxel agreement)"};
   int grid = 8, runs = 5, ref_steps = 1000;
   std::vector<int> steps{10, 25, 50, 100};
+  std::vector<int> dpm_steps{5, 10, 15, 20, 25, 35, 50, 100};
   std::vector<float> cfgs{1.0f, 2.0f, 5.0f, 10.0f};
   std::string png, unet_model = "infinicube-diffusion-tiny", vae_model = "infinicube-vae-tiny";
   uint64_t seed = 7;
@@ -245,6 +252,9 @@ int main(int argc, char** argv) {
   app.add_option("--runs", runs, "Timed runs per row (after one warm-up)")->check(CLI::Range(1, 100))->capture_default_str();
   app.add_option("--ref-steps", ref_steps, "Steps of the eta 0 references")->check(CLI::Range(2, 1000))->capture_default_str();
   app.add_option("--steps", steps, "DDIM step counts")->delimiter(',')->capture_default_str();
+  app.add_option("--dpm-steps", dpm_steps, "DPM-Solver++ (2M) step counts (eta 0, guidance 2)")
+      ->delimiter(',')
+      ->capture_default_str();
   app.add_option("--cfg", cfgs, "Guidance scales (each against its own reference)")->delimiter(',')->capture_default_str();
   app.add_option("--seed", seed, "Sampler seed")->capture_default_str();
   app.add_option("--model", unet_model, "UNet config or preset (random weights)")->capture_default_str();
@@ -273,9 +283,11 @@ int main(int argc, char** argv) {
     nn::VaeGpu vae(ctx, vcfg, vw);
     const nn::CpuTensor cond = synthetic_conditions(grid);
 
-    auto sample = [&](int n_steps, float eta, float cfg, bool fp16) {
+    auto sample = [&](int n_steps, float eta, float cfg, bool fp16,
+                      diffusion::SamplerKind kind = diffusion::SamplerKind::kDdim) {
       diffusion::UNetDenoiser d(fp16 ? net16 : net32);
       diffusion::SamplerOptions o;
+      o.kind = kind;
       o.ddim.steps = n_steps;
       o.ddim.eta = eta;
       o.cfg_scale = cfg;
@@ -297,14 +309,15 @@ int main(int argc, char** argv) {
       refs[cfg] = {std::move(ref), std::move(dec)};
     }
     std::vector<Row> rows;
-    auto measure = [&](const std::string& label, int n_steps, float eta, float cfg, bool fp16) {
-      Row r{label, n_steps, eta, cfg, fp16};
-      sample(n_steps, eta, cfg, fp16);  // warm-up
+    auto measure = [&](const std::string& label, int n_steps, float eta, float cfg, bool fp16,
+                       diffusion::SamplerKind kind = diffusion::SamplerKind::kDdim) {
+      Row r{label, kind, n_steps, eta, cfg, fp16};
+      sample(n_steps, eta, cfg, fp16, kind);  // warm-up
       std::vector<double> ms;
       std::vector<float> x;
       for (int i = 0; i < runs; ++i) {
         const Clock::time_point t0 = Clock::now();
-        x = sample(n_steps, eta, cfg, fp16);
+        x = sample(n_steps, eta, cfg, fp16, kind);
         ms.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
       }
       r.time = bench::summarize(ms);
@@ -322,10 +335,31 @@ int main(int argc, char** argv) {
       for (const int s : steps) measure("steps", s, eta, base_cfg, false);
     for (const int s : steps) measure("fp16", s, 0.0f, base_cfg, true);
     for (const float cfg : cfgs) measure("cfg", 50, 0.0f, cfg, false);
-    std::printf("\n| row | steps | eta | cfg | weights | latent error | voxel agreement | min ms | median ms |\n|---|---|---|---|---|---|---|---|---|\n");
+    for (const int s : dpm_steps) measure("dpm++2m", s, 0.0f, base_cfg, false, diffusion::SamplerKind::kDpmSolver2M);
+    std::printf("\n| row | sampler | steps | eta | cfg | weights | latent error | voxel agreement | min ms | median ms |\n"
+                "|---|---|---|---|---|---|---|---|---|---|\n");
     for (const Row& r : rows)
-      std::printf("| %s | %d | %g | %g | %s | %.3e | %.4f | %.0f | %.0f |\n", r.label.c_str(), r.steps, static_cast<double>(r.eta),
-                  static_cast<double>(r.cfg), r.fp16 ? "fp16" : "fp32", r.error, r.agree, r.time.min_ms, r.time.median_ms);
+      std::printf("| %s | %s | %d | %g | %g | %s | %.3e | %.4f | %.0f | %.0f |\n", r.label.c_str(),
+                  diffusion::sampler_kind_name(r.sampler), r.steps, static_cast<double>(r.eta), static_cast<double>(r.cfg),
+                  r.fp16 ? "fp16" : "fp32", r.error, r.agree, r.time.min_ms, r.time.median_ms);
+    // The fewest DPM-Solver++ steps that reach DDIM-100's latent error (eta 0, same guidance; eta 1 lands on
+    // another sample by design, so its error against the eta-0 reference is no yardstick).
+    for (const float eta : {0.0f}) {
+      const auto ddim100 = std::find_if(rows.begin(), rows.end(), [&](const Row& r) {
+        return r.label == "steps" && r.steps == 100 && r.eta == eta && r.cfg == base_cfg;
+      });
+      if (ddim100 == rows.end()) continue;
+      int reach = 0;
+      for (const Row& r : rows)
+        if (r.sampler == diffusion::SamplerKind::kDpmSolver2M && r.error <= ddim100->error && (reach == 0 || r.steps < reach))
+          reach = r.steps;
+      if (reach)
+        std::printf("DPM-Solver++ (2M) reaches DDIM-100 (eta %g)'s latent error %.3e at %d steps\n", static_cast<double>(eta),
+                    ddim100->error, reach);
+      else
+        std::printf("DPM-Solver++ (2M) does not reach DDIM-100 (eta %g)'s latent error %.3e at the steps measured\n",
+                    static_cast<double>(eta), ddim100->error);
+    }
     if (!png.empty()) {
       write_plot(rows, ref_steps, png);
       std::printf("wrote %s\n", png.c_str());

@@ -79,6 +79,16 @@ nn::SparseGrid box_around_ego(const world::VoxelGrid& w, const scene::Scene& sc,
   return g;
 }
 
+// max |got - want| / max |want|.
+double max_rel_diff(const std::vector<float>& got, const std::vector<float>& want) {
+  double worst = 0.0, peak = 0.0;
+  for (size_t i = 0; i < want.size(); ++i) {
+    worst = std::max(worst, std::abs(double{got[i]} - double{want[i]}));
+    peak = std::max(peak, std::abs(double{want[i]}));
+  }
+  return got.size() == want.size() ? worst / std::max(peak, 1e-30) : 1e30;
+}
+
 struct Options {
   int runs = 5, warmup = 1, dense_runs = 5;
   nn::Ijk box{128, 128, 64};
@@ -133,6 +143,9 @@ bool run_case(gpu::Context& ctx, const std::string& name, const nn::SparseGrid& 
                 bb = gpu::upload_vector(ctx, b, "bench-b");
     gpu::Buffer yb(ctx, uint64_t{c} * N * 4, gpu::MemoryUsage::DeviceLocal, "bench-y");
     const kernels::nn::SparseConvShape s{N, c, c};
+    // Both sparse kernels side by side: lavapipe's register tile, then the GPUs' shared-memory gathered GEMM
+    // (max rel against the first).
+    sconv.force_path(kernels::nn::Conv3dPath::kRegisterTile);
     const bench::Summary ts_sparse =
         time_runs(o.runs, o.warmup, [&] { ctx.submit_and_wait([&](gpu::CommandList& cmd) { sconv.record(cmd, s, xb, kmap, wb, &bb, yb); }); });
     const std::vector<float> ys = gpu::download_vector<float>(ctx, yb, uint64_t{c} * N);
@@ -140,6 +153,14 @@ bool run_case(gpu::Context& ctx, const std::string& name, const nn::SparseGrid& 
     const double sparse_mb = (2.0 * c * N * 4 + N * 27.0 * 4) / 1e6;
     std::printf("%-26s %8d %10.1f %10.1f %9.2f %11.2f %10.1f %9s\n", "sparse (gather, kmap)", C, ts_sparse.min_ms,
                 ts_sparse.median_ms, useful / (ts_sparse.min_ms * 1e-3), useful / (ts_sparse.min_ms * 1e-3), sparse_mb, "-");
+    sconv.force_path(kernels::nn::Conv3dPath::kSharedTile);
+    const bench::Summary ts_tiled =
+        time_runs(o.runs, o.warmup, [&] { ctx.submit_and_wait([&](gpu::CommandList& cmd) { sconv.record(cmd, s, xb, kmap, wb, &bb, yb); }); });
+    const double tiled_rel = max_rel_diff(gpu::download_vector<float>(ctx, yb, uint64_t{c} * N), ys);
+    ok = ok && tiled_rel <= 1e-5;
+    std::printf("%-26s %8d %10.1f %10.1f %9.2f %11.2f %10.1f %9.1e\n", "sparse tiled (gather GEMM)", C, ts_tiled.min_ms,
+                ts_tiled.median_ms, useful / (ts_tiled.min_ms * 1e-3), useful / (ts_tiled.min_ms * 1e-3), sparse_mb, tiled_rel);
+    sconv.force_path(std::nullopt);
     if (o.dense_runs < 1) continue;  // sparse only
     // Dense conv3d over the zero-filled box (NCDHW), the same weights (grid order = the dense kernel's).
     nn::CpuTensor xd({1, C, o.box[0], o.box[1], o.box[2]});

@@ -10,7 +10,7 @@
 # with tools/device-pack.sh; .gl/ holds Debian's libglvnd .debs (the NVIDIA
 # ICD needs libGLdispatch; see the device tool's README). Then run:
 #   run(command="tools/device-check.sh [unet] [tests] [bench] [lift] [perf]", carry=[".dev", ".gl"], timeout_s=560)
-# (perf alone takes ~6 min on an H200 at today's kernels; run it by itself.)
+# (perf alone: at most ~8.5 min by its steps' limits, ~6 min expected on an H100/H200; run it by itself.)
 # Every step has its own time limit so the whole run ends inside the lease;
 # logs go to $OUT (the tool brings them back), a summary is printed last.
 set -u
@@ -72,19 +72,32 @@ if want lift; then
   cp $d/lifted/eval.png "$out/" 2>/dev/null
 fi
 if want perf; then
-  # Issue 38: the learned stages at GPU speed, old and new binaries alike (the same steps), one table at the end.
+  # Issue 38: the learned stages at GPU speed. The kernels run side by side in one process (conv3d:
+  # register = the lavapipe kernel the GPU used before, tiled, tiled-fp16, coopmat-fp16; attention:
+  # per-query and tiled), and the UNet forward with ICUBE_NN_KERNELS=lavapipe (the old kernels) against
+  # the default (new) on the same warm machine. The GPU kernels' tests run first: a wrong cooperative-
+  # matrix result fails here.
+  step perf_tests 120 "$bin/icube-tests" -tc="conv3d gpu*,attention gpu*,dpm*,unet gpu*" --duration=true
+  grep -E "^\[doctest\] (test cases|assertions)|Status:" "$out/perf_tests.txt" | tail -3
   step perf_kernels 100 "$bin/icube-bench-nn" --only released --released-levels --runs 5 --warmup 1 --cpu-limit 0
-  step perf_unet_fp32 120 "$bin/icube-bench-nn" --only none --unet infinicube-diffusion --unet-grid 64 64 64 \
-    --unet-batch 2 --unet-no-cpu --runs 3 --warmup 1
-  step perf_unet_fp16 100 "$bin/icube-bench-nn" --only none --unet infinicube-diffusion --unet-grid 64 64 64 \
-    --unet-batch 2 --unet-no-cpu --unet-precision fp16 --runs 3 --warmup 1
+  step perf_unet_fp32_old 100 env ICUBE_NN_KERNELS=lavapipe "$bin/icube-bench-nn" --only none --unet infinicube-diffusion \
+    --unet-grid 64 64 64 --unet-batch 2 --unet-no-cpu --runs 3 --warmup 1
+  step perf_unet_fp32 60 "$bin/icube-bench-nn" --only none --unet infinicube-diffusion --unet-grid 64 64 64 \
+    --unet-batch 2 --unet-no-cpu --runs 5 --warmup 1
+  step perf_unet_fp16_old 80 env ICUBE_NN_KERNELS=lavapipe "$bin/icube-bench-nn" --only none --unet infinicube-diffusion \
+    --unet-grid 64 64 64 --unet-batch 2 --unet-no-cpu --unet-precision fp16 --runs 3 --warmup 1
+  step perf_unet_fp16 60 "$bin/icube-bench-nn" --only none --unet infinicube-diffusion --unet-grid 64 64 64 \
+    --unet-batch 2 --unet-no-cpu --unet-precision fp16 --runs 5 --warmup 1
   step perf_vae 60 "$bin/icube-bench-sparse" --vae-decode 64 64 64 --vae-model infinicube-vae --runs 3 --warmup 1
   step perf_splat 45 "$bin/icube-bench-splat" --gaussians 1000000 --sizes 1920x1080 --runs 5 --no-cpu
   {
     echo "| measurement | result |"
     echo "|---|---|"
+    grep -E "^\[doctest\] test cases" "$out/perf_tests.txt" | sed -E 's/^/| perf_tests | /; s/$/ |/'
     grep -E "^released" "$out/perf_kernels.txt" | sed -E 's/^(.{30})(.*)$/| \1 | \2 |/'
-    for f in perf_unet_fp32 perf_unet_fp16; do grep -E "^UNet forward" "$out/$f.txt" | sed -E "s/^/| $f | /; s/$/ |/"; done
+    for f in perf_unet_fp32_old perf_unet_fp32 perf_unet_fp16_old perf_unet_fp16; do
+      grep -E "^UNet forward" "$out/$f.txt" | sed -E "s/^/| $f | /; s/$/ |/"
+    done
     grep -iE "decode" "$out/perf_vae.txt" | tail -n 3 | sed -E 's/^/| perf_vae | /; s/$/ |/'
     grep -E "1920x1080" "$out/perf_splat.txt" | tail -n 3 | sed -E 's/^/| perf_splat | /; s/$/ |/'
   } > "$out/perf_table.md"

@@ -59,7 +59,8 @@ int main(int argc, char** argv) {
   CLI::App app{"InfiniCube-VK: unbounded driving-scene generation on Vulkan compute", "icube"};
   app.require_subcommand(1);
   app.footer("Environment: ICUBE_DEVICE=<index|name substring>, ICUBE_VALIDATION=1, ICUBE_MAX_STORAGE_BINDING=<bytes, e.g. 1M>\n"
-             "(caps every storage binding below the device's, to run the windowed paths as on a smaller device)");
+             "(caps every storage binding below the device's, to run the windowed paths as on a smaller device),\n"
+             "ICUBE_NN_KERNELS=lavapipe|gpu (the network kernels' family; default: lavapipe's on CPU devices)");
 
   bool all = false;
   auto* devices = app.add_subcommand("devices", "List Vulkan devices and the limits and features kernels use");

@@ -62,7 +62,7 @@ uint64_t transferred_since(const gpu::HostTransferBytes& before) {
 // The CPU references: the latent on the host, the denoiser's host form.
 ChunkSample sample_on_host(Denoiser& denoiser, const ChunkDims& d, const nn::CpuTensor& cond, const KnownLatents* known,
                            uint32_t chunk_index, const SamplerOptions& o, const std::function<void(size_t, size_t)>& progress) {
-  const DdimSchedule sched(o.ddim);
+  const DdimSchedule sched(schedule_options(o));
   const bool dpm = o.kind == SamplerKind::kDpmSolver2M;
   ChunkSample out;
   std::vector<float> x(d.n), z(d.n), x0_prev, x0(dpm ? d.n : 0);
@@ -119,7 +119,7 @@ ChunkSample sample_on_host(Denoiser& denoiser, const ChunkDims& d, const nn::Cpu
 ChunkSample sample_on_device(Denoiser& denoiser, const ChunkDims& d, const nn::CpuTensor& cond, const KnownLatents* known,
                              uint32_t chunk_index, const SamplerOptions& o, gpu::Context& ctx,
                              const std::function<void(size_t, size_t)>& progress) {
-  const DdimSchedule sched(o.ddim);
+  const DdimSchedule sched(schedule_options(o));
   const bool dpm = o.kind == SamplerKind::kDpmSolver2M;
   kernels::nn::DdimStep step_kernel(ctx);
   kernels::nn::DpmSolverStep dpm_kernel(ctx);
@@ -216,8 +216,14 @@ ChunkSample sample_on_device(Denoiser& denoiser, const ChunkDims& d, const nn::C
 
 const char* sampler_kind_name(SamplerKind kind) { return kind == SamplerKind::kDpmSolver2M ? "dpm++2m" : "ddim"; }
 
+DdimOptions schedule_options(const SamplerOptions& o) {
+  DdimOptions d = o.ddim;
+  if (o.kind == SamplerKind::kDpmSolver2M) d.spacing = TimestepSpacing::kLogSnr;
+  return d;
+}
+
 void check_sampler_options(const SamplerOptions& o) {
-  const DdimSchedule schedule(o.ddim);
+  const DdimSchedule schedule(schedule_options(o));
   if (o.kind == SamplerKind::kDpmSolver2M && o.ddim.eta != 0.0f)
     throw std::invalid_argument("sampler dpm++2m is deterministic: eta " + std::to_string(o.ddim.eta) +
                                 " applies to ddim only (use eta 0)");

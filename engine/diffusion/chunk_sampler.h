@@ -62,7 +62,8 @@ struct KnownLatents {
 // The solver that takes the latent from noise to the sample, over the same timesteps (ddim's steps).
 enum class SamplerKind {
   kDdim,         // DDIM with ddim.eta (the official sampler)
-  kDpmSolver2M,  // DPM-Solver++ (2M), deterministic: ddim.eta must be 0 (diffusion/dpm_solver.h)
+  kDpmSolver2M,  // DPM-Solver++ (2M) on log-SNR-uniform timesteps, deterministic: ddim.eta must be 0
+                 // (diffusion/dpm_solver.h)
 };
 const char* sampler_kind_name(SamplerKind kind);  // "ddim", "dpm++2m"
 
@@ -73,6 +74,9 @@ struct SamplerOptions {
   uint64_t seed = 0;
   bool final_overwrite = true;  // set the known cells to the clean known latents after the last step
 };
+
+// The schedule the sampler runs: ddim's, with log-SNR spacing for DPM-Solver++.
+DdimOptions schedule_options(const SamplerOptions& options);
 
 // std::invalid_argument on options no sampler can run (the schedule's own checks; eta != 0 with DPM-Solver++).
 void check_sampler_options(const SamplerOptions& options);

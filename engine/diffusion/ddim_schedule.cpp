@@ -68,6 +68,30 @@ DdimSchedule::DdimSchedule(const DdimOptions& o) : options_(o) {
   if (o.steps_offset < 0 || o.steps_offset >= o.train_steps)
     throw std::invalid_argument("ddim: steps_offset " + std::to_string(o.steps_offset));
   alphas_cumprod_ = diffusion::alphas_cumprod(linear_betas(o.train_steps, o.beta_start, o.beta_end));
+  if (o.spacing == TimestepSpacing::kLogSnr) {
+    // lambda(t) falls with t; targets uniform from lambda(T - 1) to lambda(0), each rounded to the nearest
+    // timestep, then kept distinct (below the previous one, with room left for the rest).
+    const int T = o.train_steps;
+    auto lambda = [&](int t) {
+      const double a = alphas_cumprod_[static_cast<size_t>(t)];
+      return 0.5 * (std::log(a) - std::log1p(-a));
+    };
+    const double l_first = lambda(T - 1), l_last = lambda(0);
+    for (int i = 0; i < o.steps; ++i) {
+      const double target = o.steps == 1 ? l_first : l_first + (l_last - l_first) * i / (o.steps - 1);
+      int lo = 0, hi = T - 1;  // the first t with lambda(t) <= target
+      while (lo < hi) {
+        const int mid = (lo + hi) / 2;
+        if (lambda(mid) <= target) hi = mid;
+        else lo = mid + 1;
+      }
+      int t = lo > 0 && std::abs(lambda(lo - 1) - target) < std::abs(lambda(lo) - target) ? lo - 1 : lo;
+      if (!timesteps_.empty()) t = std::min(t, timesteps_.back() - 1);
+      t = std::max(t, o.steps - 1 - i);
+      timesteps_.push_back(t);
+    }
+    return;
+  }
   const int ratio = o.train_steps / o.steps;
   for (int i = o.steps - 1; i >= 0; --i) timesteps_.push_back(std::min(i * ratio + o.steps_offset, o.train_steps - 1));
 }
@@ -81,7 +105,8 @@ void DdimSchedule::noise_level(int t, float* sqrt_alpha, float* sqrt_beta) const
 DdimStep DdimSchedule::step(size_t i) const {
   DdimStep s;
   s.t = timesteps_.at(i);
-  s.t_prev = s.t - options_.train_steps / options_.steps;
+  s.t_prev = options_.spacing == TimestepSpacing::kLeading ? s.t - options_.train_steps / options_.steps
+                                                            : (i + 1 < timesteps_.size() ? timesteps_[i + 1] : -1);
   s.alpha = alphas_cumprod_[static_cast<size_t>(s.t)];
   s.alpha_prev = s.t_prev >= 0 ? alphas_cumprod_[static_cast<size_t>(s.t_prev)]
                                : (options_.set_alpha_to_one ? 1.0f : alphas_cumprod_[0]);

@@ -31,6 +31,11 @@
 
 namespace icube::diffusion {
 
+// Where the inference timesteps sit: "leading" as the official sampler (uniform in t), or uniform in
+// log-SNR lambda = log(alpha / sigma) from t = train_steps - 1 to 0, rounded to distinct integer
+// timesteps (DPM-Solver's recommended "logSNR" spacing: equal steps h for a higher-order solver).
+enum class TimestepSpacing { kLeading, kLogSnr };
+
 struct DdimOptions {
   int train_steps = 1000;
   float beta_start = 1e-4f;
@@ -39,6 +44,7 @@ struct DdimOptions {
   float eta = 1.0f;         // 1: the official default (stochastic); 0: deterministic DDIM
   int steps_offset = 0;
   bool set_alpha_to_one = true;
+  TimestepSpacing spacing = TimestepSpacing::kLeading;
 };
 
 // The coefficients of one step from timestep t to t_prev (< 0 at the last step).
@@ -67,7 +73,7 @@ class DdimSchedule {
   const std::vector<float>& alphas_cumprod() const { return alphas_cumprod_; }
   const std::vector<int>& timesteps() const { return timesteps_; }
   size_t size() const { return timesteps_.size(); }
-  DdimStep step(size_t i) const;  // i-th step (timesteps()[i] -> the next)
+  DdimStep step(size_t i) const;  // i-th step (timesteps()[i] -> the next; the last to alpha_prev)
   // sqrt(a_t), sqrt(1 - a_t) at timestep t: q(x_t | x0) = sqrt(a_t) x0 + sqrt(1 - a_t) eps (outpainting's
   // known latents are noised to the current level with these).
   void noise_level(int t, float* sqrt_alpha, float* sqrt_beta) const;

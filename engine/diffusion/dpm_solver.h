@@ -1,4 +1,4 @@
-// DPM-Solver++ (2M) on the DDIM schedule's timesteps (Lu et al., "DPM-Solver++:
+// DPM-Solver++ (2M) on the diffusion schedule (Lu et al., "DPM-Solver++:
 // Fast Solver for Guided Sampling of Diffusion Probabilistic Models", 2022; the
 // data-prediction multistep solver as diffusers' DPMSolverMultistepScheduler
 // runs it with algorithm_type "dpmsolver++", solver_order 2, solver_type
@@ -11,7 +11,12 @@
 // The first step is first order (no m1); so is the last, to alpha = 1 (sigma_s = 0,
 // h infinite: x_s = m0). The solver is deterministic (no step noise); guidance
 // and outpainting act on the prediction and the latent exactly as for DDIM.
-// Coefficients are computed in double from the schedule's float32 alphas.
+// Coefficients are computed in double from the schedule's float32 alphas, for
+// any timesteps; the sampler runs it on log-SNR-uniform ones
+// (TimestepSpacing::kLogSnr, schedule_options in chunk_sampler.h): on DDIM's
+// leading spacing the steps in lambda are uneven (the last, t = 1000/n -> 0,
+// is several times its predecessor), the multistep extrapolation overshoots,
+// and below ~40 steps it was no better than DDIM (bench/README.md).
 // The step kernel: kernels/nn/dpm_solver_step.h. Tests: tests/diffusion/test_dpm_solver.cpp.
 #pragma once
 

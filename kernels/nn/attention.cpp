@@ -3,6 +3,7 @@
 
 #include "gpu/context.h"
 #include "kernels/nn/buffer_checks.h"
+#include "kernels/nn/kernel_family.h"
 #include "shared/nn_params.h"
 
 #include <cmath>
@@ -12,12 +13,23 @@
 
 namespace icube::kernels::nn {
 
-uint64_t Attention::loop_iterations(const AttentionShape& s) {
+uint64_t Attention::loop_iterations(const AttentionShape& s, AttentionPath path) {
+  if (path == AttentionPath::kTiled) {
+    // Per key block: the load loop, and per key the score and accumulation loops over 32 registers.
+    constexpr uint64_t kPerBlock = NN_ATTN_TILED_KEYS * NN_ATTN_MAX_HEAD_DIM / NN_ATTN_TILED_GROUP +
+                                   NN_ATTN_TILED_KEYS * (2 * NN_ATTN_MAX_HEAD_DIM / 4 + 2) + NN_ATTN_MAX_HEAD_DIM / 4;
+    return gpu::div_up(s.tokens, NN_ATTN_TILED_KEYS) * kPerBlock + NN_ATTN_MAX_HEAD_DIM / 2;
+  }
   const uint64_t d_blocks = gpu::div_up(uint64_t{s.head_dim}, 8);
   return gpu::div_up(s.tokens, 4) * (2 * d_blocks + 1) + 2 * d_blocks + 2;
 }
 
-Attention::Attention(gpu::Context& ctx) : ctx_(ctx), program_(ctx.program("nn/attention")) {}
+Attention::Attention(gpu::Context& ctx) : ctx_(ctx) { ctx.program(path() == AttentionPath::kTiled ? "nn/attention_tiled" : "nn/attention"); }
+
+AttentionPath Attention::path() const {
+  if (forced_path_) return *forced_path_;
+  return kernel_family(ctx_.info()) == KernelFamily::kLavapipe ? AttentionPath::kPerQuery : AttentionPath::kTiled;
+}
 
 void Attention::dispatch(gpu::CommandList& cmd, const AttentionShape& s, const gpu::Buffer& q, const gpu::Buffer& k,
                          const gpu::Buffer& v, uint64_t in_elements, uint64_t q_off, uint64_t k_off, uint64_t v_off,
@@ -26,8 +38,9 @@ void Attention::dispatch(gpu::CommandList& cmd, const AttentionShape& s, const g
     throw std::invalid_argument("attention: head_dim " + std::to_string(s.head_dim) + " (1.." +
                                 std::to_string(NN_ATTN_MAX_HEAD_DIM) + ")");
   if (s.batch == 0 || s.heads == 0 || s.tokens == 0) return;
+  const AttentionPath attention_path = path();
   if (ctx_.info().type == VK_PHYSICAL_DEVICE_TYPE_CPU) {
-    const uint64_t iterations = loop_iterations(s);
+    const uint64_t iterations = loop_iterations(s, attention_path);
     if (iterations > NN_ATTN_LOOP_BUDGET)
       throw std::invalid_argument("attention: " + std::to_string(s.tokens) + " tokens at head_dim " +
                                   std::to_string(s.head_dim) + " need " + std::to_string(iterations) +
@@ -52,7 +65,11 @@ void Attention::dispatch(gpu::CommandList& cmd, const AttentionShape& s, const g
   pc.in_batch_stride = static_cast<uint32_t>(in_stride);
   pc.out_batch_stride = static_cast<uint32_t>(s.channels() * s.tokens);
   pc.scale = static_cast<float>(1.0 / std::sqrt(static_cast<double>(s.head_dim)));
-  cmd.dispatch(program_, gpu::Threads{uint64_t{s.batch} * s.heads * s.tokens}, pc,
+  const bool tiled = attention_path == AttentionPath::kTiled;
+  constexpr uint64_t kQueriesPerGroup = NN_ATTN_TILED_GROUP / 4;
+  const gpu::Threads threads{tiled ? uint64_t{s.batch} * s.heads * gpu::div_up(s.tokens, kQueriesPerGroup) * NN_ATTN_TILED_GROUP
+                                   : uint64_t{s.batch} * s.heads * s.tokens};
+  cmd.dispatch(ctx_.program(tiled ? "nn/attention_tiled" : "nn/attention"), threads, pc,
                {q.binding(0, in_elements * 4), k.binding(0, in_elements * 4), v.binding(0, in_elements * 4),
                 out.binding(0, out_elements * 4)});
 }

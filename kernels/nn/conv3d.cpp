@@ -4,10 +4,10 @@
 #include "gpu/context.h"
 #include "kernels/nn/buffer_checks.h"
 #include "kernels/nn/float16.h"
+#include "kernels/nn/kernel_family.h"
 #include "shared/nn_params.h"
 
 #include <algorithm>
-#include <cstdlib>
 #include <numeric>
 #include <stdexcept>
 #include <string>
@@ -61,19 +61,7 @@ std::string path_unavailable(Conv3dPath path, const gpu::DeviceInfo& device) {
 }  // namespace
 
 Conv3dPath default_conv3d_path(const gpu::DeviceInfo& device, bool f16_weights) {
-  if (const char* env = std::getenv("ICUBE_CONV_PATH"); env && *env) {
-    const std::string v = env;
-    Conv3dPath path;
-    if (v == "register") path = Conv3dPath::kRegisterTile;
-    else if (v == "tiled") path = Conv3dPath::kSharedTile;
-    else if (v == "coopmat") path = Conv3dPath::kCoopMatrix;
-    else if (v == "emulated") path = Conv3dPath::kCoopMatrixEmulated;
-    else throw std::invalid_argument("ICUBE_CONV_PATH=" + v + ": expected register, tiled, coopmat or emulated");
-    if (const std::string why = path_unavailable(path, device); !why.empty())
-      throw std::invalid_argument("ICUBE_CONV_PATH=" + v + ": " + why);
-    return path;
-  }
-  if (device.type == VK_PHYSICAL_DEVICE_TYPE_CPU) return Conv3dPath::kRegisterTile;
+  if (kernel_family(device) == KernelFamily::kLavapipe) return Conv3dPath::kRegisterTile;
   if (f16_weights && path_unavailable(Conv3dPath::kCoopMatrix, device).empty()) return Conv3dPath::kCoopMatrix;
   return Conv3dPath::kSharedTile;
 }

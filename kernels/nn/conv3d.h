@@ -44,10 +44,9 @@ enum class Conv3dPath {
 };
 const char* conv3d_path_name(Conv3dPath path);
 
-// CPU devices: the register tile. GPUs: with fp16 weights the cooperative-matrix kernel where the device has
-// it (DeviceInfo::cooperative_matrix_nv, subgroups of 32), else the shared tile. ICUBE_CONV_PATH=
-// register|tiled|coopmat|emulated overrides it (benchmarks compare paths side by side with it); an unknown
-// value or a path the device lacks is an error.
+// lavapipe's kernel family (CPU devices, or ICUBE_NN_KERNELS=lavapipe: kernels/nn/kernel_family.h): the
+// register tile. The GPUs' family: with fp16 weights the cooperative-matrix kernel where the device has it
+// (DeviceInfo::cooperative_matrix_nv, subgroups of 32), else the shared tile.
 Conv3dPath default_conv3d_path(const gpu::DeviceInfo& device, bool f16_weights);
 
 struct Conv3dShape {

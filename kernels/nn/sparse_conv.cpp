@@ -3,6 +3,7 @@
 
 #include "gpu/context.h"
 #include "kernels/nn/buffer_checks.h"
+#include "kernels/nn/kernel_family.h"
 #include "shared/nn_params.h"
 
 #include <algorithm>
@@ -72,7 +73,21 @@ void SparseKernelMap::record_map(gpu::CommandList& cmd, uint32_t rows, const gpu
   }
 }
 
-SparseConv3d::SparseConv3d(gpu::Context& ctx) : ctx_(ctx), program_(ctx.program("nn/sparse_conv")) {}
+SparseConv3d::SparseConv3d(gpu::Context& ctx) : ctx_(ctx) {
+  ctx.program(path() == Conv3dPath::kSharedTile ? "nn/sparse_conv_tiled" : "nn/sparse_conv");
+}
+
+void SparseConv3d::force_path(std::optional<Conv3dPath> path) {
+  if (path && *path != Conv3dPath::kRegisterTile && *path != Conv3dPath::kSharedTile)
+    throw std::invalid_argument(std::string("sparse conv: no ") + conv3d_path_name(*path) +
+                                " kernel (register or tiled; the cooperative-matrix form needs fp16 weights)");
+  forced_path_ = path;
+}
+
+Conv3dPath SparseConv3d::path() const {
+  if (forced_path_) return *forced_path_;
+  return kernel_family(ctx_.info()) == KernelFamily::kLavapipe ? Conv3dPath::kRegisterTile : Conv3dPath::kSharedTile;
+}
 
 void SparseConv3d::record(gpu::CommandList& cmd, const SparseConvShape& s, const gpu::Buffer& x, const gpu::Buffer& kmap,
                           const gpu::Buffer& w, const gpu::Buffer* bias, const gpu::Buffer& y) {
@@ -86,6 +101,13 @@ void SparseConv3d::record(gpu::CommandList& cmd, const SparseConvShape& s, const
   require_buffer("sparse conv", "packed weights", w_bytes, w);
   if (bias) require_buffer("sparse conv", "bias", uint64_t{s.out_channels} * 4, *bias);
 
+  const bool tiled = path() == Conv3dPath::kSharedTile;
+  gpu::Program& program = ctx_.program(tiled ? "nn/sparse_conv_tiled" : "nn/sparse_conv");
+  // Rows and output channels per workgroup: the register tile's NN_SPARSE_ROWS x NN_SPARSE_GROUP rows and
+  // 8 channels, the tiled kernel's 64 x 64 block.
+  const uint64_t rows_per_group = tiled ? NN_CONV_TILED_BM : uint64_t{NN_SPARSE_ROWS} * NN_SPARSE_GROUP;
+  const uint32_t co_per_group = tiled ? NN_CONV_TILED_BN : NN_CONV_CO_TILE;
+  const uint32_t group_size = tiled ? NN_CONV_TILED_GROUP : NN_SPARSE_GROUP;
   shader::SparseConvParams pc{};
   pc.rows = s.rows;
   pc.co_vec4s = static_cast<uint32_t>(co_vec4s);
@@ -126,12 +148,12 @@ void SparseConv3d::record(gpu::CommandList& cmd, const SparseConvShape& s, const
   for (uint64_t r0 = 0; r0 < N; r0 += row_window) {
     pc.row_begin = static_cast<uint32_t>(r0);
     pc.row_count = static_cast<uint32_t>(std::min<uint64_t>(row_window, N - r0));
-    pc.row_tiles = static_cast<uint32_t>(gpu::div_up(pc.row_count, uint64_t{NN_SPARSE_ROWS} * NN_SPARSE_GROUP));
+    pc.row_tiles = static_cast<uint32_t>(gpu::div_up(pc.row_count, rows_per_group));
     const gpu::BufferBinding kb = kmap.binding(r0 * NN_SPARSE_TAPS * 4, uint64_t{pc.row_count} * NN_SPARSE_TAPS * 4);
     for (uint64_t co0 = 0; co0 < s.out_channels; co0 += co_window) {
       pc.co_begin = static_cast<uint32_t>(co0);
       pc.co_count = static_cast<uint32_t>(std::min<uint64_t>(co_window, s.out_channels - co0));
-      pc.co_blocks = static_cast<uint32_t>(gpu::div_up(pc.co_count, NN_CONV_CO_TILE));
+      pc.co_blocks = static_cast<uint32_t>(gpu::div_up(pc.co_count, co_per_group));
       const ElementWindow yw = element_window(ctx_, y, co0 * N, uint64_t{pc.co_count} * N);
       pc.y_offset = yw.offset;
       for (uint64_t ci0 = 0; ci0 < s.in_channels; ci0 += ci_window) {
@@ -145,7 +167,7 @@ void SparseConv3d::record(gpu::CommandList& cmd, const SparseConvShape& s, const
         pc.w_ci_base = w_windows ? pc.ci_begin : 0u;
         const gpu::BufferBinding wb = w_windows ? w.binding(ci0 * w_row, uint64_t{pc.ci_count} * w_row) : w.binding(0, w_bytes);
         const uint64_t groups = uint64_t{pc.row_tiles} * pc.co_blocks;
-        cmd.dispatch(program_, gpu::Threads{groups * NN_SPARSE_GROUP}, pc, {xw.binding, kb, wb, bb, yw.binding});
+        cmd.dispatch(program, gpu::Threads{groups * group_size}, pc, {xw.binding, kb, wb, bb, yw.binding});
       }
     }
   }

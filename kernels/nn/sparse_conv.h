@@ -18,10 +18,13 @@
 // Tests: tests/nn/test_sparse_conv.cpp.
 #pragma once
 
+#include "kernels/nn/conv3d.h"
+
 #include "gpu/buffer.h"
 #include "gpu/commands.h"
 
 #include <cstdint>
+#include <optional>
 
 namespace icube::kernels::nn {
 
@@ -60,11 +63,16 @@ class SparseConv3d {
   // Tests: the feature windows as if one binding held `bytes` (0: the device's); kernel-map and weight
   // windows follow the context's limit (ContextOptions::max_storage_binding).
   void set_max_binding_bytes(uint64_t bytes) { max_binding_bytes_ = bytes; }
+  // The kernel: the register tile (nn/sparse_conv.comp) in lavapipe's kernel family, the shared-memory
+  // gathered implicit GEMM (nn/sparse_conv_tiled.comp) in the GPUs' (kernels/nn/kernel_family.h); tests and benchmarks may force either (nullopt: that default).
+  // The cooperative-matrix form waits for fp16 VAE weights (the VAE runs fp32).
+  void force_path(std::optional<Conv3dPath> path);
+  Conv3dPath path() const;
 
  private:
   gpu::Context& ctx_;
-  gpu::Program& program_;
   uint64_t max_binding_bytes_ = 0;
+  std::optional<Conv3dPath> forced_path_;
 };
 
 }  // namespace icube::kernels::nn

@@ -189,6 +189,12 @@ struct ResampleParams {
 // Loop iterations one attention invocation may make on CPU devices (lavapipe's
 // gallivm: 65,535 in all per invocation), with a margin.
 #define NN_ATTN_LOOP_BUDGET 60000u
+// attention_tiled (GPUs): a workgroup of NN_ATTN_TILED_GROUP threads takes
+// NN_ATTN_TILED_GROUP / 4 queries of one (batch, head), four threads (a quad)
+// per query, each holding every fourth head dimension; keys and values stream
+// through shared memory NN_ATTN_TILED_KEYS at a time.
+#define NN_ATTN_TILED_GROUP 256
+#define NN_ATTN_TILED_KEYS 32
 
 struct AttentionParams {
   uint batch;

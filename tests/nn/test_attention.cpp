@@ -8,6 +8,7 @@
 #include "kernels/nn/attention.h"
 
 #include <cmath>
+#include <optional>
 #include <random>
 
 using namespace icube;
@@ -26,7 +27,8 @@ nn::CpuTensor heads_of(const std::vector<float>& x, uint32_t B, uint32_t H, uint
   return t;
 }
 
-void check_attention(uint32_t B, uint32_t H, uint32_t D, uint32_t N, float scale, bool chunked, uint32_t seed) {
+void check_attention(uint32_t B, uint32_t H, uint32_t D, uint32_t N, float scale, bool chunked, uint32_t seed,
+                     std::optional<kernels::nn::AttentionPath> path = std::nullopt) {
   CAPTURE(H);
   CAPTURE(D);
   CAPTURE(N);
@@ -48,6 +50,7 @@ void check_attention(uint32_t B, uint32_t H, uint32_t D, uint32_t N, float scale
           want[(size_t{b} * C + h * D + d) * N + n] = o.data[((size_t{b} * H + h) * N + n) * D + d];
   gpu::Buffer out(ctx, want.size() * 4);
   kernels::nn::Attention attn(ctx);
+  attn.force_path(path);
   const kernels::nn::AttentionShape s{B, H, D, N};
   if (chunked) {
     gpu::Buffer qkvb = gpu::upload_vector(ctx, qkv);
@@ -91,6 +94,28 @@ TEST_CASE("attention gpu: against the CPU reference, separate and chunked qkv, h
       CHECK_THROWS_WITH_AS(attn.record(cmd, {1, 1, 96, 20000}, tiny, tiny, tiny, tiny),
                            doctest::Contains("over a CPU device's budget"), std::invalid_argument);
   });
+}
+
+TEST_CASE("attention gpu: the tiled kernel (shared-memory key blocks, a quad per query) against the CPU reference") {
+  // Forced on the test device; token counts across the 64-query and 32-key block edges, head_dim 8, 96
+  // (the released model's), 100 and 128, batch 2, chunked qkv and huge logits.
+  using P = kernels::nn::AttentionPath;
+  check_attention(2, 3, 8, 33, 1.0f, false, 11, P::kTiled);
+  check_attention(1, 8, 8, 6, 1.0f, true, 12, P::kTiled);
+  check_attention(1, 2, 96, 17, 1.0f, true, 13, P::kTiled);
+  check_attention(1, 2, 96, 130, 1.0f, false, 14, P::kTiled);
+  check_attention(2, 1, 128, 65, 1.0f, true, 15, P::kTiled);
+  check_attention(1, 1, 100, 37, 1.0f, false, 16, P::kTiled);
+  check_attention(1, 2, 4, 9, 200.0f, false, 17, P::kTiled);
+  check_attention(1, 1, 8, 1, 1.0f, false, 18, P::kTiled);  // one token
+  kernels::nn::Attention attn(test::gpu_context());
+  attn.force_path(P::kTiled);
+  gpu::Buffer tiny(test::gpu_context(), 64);
+  if (test::gpu_context().info().type == VK_PHYSICAL_DEVICE_TYPE_CPU)
+    test::gpu_context().submit_and_wait([&](gpu::CommandList& cmd) {
+      CHECK_THROWS_WITH_AS(attn.record(cmd, {1, 1, 96, 4096}, tiny, tiny, tiny, tiny),
+                           doctest::Contains("over a CPU device's budget"), std::invalid_argument);
+    });
 }
 
 TEST_CASE("nn cpu: attention with huge logits is a stable softmax; uniform keys average the values") {

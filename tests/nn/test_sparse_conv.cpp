@@ -18,6 +18,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <optional>
 #include <random>
 #include <set>
 
@@ -52,7 +53,8 @@ std::vector<int32_t> gpu_kernel_map(const nn::SparseGrid& g, gpu::Context& ctx =
 
 // GPU conv of x (CPU layout [N, C]) vs the CPU reference; bound 1e-6 + n * 2^-23 * sum |w x|.
 void check_conv(const nn::SparseGrid& g, int64_t ci, int64_t co, bool with_bias, float scale, uint32_t seed,
-                uint64_t max_binding_bytes = 0, bool silu = false, gpu::Context& ctx = test::gpu_context()) {
+                uint64_t max_binding_bytes = 0, bool silu = false, gpu::Context& ctx = test::gpu_context(),
+                std::optional<kernels::nn::Conv3dPath> path = std::nullopt) {
   CAPTURE(g.size());
   CAPTURE(ci);
   CAPTURE(co);
@@ -85,6 +87,7 @@ void check_conv(const nn::SparseGrid& g, int64_t ci, int64_t co, bool with_bias,
   gpu::Buffer yb(ctx, uint64_t{rows} * static_cast<uint64_t>(co) * 4, gpu::MemoryUsage::DeviceLocal, "sparse-y");
   kernels::nn::SparseConv3d conv(ctx);
   conv.set_max_binding_bytes(max_binding_bytes);
+  conv.force_path(path);
   const kernels::nn::SparseConvShape s{rows, static_cast<uint32_t>(ci), static_cast<uint32_t>(co), silu};
   ctx.submit_and_wait([&](gpu::CommandList& cmd) { conv.record(cmd, s, xb, kb, wb, with_bias ? &bb : nullptr, yb); });
   const std::vector<float> got = gpu::download_vector<float>(ctx, yb, uint64_t{rows} * static_cast<uint64_t>(co));
@@ -153,6 +156,28 @@ TEST_CASE("sparse conv gpu: channel windows when the features exceed one binding
   const kernels::nn::SparseConvShape s{10, 4, 4};
   CHECK_THROWS_WITH_AS(ctx.submit_and_wait([&](gpu::CommandList& cmd) { conv.record(cmd, s, small, small, small, nullptr, small); }),
                        doctest::Contains("sparse conv: input buffer holds 64 bytes"), std::invalid_argument);
+}
+
+TEST_CASE("sparse conv gpu: the shared-memory gathered implicit GEMM against the CPU reference") {
+  // Forced on the test device: odd channel counts across the 64 x 64 blocks, a single voxel, 100 km from
+  // the origin, large activations, the VAE's widths, fused SiLU, channel windows and a capped binding.
+  const auto tiled = kernels::nn::Conv3dPath::kSharedTile;
+  gpu::Context& ctx = test::gpu_context();
+  check_conv(test::random_sparse_grid(11, {-9, -5, -7}, {19, 13, 11}, 900), 13, 19, true, 1.0f, 51, 0, false, ctx, tiled);
+  check_conv(test::random_sparse_grid(12, {3, 3, 3}, {1, 1, 1}, 1), 4, 3, true, 1.0f, 52, 0, false, ctx, tiled);
+  check_conv(test::random_sparse_grid(13, {500'000, -500'003, 499'990}, {9, 8, 7}, 200), 6, 70, true, 1.0f, 53, 0, false,
+             ctx, tiled);
+  check_conv(test::random_sparse_grid(14, {-4, -4, -4}, {8, 8, 8}, 300), 5, 9, true, 1e4f, 54, 0, false, ctx, tiled);
+  check_conv(test::random_sparse_grid(15, {-30, -30, -10}, {60, 60, 20}, 2000), 32, 64, true, 1.0f, 55, 0, false, ctx, tiled);
+  check_conv(test::random_sparse_grid(16, {-9, -5, -7}, {19, 13, 11}, 700), 12, 9, true, 3.0f, 56, 0, true, ctx, tiled);
+  check_conv(test::random_sparse_grid(31, {-5, -5, -5}, {10, 10, 10}, 40), 30, 20, true, 1.0f, 57, 2048, true, ctx, tiled);
+  check_conv(test::random_sparse_grid(36, {-5, -5, -5}, {10, 10, 10}, 40), 9, 13, true, 1.0f, 58, 4 * 40 * 4 + 64, false,
+             ctx, tiled);
+  gpu::Context& capped = test::capped_gpu_context(8u << 10);
+  check_conv(test::random_sparse_grid(41, {-9, -9, -9}, {18, 18, 18}, 500), 13, 20, true, 1.0f, 59, 0, false, capped, tiled);
+  kernels::nn::SparseConv3d conv(ctx);
+  CHECK_THROWS_WITH_AS(conv.force_path(kernels::nn::Conv3dPath::kCoopMatrix), doctest::Contains("sparse conv: no coopmat kernel"),
+                       std::invalid_argument);
 }
 
 TEST_CASE("sparse conv gpu: kernel-map rows, features and weights over a forced 8 KiB binding") {

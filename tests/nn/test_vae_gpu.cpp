@@ -3,6 +3,7 @@
 // std), a random-weight model of the released structure against the CPU
 // reference (every level's grid in the same brick order and its logits), and
 // an all-empty decision. Runs under the validation layer.
+#include "nn/scoped_kernel_family.h"
 #include "gpu_test_context.h"
 #include "nn/random_weights.h"
 #include "nn/safetensors.h"
@@ -51,6 +52,20 @@ TEST_CASE("vae gpu: vae_small decodes as the official StructPredictionNet, every
   MESSAGE("vae_small decode (GPU): " << r.voxels << " voxels; structure logits max |d| / std " << r.worst_struct
                                      << ", semantic " << r.semantic << " (bound 1e-4); activations "
                                      << vae.last_activation_bytes() / 1024 << " KiB");
+}
+
+TEST_CASE("vae gpu: vae_small through the GPUs' kernel family (the tiled sparse conv) on the test device") {
+  const std::string dir = test::test_data_dir();
+  if (dir.empty()) return;
+  const test::ScopedKernelFamily gpu_family("gpu");
+  const std::string m = dir + "/models/vae_small/";
+  const nn::VaeConfig cfg = nn::load_vae_config(m + "config.json");
+  const nn::SafetensorsFile file(m + "vae_weights.safetensors");
+  nn::VaeGpu vae(test::gpu_context(), cfg, nn::load_vae_weights_cpu(file, cfg, nn::VaePart::Decoder));
+  const nn::VaeDecoded d = vae.decode(test::vae_small_latent(m));
+  const test::VaeCaseResult r = test::check_vae_small_decode(m, d);
+  MESSAGE("vae_small decode (GPU, the GPUs' kernels): " << r.voxels << " voxels; structure logits max |d| / std "
+                                                        << r.worst_struct << ", semantic " << r.semantic);
 }
 
 TEST_CASE("vae gpu: a random-weight model agrees with the CPU reference level by level") {
