@@ -88,5 +88,9 @@ TEST_CASE("cli: icube world build --generator diffusion runs a tiny random model
                       tmp.path);
   CHECK(r.code != 0);
   CHECK(r.output.find("vae.safetensors: tensor") != std::string::npos);  // UNet tensors missing: named
+  // DPM-Solver++ is deterministic: an eta for it is refused before any work.
+  r = test::run_icube("world build '" + dir + "/demo.json' -o '" + bad + "'" + models + "--sampler dpm++2m --eta 1", tmp.path);
+  CHECK(r.code != 0);
+  CHECK(r.output.find("sampler dpm++2m is deterministic") != std::string::npos);
   CHECK(!std::filesystem::exists(bad));
 }
