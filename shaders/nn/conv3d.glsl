@@ -1,23 +1,8 @@
 // conv3d's body, shared by nn/conv3d.comp (fp32 weights) and
 // nn/conv3d_f16w.comp (NN_CONV_F16_WEIGHTS: fp16 weights); see conv3d.comp.
-#include "shared/nn_params.h"
-#include "common/dispatch.glsl"
+#include "conv3d_bindings.glsl"
 
 layout(local_size_x = NN_CONV_GROUP) in;
-// The kernel size as a specialization constant (1 or 3; the host makes one
-// pipeline each): with it known, the dx/dy loops unroll and lavapipe runs the
-// accumulation without loop masks (17 against 12-13 GFLOP/s with p.kernel).
-layout(constant_id = 0) const int NN_K = 3;
-layout(push_constant) uniform Push { Conv3dParams p; };
-layout(binding = 0) uniform samplerBuffer x_tex;  // R32_SFLOAT
-#ifdef NN_CONV_F16_WEIGHTS
-// 8 output channels of one tap as 8 halves (unpackHalf2x16: no 16-bit storage feature needed).
-layout(std430, binding = 1) readonly buffer Weights { uvec4 w_packed[]; };
-#else
-layout(std430, binding = 1) readonly buffer Weights { vec4 w_packed[]; };
-#endif
-layout(std430, binding = 2) readonly buffer Bias { float bias[]; };
-layout(std430, binding = 3) buffer Out { float y_out[]; };
 
 vec4 acc_lo[NN_CONV_ZRUN], acc_hi[NN_CONV_ZRUN];
 
@@ -48,11 +33,8 @@ void row_taps(const int K, uint x_row, bool row_valid, int z0, int Z, uint w_row
 }
 
 void main() {
-  const uint g = icube_group_linear();
-  const uint tile = g % p.voxel_tiles;
-  const uint rest = g / p.voxel_tiles;
-  const uint cob = rest % p.co_blocks;
-  const uint b = rest / p.co_blocks;
+  const ConvBlock blk = conv_block();
+  const uint tile = blk.tile, cob = blk.cob, b = blk.batch;
   if (b >= p.batch) return;
   const uint S = p.size_x * p.size_y * p.size_z;
   const int X = int(p.size_x), Y = int(p.size_y), Z = int(p.size_z);

@@ -9,20 +9,9 @@
 #extension GL_KHR_memory_scope_semantics : require
 #extension GL_KHR_shader_subgroup_basic : require
 #endif
-#include "shared/nn_params.h"
-#include "common/dispatch.glsl"
+#include "conv3d_bindings.glsl"
 
 layout(local_size_x = NN_CONV_COOP_GROUP) in;
-layout(constant_id = 0) const int NN_K = 3;
-layout(push_constant) uniform Push { Conv3dParams p; };
-layout(binding = 0) uniform samplerBuffer x_tex;  // R32_SFLOAT
-#ifdef NN_CONV_F16_WEIGHTS
-layout(std430, binding = 1) readonly buffer Weights { uvec4 w_packed[]; };  // 8 halves
-#else
-layout(std430, binding = 1) readonly buffer Weights { vec4 w_packed[]; };
-#endif
-layout(std430, binding = 2) readonly buffer Bias { float bias[]; };
-layout(std430, binding = 3) buffer Out { float y_out[]; };
 
 #include "conv3d_operands.glsl"
 
@@ -87,11 +76,8 @@ const uint B_ROWS_PER_PASS = NN_CONV_COOP_GROUP / B_VECS;
 const uint B_LOADS = BK / B_ROWS_PER_PASS;
 
 void main() {
-  const uint g = icube_group_linear();
-  const uint tile = g % p.voxel_tiles;
-  const uint rest = g / p.voxel_tiles;
-  const uint cob = rest % p.co_blocks;
-  const uint b = rest / p.co_blocks;
+  const ConvBlock blk = conv_block();
+  const uint tile = blk.tile, cob = blk.cob, b = blk.batch;
   if (b >= p.batch) return;  // uniform across the workgroup
   const uint tid = gl_LocalInvocationID.x;
   const uint S = p.size_x * p.size_y * p.size_z;

@@ -1,19 +1,8 @@
 // conv3d_tiled's body, shared by nn/conv3d_tiled.comp (fp32 weights) and
 // nn/conv3d_tiled_f16w.comp (NN_CONV_F16_WEIGHTS); see conv3d_tiled.comp.
-#include "shared/nn_params.h"
-#include "common/dispatch.glsl"
+#include "conv3d_bindings.glsl"
 
 layout(local_size_x = NN_CONV_TILED_GROUP) in;
-layout(constant_id = 0) const int NN_K = 3;
-layout(push_constant) uniform Push { Conv3dParams p; };
-layout(binding = 0) uniform samplerBuffer x_tex;  // R32_SFLOAT
-#ifdef NN_CONV_F16_WEIGHTS
-layout(std430, binding = 1) readonly buffer Weights { uvec4 w_packed[]; };  // 8 halves
-#else
-layout(std430, binding = 1) readonly buffer Weights { vec4 w_packed[]; };
-#endif
-layout(std430, binding = 2) readonly buffer Bias { float bias[]; };
-layout(std430, binding = 3) buffer Out { float y_out[]; };
 
 #include "conv3d_operands.glsl"
 
@@ -26,11 +15,8 @@ uint gemm_weight_row(uint k) { return conv_weight_row(k); }
 #include "gemm_tiled.glsl"
 
 void main() {
-  const uint g = icube_group_linear();
-  const uint tile = g % p.voxel_tiles;
-  const uint rest = g / p.voxel_tiles;
-  const uint cob = rest % p.co_blocks;
-  const uint b = rest / p.co_blocks;
+  const ConvBlock blk = conv_block();
+  const uint tile = blk.tile, cob = blk.cob, b = blk.batch;
   if (b >= p.batch) return;  // uniform across the workgroup
   const uint S = p.size_x * p.size_y * p.size_z;
   g_k_count = p.ci_count * NN_TAPS;

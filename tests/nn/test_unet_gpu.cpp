@@ -19,17 +19,18 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 #include <random>
 
 using namespace icube;
 
-namespace {
-
-}  // namespace
-
-TEST_CASE("unet gpu: unet_small matches the official PyTorch module, output and every block") {
+// The official unet_small case through UNetGpu, output and every block within 1e-4 of std; `family` runs it
+// with that kernel family (kernels/nn/kernel_family.h), nullptr with the device's own.
+static void check_unet_small(const char* family) {
   const std::string cfg_path = test::test_data_file("models/unet_small/config.json");
   if (cfg_path.empty()) return;
+  std::optional<test::ScopedKernelFamily> scoped;
+  if (family) scoped.emplace(family);
   const std::string m = cfg_path.substr(0, cfg_path.size() - std::string("config.json").size());
   const nn::UNetConfig cfg = nn::load_unet_config(cfg_path);
   const nn::UNetReference spec(cfg);
@@ -39,27 +40,15 @@ TEST_CASE("unet gpu: unet_small matches the official PyTorch module, output and 
       m, [&](const nn::CpuTensor& x, const std::vector<int64_t>& t, const nn::UNetReference::Capture& c) {
         return net.forward(x, t, c);
       });
-  MESSAGE("unet gpu, unet_small: output max |y - y_ref| / std = " << r.output << "; worst of " << r.blocks
-                                                                   << " blocks " << r.worst_block << "; activations "
-                                                                   << net.last_activation_bytes() / 1024 << " KiB");
+  MESSAGE("unet gpu, unet_small (" << std::string(family ? family : "the device's") << " kernels): output max |y - y_ref| / std = "
+                                   << r.output << "; worst of " << r.blocks << " blocks " << r.worst_block
+                                   << "; activations " << net.last_activation_bytes() / 1024 << " KiB");
 }
 
+TEST_CASE("unet gpu: unet_small matches the official PyTorch module, output and every block") { check_unet_small(nullptr); }
+
 TEST_CASE("unet gpu: unet_small through the GPUs' kernel family (shared-memory conv3d and attention) on the test device") {
-  const std::string cfg_path = test::test_data_file("models/unet_small/config.json");
-  if (cfg_path.empty()) return;
-  const test::ScopedKernelFamily gpu_family("gpu");
-  const std::string m = cfg_path.substr(0, cfg_path.size() - std::string("config.json").size());
-  const nn::UNetConfig cfg = nn::load_unet_config(cfg_path);
-  const nn::UNetReference spec(cfg);
-  const nn::SafetensorsFile weights(m + "weights.safetensors");
-  nn::UNetGpu net(test::gpu_context(), cfg, nn::load_weights_cpu(weights, spec.parameters(), {}));
-  const test::UNetCaseResult r = test::check_unet_small_case(
-      m, [&](const nn::CpuTensor& x, const std::vector<int64_t>& t, const nn::UNetReference::Capture& c) {
-        return net.forward(x, t, c);
-      });
-  MESSAGE("unet gpu, unet_small, the GPUs' kernels: output max |y - y_ref| / std = " << r.output << "; worst of "
-                                                                                     << r.blocks << " blocks "
-                                                                                     << r.worst_block);
+  check_unet_small("gpu");
 }
 
 TEST_CASE("unet gpu: a second configuration agrees with the CPU reference (batch 2, self-attention middle)") {

@@ -14,6 +14,7 @@
 
 #include <doctest/doctest.h>
 
+#include <optional>
 #include <random>
 
 using namespace icube;
@@ -40,32 +41,29 @@ nn::SparseTensor random_latent(const nn::VaeConfig& cfg, uint32_t seed) {
 
 }  // namespace
 
-TEST_CASE("vae gpu: vae_small decodes as the official StructPredictionNet, every level") {
+// The official vae_small decode through VaeGpu, every level within 1e-4 of std; `family` as in
+// test_unet_gpu.cpp (nullptr: the device's own kernels).
+static void check_vae_small(const char* family) {
   const std::string dir = test::test_data_dir();
   if (dir.empty()) return;
+  std::optional<test::ScopedKernelFamily> scoped;
+  if (family) scoped.emplace(family);
   const std::string m = dir + "/models/vae_small/";
   const nn::VaeConfig cfg = nn::load_vae_config(m + "config.json");
   const nn::SafetensorsFile file(m + "vae_weights.safetensors");
   nn::VaeGpu vae(test::gpu_context(), cfg, nn::load_vae_weights_cpu(file, cfg, nn::VaePart::Decoder));
   const nn::VaeDecoded d = vae.decode(test::vae_small_latent(m));
   const test::VaeCaseResult r = test::check_vae_small_decode(m, d);
-  MESSAGE("vae_small decode (GPU): " << r.voxels << " voxels; structure logits max |d| / std " << r.worst_struct
-                                     << ", semantic " << r.semantic << " (bound 1e-4); activations "
-                                     << vae.last_activation_bytes() / 1024 << " KiB");
+  MESSAGE("vae_small decode (GPU, " << std::string(family ? family : "the device's") << " kernels): " << r.voxels
+                                    << " voxels; structure logits max |d| / std " << r.worst_struct << ", semantic "
+                                    << r.semantic << " (bound 1e-4); activations " << vae.last_activation_bytes() / 1024
+                                    << " KiB");
 }
 
+TEST_CASE("vae gpu: vae_small decodes as the official StructPredictionNet, every level") { check_vae_small(nullptr); }
+
 TEST_CASE("vae gpu: vae_small through the GPUs' kernel family (the tiled sparse conv) on the test device") {
-  const std::string dir = test::test_data_dir();
-  if (dir.empty()) return;
-  const test::ScopedKernelFamily gpu_family("gpu");
-  const std::string m = dir + "/models/vae_small/";
-  const nn::VaeConfig cfg = nn::load_vae_config(m + "config.json");
-  const nn::SafetensorsFile file(m + "vae_weights.safetensors");
-  nn::VaeGpu vae(test::gpu_context(), cfg, nn::load_vae_weights_cpu(file, cfg, nn::VaePart::Decoder));
-  const nn::VaeDecoded d = vae.decode(test::vae_small_latent(m));
-  const test::VaeCaseResult r = test::check_vae_small_decode(m, d);
-  MESSAGE("vae_small decode (GPU, the GPUs' kernels): " << r.voxels << " voxels; structure logits max |d| / std "
-                                                        << r.worst_struct << ", semantic " << r.semantic);
+  check_vae_small("gpu");
 }
 
 TEST_CASE("vae gpu: a random-weight model agrees with the CPU reference level by level") {
