@@ -77,7 +77,7 @@ if want perf; then
   # per-query and tiled), and the UNet forward with ICUBE_NN_KERNELS=lavapipe (the old kernels) against
   # the default (new) on the same warm machine. The GPU kernels' tests run first: a wrong cooperative-
   # matrix result fails here.
-  step perf_tests 120 "$bin/icube-tests" -tc="conv3d gpu*,attention gpu*,dpm*,unet gpu*" --duration=true
+  step perf_tests 120 "$bin/icube-tests" -tc="conv3d gpu*,sparse conv gpu*,attention gpu*,dpm*,unet gpu*,vae gpu*" --duration=true
   grep -E "^\[doctest\] (test cases|assertions)|Status:" "$out/perf_tests.txt" | tail -3
   step perf_kernels 100 "$bin/icube-bench-nn" --only released --released-levels --runs 5 --warmup 1 --cpu-limit 0
   step perf_unet_fp32_old 100 env ICUBE_NN_KERNELS=lavapipe "$bin/icube-bench-nn" --only none --unet infinicube-diffusion \
