@@ -24,7 +24,11 @@ uint64_t Attention::loop_iterations(const AttentionShape& s, AttentionPath path)
   return gpu::div_up(s.tokens, 4) * (2 * d_blocks + 1) + 2 * d_blocks + 2;
 }
 
-Attention::Attention(gpu::Context& ctx) : ctx_(ctx) { ctx.program(path() == AttentionPath::kTiled ? "nn/attention_tiled" : "nn/attention"); }
+const char* Attention::shader_name(AttentionPath path) {
+  return path == AttentionPath::kTiled ? "nn/attention_tiled" : "nn/attention";
+}
+
+Attention::Attention(gpu::Context& ctx) : ctx_(ctx) { ctx.program(shader_name(path())); }
 
 AttentionPath Attention::path() const {
   if (forced_path_) return *forced_path_;
@@ -69,7 +73,7 @@ void Attention::dispatch(gpu::CommandList& cmd, const AttentionShape& s, const g
   constexpr uint64_t kQueriesPerGroup = NN_ATTN_TILED_GROUP / 4;
   const gpu::Threads threads{tiled ? uint64_t{s.batch} * s.heads * gpu::div_up(s.tokens, kQueriesPerGroup) * NN_ATTN_TILED_GROUP
                                    : uint64_t{s.batch} * s.heads * s.tokens};
-  cmd.dispatch(ctx_.program(tiled ? "nn/attention_tiled" : "nn/attention"), threads, pc,
+  cmd.dispatch(ctx_.program(shader_name(attention_path)), threads, pc,
                {q.binding(0, in_elements * 4), k.binding(0, in_elements * 4), v.binding(0, in_elements * 4),
                 out.binding(0, out_elements * 4)});
 }

@@ -47,6 +47,7 @@ class Attention {
   // kernels/nn/kernel_family.h).
   void force_path(std::optional<AttentionPath> path) { forced_path_ = path; }
   AttentionPath path() const;
+  static const char* shader_name(AttentionPath path);  // "nn/attention" or "nn/attention_tiled"
 
  private:
   void dispatch(gpu::CommandList& cmd, const AttentionShape& s, const gpu::Buffer& q, const gpu::Buffer& k,

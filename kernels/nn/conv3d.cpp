@@ -76,15 +76,18 @@ Conv3dPath Conv3d::path(bool f16_weights) const {
   return forced_path_ ? *forced_path_ : default_conv3d_path(ctx_.info(), f16_weights);
 }
 
-gpu::Program& Conv3d::program(Conv3dPath path, uint32_t kernel, bool f16_weights) {
+const char* Conv3d::shader_name(Conv3dPath path, bool f16_weights) {
   static const char* const kNames[4][2] = {{"nn/conv3d", "nn/conv3d_f16w"},
                                            {"nn/conv3d_tiled", "nn/conv3d_tiled_f16w"},
                                            {"nn/conv3d_coopmat", "nn/conv3d_coopmat_f16w"},
                                            {"nn/conv3d_coopmat_emulated", "nn/conv3d_coopmat_emulated_f16w"}};
+  return kNames[static_cast<int>(path)][f16_weights ? 1 : 0];
+}
+
+gpu::Program& Conv3d::program(Conv3dPath path, uint32_t kernel, bool f16_weights) {
   if (const std::string why = path_unavailable(path, ctx_.info()); !why.empty())
     throw std::invalid_argument(std::string("conv3d: the ") + conv3d_path_name(path) + " path: " + why);
-  return ctx_.program(kNames[static_cast<int>(path)][f16_weights ? 1 : 0],
-                      gpu::SpecConstants{}.set(0, kernel /* NN_K */));
+  return ctx_.program(shader_name(path, f16_weights), gpu::SpecConstants{}.set(0, kernel /* NN_K */));
 }
 
 void Conv3d::record(gpu::CommandList& cmd, const Conv3dShape& s, const gpu::Buffer& x, const gpu::Buffer& w,

@@ -79,8 +79,9 @@ class Conv3d {
   void set_max_binding_bytes(uint64_t bytes) { max_binding_bytes_ = bytes; }
   // Tests and benchmarks: run every convolution on `path` (nullopt: default_conv3d_path).
   void force_path(std::optional<Conv3dPath> path) { forced_path_ = path; }
-  // The path record() takes for weights of this precision.
+  // The path record() takes for weights of this precision, and the shader that runs it.
   Conv3dPath path(bool f16_weights) const;
+  static const char* shader_name(Conv3dPath path, bool f16_weights);
 
  private:
   gpu::Program& program(Conv3dPath path, uint32_t kernel, bool f16_weights);

@@ -73,9 +73,11 @@ void SparseKernelMap::record_map(gpu::CommandList& cmd, uint32_t rows, const gpu
   }
 }
 
-SparseConv3d::SparseConv3d(gpu::Context& ctx) : ctx_(ctx) {
-  ctx.program(path() == Conv3dPath::kSharedTile ? "nn/sparse_conv_tiled" : "nn/sparse_conv");
+const char* SparseConv3d::shader_name(Conv3dPath path) {
+  return path == Conv3dPath::kSharedTile ? "nn/sparse_conv_tiled" : "nn/sparse_conv";
 }
+
+SparseConv3d::SparseConv3d(gpu::Context& ctx) : ctx_(ctx) { ctx.program(shader_name(path())); }
 
 void SparseConv3d::force_path(std::optional<Conv3dPath> path) {
   if (path && *path != Conv3dPath::kRegisterTile && *path != Conv3dPath::kSharedTile)
@@ -101,8 +103,9 @@ void SparseConv3d::record(gpu::CommandList& cmd, const SparseConvShape& s, const
   require_buffer("sparse conv", "packed weights", w_bytes, w);
   if (bias) require_buffer("sparse conv", "bias", uint64_t{s.out_channels} * 4, *bias);
 
-  const bool tiled = path() == Conv3dPath::kSharedTile;
-  gpu::Program& program = ctx_.program(tiled ? "nn/sparse_conv_tiled" : "nn/sparse_conv");
+  const Conv3dPath sparse_path = path();
+  const bool tiled = sparse_path == Conv3dPath::kSharedTile;
+  gpu::Program& program = ctx_.program(shader_name(sparse_path));
   // Rows and output channels per workgroup: the register tile's NN_SPARSE_ROWS x NN_SPARSE_GROUP rows and
   // 8 channels, the tiled kernel's 64 x 64 block.
   const uint64_t rows_per_group = tiled ? NN_CONV_TILED_BM : uint64_t{NN_SPARSE_ROWS} * NN_SPARSE_GROUP;

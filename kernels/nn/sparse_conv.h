@@ -68,6 +68,7 @@ class SparseConv3d {
   // The cooperative-matrix form waits for fp16 VAE weights (the VAE runs fp32).
   void force_path(std::optional<Conv3dPath> path);
   Conv3dPath path() const;
+  static const char* shader_name(Conv3dPath path);  // "nn/sparse_conv" or "nn/sparse_conv_tiled"
 
  private:
   gpu::Context& ctx_;

@@ -1,4 +1,5 @@
-// Multi-head attention on the GPU (kernels/nn/attention.h) against the CPU
+// Multi-head attention on the GPU (kernels/nn/attention.h: attention.comp and, forced,
+// attention_tiled.comp) against the CPU
 // reference (nn::cpu::attention on [B, H, N, D]): separate q / k / v and one
 // chunked qkv buffer, batch 2, odd token counts, head_dim 8 and 96 (the
 // released model's), logits of 1e4 (online softmax stays finite). Validation on.
@@ -10,6 +11,7 @@
 #include <cmath>
 #include <optional>
 #include <random>
+#include <string>
 
 using namespace icube;
 
@@ -96,7 +98,8 @@ TEST_CASE("attention gpu: against the CPU reference, separate and chunked qkv, h
   });
 }
 
-TEST_CASE("attention gpu: the tiled kernel (shared-memory key blocks, a quad per query) against the CPU reference") {
+TEST_CASE("attention gpu: attention_tiled (shared-memory key blocks, a quad per query) against the CPU reference") {
+  CHECK(std::string(kernels::nn::Attention::shader_name(kernels::nn::AttentionPath::kTiled)) == "nn/attention_tiled");
   // Forced on the test device; token counts across the 64-query and 32-key block edges, head_dim 8, 96
   // (the released model's), 100 and 128, batch 2, chunked qkv and huge logits.
   using P = kernels::nn::AttentionPath;

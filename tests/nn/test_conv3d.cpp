@@ -1,5 +1,7 @@
 // conv3d on the GPU (kernels/nn/conv3d.h, shaders/nn/conv3d.comp; with fp16
-// weights shaders/nn/conv3d_f16w.comp, against the reference on fp16-rounded weights) against the
+// weights shaders/nn/conv3d_f16w.comp, against the reference on fp16-rounded weights; the GPUs'
+// kernels conv3d_tiled(_f16w), conv3d_coopmat(_f16w) and, on lavapipe, conv3d_coopmat_emulated(_f16w),
+// forced) against the
 // CPU reference (nn::cpu::conv3d) on odd sizes, batch 2, channel counts that
 // are not multiples of the 8-channel tile, 1x1 and 3x3x3 kernels, without bias
 // and with large activations. The bound per element is float32 accumulation's:
@@ -18,6 +20,7 @@
 #include <cstdio>
 #include <optional>
 #include <random>
+#include <string>
 
 using namespace icube;
 
@@ -107,8 +110,10 @@ TEST_CASE("conv3d gpu: 3x3x3 and 1x1 against the CPU reference at odd sizes and 
 // The discrete-GPU kernels, forced on the test device (lavapipe runs their shared memory and barriers,
 // slowly): odd grids and channel counts across the 64 x 64 block edges, batch 2, both kernel sizes, fp16
 // weights, large activations, input-channel windows that accumulate and a capped binding.
-void check_gpu_path(kernels::nn::Conv3dPath path) {
+void check_gpu_path(kernels::nn::Conv3dPath path, const char* shader, const char* shader_f16w) {
   using S = kernels::nn::Conv3dShape;
+  CHECK(std::string(kernels::nn::Conv3d::shader_name(path, false)) == shader);
+  CHECK(std::string(kernels::nn::Conv3d::shader_name(path, true)) == shader_f16w);
   const bool emulated = path == kernels::nn::Conv3dPath::kCoopMatrixEmulated;
   check_conv(S{2, 3, 5, 5, 4, 7, 3}, true, 1.0f, 111, 0, test::gpu_context(), path);
   check_conv(S{1, 16, 70, 9, 3, 5, 3}, true, 1.0f, 112, 0, test::gpu_context(), path);  // 2 channel blocks, 3 voxel tiles
@@ -127,19 +132,20 @@ void check_gpu_path(kernels::nn::Conv3dPath path) {
   check_conv(S{1, 19, 21, 5, 6, 7, 3, true}, true, 1.0f, 120, 0, test::capped_gpu_context(16u << 10), path);
 }
 
-TEST_CASE("conv3d gpu: the shared-memory tiled kernel against the CPU reference") {
-  check_gpu_path(kernels::nn::Conv3dPath::kSharedTile);
+TEST_CASE("conv3d gpu: conv3d_tiled and conv3d_tiled_f16w (the shared-memory kernel) against the CPU reference") {
+  check_gpu_path(kernels::nn::Conv3dPath::kSharedTile, "nn/conv3d_tiled", "nn/conv3d_tiled_f16w");
 }
 
-TEST_CASE("conv3d gpu: the cooperative-matrix tiling (emulated fragments) against the CPU reference") {
+TEST_CASE("conv3d gpu: conv3d_coopmat_emulated and conv3d_coopmat_emulated_f16w (the cooperative-matrix tiling, emulated fragments) against the CPU reference") {
   if (!test::gpu_context().info().shader_float16) {
     MESSAGE("skipped: the test device has no shaderFloat16");
     return;
   }
-  check_gpu_path(kernels::nn::Conv3dPath::kCoopMatrixEmulated);
+  check_gpu_path(kernels::nn::Conv3dPath::kCoopMatrixEmulated, "nn/conv3d_coopmat_emulated",
+                 "nn/conv3d_coopmat_emulated_f16w");
 }
 
-TEST_CASE("conv3d gpu: the cooperative-matrix kernel on a device that has it") {
+TEST_CASE("conv3d gpu: conv3d_coopmat and conv3d_coopmat_f16w (the cooperative-matrix kernel) on a device that has it") {
   // lavapipe has no cooperative matrices: this runs on tools/device-check.sh's lease, where a wrong
   // result fails the check; elsewhere asking for the path is refused with the reason.
   gpu::Context& ctx = test::gpu_context();
@@ -154,7 +160,7 @@ TEST_CASE("conv3d gpu: the cooperative-matrix kernel on a device that has it") {
     MESSAGE("the real fragments are checked on a device with VK_NV_cooperative_matrix (tools/device-check.sh)");
     return;
   }
-  check_gpu_path(kernels::nn::Conv3dPath::kCoopMatrix);
+  check_gpu_path(kernels::nn::Conv3dPath::kCoopMatrix, "nn/conv3d_coopmat", "nn/conv3d_coopmat_f16w");
   check_conv({1, 192, 192, 16, 16, 16, 3, true}, true, 1.0f, 121, 0, ctx, kernels::nn::Conv3dPath::kCoopMatrix);
 }
 

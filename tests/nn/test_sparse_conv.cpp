@@ -21,6 +21,7 @@
 #include <optional>
 #include <random>
 #include <set>
+#include <string>
 
 using namespace icube;
 using nn::Ijk;
@@ -158,7 +159,9 @@ TEST_CASE("sparse conv gpu: channel windows when the features exceed one binding
                        doctest::Contains("sparse conv: input buffer holds 64 bytes"), std::invalid_argument);
 }
 
-TEST_CASE("sparse conv gpu: the shared-memory gathered implicit GEMM against the CPU reference") {
+TEST_CASE("sparse conv gpu: sparse_conv_tiled (the shared-memory gathered implicit GEMM) against the CPU reference") {
+  CHECK(std::string(kernels::nn::SparseConv3d::shader_name(kernels::nn::Conv3dPath::kSharedTile)) ==
+        "nn/sparse_conv_tiled");
   // Forced on the test device: odd channel counts across the 64 x 64 blocks, a single voxel, 100 km from
   // the origin, large activations, the VAE's widths, fused SiLU, channel windows and a capped binding.
   const auto tiled = kernels::nn::Conv3dPath::kSharedTile;
