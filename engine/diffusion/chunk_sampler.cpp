@@ -65,7 +65,7 @@ ChunkSample sample_on_host(Denoiser& denoiser, const ChunkDims& d, const nn::Cpu
   const DdimSchedule sched(schedule_options(o));
   const bool dpm = o.kind == SamplerKind::kDpmSolver2M;
   ChunkSample out;
-  std::vector<float> x(d.n), z(d.n), x0_prev, x0(dpm ? d.n : 0);
+  std::vector<float> x(d.n), z(d.n), x0_prev(dpm ? d.n : 0), x0(dpm ? d.n : 0);  // DPM: this and the previous x0
   normal_noise({o.seed, chunk_index, 0, NoisePurpose::InitialLatent}, 0, x.data(), d.n);
   nn::CpuTensor input = conditioned_batch(d, cond);
   if (progress) progress(0, sched.size());
@@ -101,7 +101,6 @@ ChunkSample sample_on_host(Denoiser& denoiser, const ChunkDims& d, const nn::Cpu
       const kernels::nn::DpmSolverStepCoefficients c = dpm_solver_coefficients(sched, i);
       nn::cpu::dpm_solver_step(c, x.data(), vp, c.second_order() ? x0_prev.data() : nullptr, next.data(), x0.data(), d.n);
       x0_prev.swap(x0);
-      x0.resize(d.n);
     } else {
       nn::cpu::ddim_step(st.coefficients(), x.data(), vp, noise ? z.data() : nullptr, next.data(), d.n);
     }
