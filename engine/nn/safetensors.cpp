@@ -37,13 +37,28 @@ std::string name_text(std::string_view name) {
 
 }  // namespace
 
-size_t dtype_size(DType t) { return t == DType::F32 ? 4 : 2; }
+size_t dtype_size(DType t) {
+  switch (t) {
+    case DType::F32:
+    case DType::I32: return 4;
+    case DType::I64: return 8;
+    case DType::U8:
+    case DType::BOOL: return 1;
+    default: return 2;
+  }
+}
+
+bool dtype_is_float(DType t) { return t == DType::F32 || t == DType::F16 || t == DType::BF16; }
 
 const char* dtype_name(DType t) {
   switch (t) {
     case DType::F32: return "F32";
     case DType::F16: return "F16";
-    default: return "BF16";
+    case DType::BF16: return "BF16";
+    case DType::I64: return "I64";
+    case DType::I32: return "I32";
+    case DType::U8: return "U8";
+    default: return "BOOL";
   }
 }
 
@@ -183,7 +198,11 @@ void SafetensorsFile::parse() {
     if (d == "F32") t.dtype = DType::F32;
     else if (d == "F16") t.dtype = DType::F16;
     else if (d == "BF16") t.dtype = DType::BF16;
-    else throw InputError(path_, where, "dtype " + name_text(d) + " is not F32, F16 or BF16");
+    else if (d == "I64") t.dtype = DType::I64;
+    else if (d == "I32") t.dtype = DType::I32;
+    else if (d == "U8") t.dtype = DType::U8;
+    else if (d == "BOOL") t.dtype = DType::BOOL;
+    else throw InputError(path_, where, "dtype " + name_text(d) + " is not F32, F16, BF16, I64, I32, U8 or BOOL");
     const auto sh = v.find("shape");
     if (sh == v.end() || !sh->is_array()) throw InputError(path_, where, "no \"shape\" array");
     uint64_t numel = 1;
@@ -257,6 +276,11 @@ std::vector<float> SafetensorsFile::to_f32(const TensorInfo& t) const {
     if (n) std::memcpy(out.data(), b.data(), n * 4);
     return out;
   }
+  if (!dtype_is_float(t.dtype)) {
+    const std::vector<int64_t> v = to_i64(t);
+    for (size_t i = 0; i < n; ++i) out[i] = static_cast<float>(v[i]);
+    return out;
+  }
   for (size_t i = 0; i < n; ++i) {
     const uint16_t h = static_cast<uint16_t>(b[2 * i] | (b[2 * i + 1] << 8));
     out[i] = t.dtype == DType::F16 ? half_to_float(h) : bf16_to_float(h);
@@ -264,7 +288,29 @@ std::vector<float> SafetensorsFile::to_f32(const TensorInfo& t) const {
   return out;
 }
 
+std::vector<int64_t> SafetensorsFile::to_i64(const TensorInfo& t) const {
+  const std::span<const uint8_t> b = bytes(t);
+  const size_t n = static_cast<size_t>(t.numel());
+  std::vector<int64_t> out(n);
+  for (size_t i = 0; i < n; ++i) {
+    switch (t.dtype) {
+      case DType::I64: std::memcpy(&out[i], b.data() + 8 * i, 8); break;
+      case DType::I32: {
+        int32_t v;
+        std::memcpy(&v, b.data() + 4 * i, 4);
+        out[i] = v;
+        break;
+      }
+      case DType::U8:
+      case DType::BOOL: out[i] = b[i]; break;
+      default: throw std::invalid_argument("SafetensorsFile::to_i64: tensor '" + t.name + "' holds floats");
+    }
+  }
+  return out;
+}
+
 int64_t SafetensorsFile::first_non_finite(const TensorInfo& t) const {
+  if (!dtype_is_float(t.dtype)) return -1;
   const std::span<const uint8_t> b = bytes(t);
   const size_t n = static_cast<size_t>(t.numel());
   for (size_t i = 0; i < n; ++i) {
@@ -288,6 +334,25 @@ TensorToWrite f32_tensor(std::string name, std::vector<int64_t> shape, const std
   t.shape = std::move(shape);
   t.bytes.resize(values.size() * 4);
   if (!values.empty()) std::memcpy(t.bytes.data(), values.data(), t.bytes.size());
+  return t;
+}
+
+TensorToWrite i32_tensor(std::string name, std::vector<int64_t> shape, const std::vector<int32_t>& values) {
+  TensorToWrite t;
+  t.name = std::move(name);
+  t.dtype = DType::I32;
+  t.shape = std::move(shape);
+  t.bytes.resize(values.size() * 4);
+  if (!values.empty()) std::memcpy(t.bytes.data(), values.data(), t.bytes.size());
+  return t;
+}
+
+TensorToWrite u8_tensor(std::string name, std::vector<int64_t> shape, const std::vector<uint8_t>& values) {
+  TensorToWrite t;
+  t.name = std::move(name);
+  t.dtype = DType::U8;
+  t.shape = std::move(shape);
+  t.bytes = values;
   return t;
 }
 

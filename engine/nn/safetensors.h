@@ -8,8 +8,9 @@
 // everything before any tensor is read, as the reference implementation does:
 // the header length fits the file and is at most 100 MB; the JSON is one object
 // without duplicate keys; every tensor has exactly dtype / shape / data_offsets;
-// dtype is F32, F16 or BF16 (the network layer's storage types; others are an
-// error naming the tensor); shape entries are non-negative integers and
+// dtype is F32, F16 or BF16 (the network layer's storage types) or I64, I32,
+// U8, BOOL (a reference case's indices and masks; weights refuse them), others
+// are an error naming the tensor; shape entries are non-negative integers and
 // numel x dtype size = end - begin without overflow; ranges are inside the data
 // section, do not overlap, and cover it with no gap (sorted by begin, each
 // starts where the previous ended, the last ends at the file's end). Every
@@ -36,10 +37,12 @@
 
 namespace icube::nn {
 
-enum class DType { F32, F16, BF16 };
+// Floats for weights; integers and booleans for the indices and masks of reference cases.
+enum class DType { F32, F16, BF16, I64, I32, U8, BOOL };
 
 size_t dtype_size(DType t);
-const char* dtype_name(DType t);  // "F32", "F16", "BF16"
+const char* dtype_name(DType t);  // "F32", "F16", "BF16", "I64", ...
+bool dtype_is_float(DType t);     // F32, F16, BF16
 
 // half_to_float, float_to_half, bf16_to_float, float_to_bf16: nn/float16.h.
 
@@ -72,9 +75,11 @@ class SafetensorsFile {
 
   // The tensor's raw little-endian bytes.
   std::span<const uint8_t> bytes(const TensorInfo& t) const;
-  // Values as float32 (F16/BF16 converted exactly).
+  // Values as float32 (F16/BF16 converted exactly; integers rounded to float).
   std::vector<float> to_f32(const TensorInfo& t) const;
-  // Index of the first NaN or infinity, or -1.
+  // Integer and boolean tensors as int64 (floats throw std::invalid_argument).
+  std::vector<int64_t> to_i64(const TensorInfo& t) const;
+  // Index of the first NaN or infinity, or -1 (always -1 for integers).
   int64_t first_non_finite(const TensorInfo& t) const;
 
  private:
@@ -101,6 +106,8 @@ struct TensorToWrite {
 
 // F32 tensor helper for writers.
 TensorToWrite f32_tensor(std::string name, std::vector<int64_t> shape, const std::vector<float>& values);
+TensorToWrite i32_tensor(std::string name, std::vector<int64_t> shape, const std::vector<int32_t>& values);
+TensorToWrite u8_tensor(std::string name, std::vector<int64_t> shape, const std::vector<uint8_t>& values);
 
 // The file's bytes (header padded with spaces to a multiple of 8, as the
 // reference writer does).

@@ -77,6 +77,9 @@ std::map<std::string, CpuTensor> load_weights_cpu(const SafetensorsFile& file, c
   std::map<std::string, CpuTensor> out;
   for (const ParamSpec& p : params) {
     const TensorInfo& t = *file.find(names.at(p.name));
+    if (!dtype_is_float(t.dtype))
+      throw scene::InputError(file.path(), "tensor '" + t.name + "'",
+                              std::string("dtype ") + dtype_name(t.dtype) + ": a parameter must be F32, F16 or BF16");
     if (o.check_finite)
       if (const int64_t i = file.first_non_finite(t); i >= 0)
         throw scene::InputError(file.path(), "tensor '" + t.name + "'",

@@ -8,6 +8,7 @@
 #include "cli_test_util.h"
 #include "gpu_test_context.h"
 #include "nn/safetensors.h"
+#include "nn/weights.h"
 #include "scene/atomic_file.h"
 #include "scene/input_error.h"
 
@@ -111,6 +112,47 @@ TEST_CASE("safetensors: F32, F16 and BF16 tensors round trip, with metadata, emp
   CHECK(again.to_f32(*again.find("scalar")) == std::vector<float>{2.5f});
 }
 
+TEST_CASE("safetensors: I64, I32, U8 and BOOL tensors (a reference case's indices and masks) read back, and weights refuse them") {
+  std::vector<nn::TensorToWrite> ts;
+  ts.push_back(nn::i32_tensor("ijk", {2, 3}, {-6, 0, 7, 2147483647, -2147483647 - 1, 1}));
+  ts.push_back(nn::u8_tensor("mask", {4}, {0, 1, 255, 1}));
+  nn::TensorToWrite l;
+  l.name = "count";
+  l.dtype = DType::I64;
+  l.shape = {1};
+  const int64_t big = -(int64_t{1} << 40);
+  l.bytes.resize(8);
+  std::memcpy(l.bytes.data(), &big, 8);
+  ts.push_back(l);
+  nn::TensorToWrite b = nn::u8_tensor("flag", {2}, {1, 0});
+  b.dtype = DType::BOOL;
+  ts.push_back(b);
+  test::TempDir tmp("safetensors_int");
+  const std::string path = (tmp.path / "i.safetensors").string();
+  nn::write_safetensors(path, ts);
+  const nn::SafetensorsFile f(path);
+  CHECK(f.to_i64(*f.find("ijk")) == std::vector<int64_t>{-6, 0, 7, 2147483647, -2147483648LL, 1});
+  CHECK(f.to_i64(*f.find("mask")) == std::vector<int64_t>{0, 1, 255, 1});
+  CHECK(f.to_i64(*f.find("count")) == std::vector<int64_t>{big});
+  CHECK(f.to_i64(*f.find("flag")) == std::vector<int64_t>{1, 0});
+  CHECK(f.find("flag")->dtype == DType::BOOL);
+  CHECK(f.to_f32(*f.find("mask")) == std::vector<float>{0.f, 1.f, 255.f, 1.f});
+  CHECK(f.first_non_finite(*f.find("ijk")) == -1);
+  nn::write_safetensors(path + ".f", {nn::f32_tensor("x", {1}, {1.f})});
+  const nn::SafetensorsFile g(path + ".f");
+  CHECK_THROWS_AS(g.to_i64(*g.find("x")), std::invalid_argument);
+  // A parameter stored as integers is refused with the file and the tensor named.
+  nn::write_safetensors(path + ".w", {nn::i32_tensor("conv.weight", {2, 3}, {1, 2, 3, 4, 5, 6})});
+  const std::vector<nn::ParamSpec> params{{"conv.weight", {2, 3}}};
+  try {
+    nn::load_weights_cpu(nn::SafetensorsFile(path + ".w"), params, {});
+    FAIL("an I32 parameter was accepted");
+  } catch (const scene::InputError& e) {
+    CHECK(std::string(e.what()).find("tensor 'conv.weight'") != std::string::npos);
+    CHECK(std::string(e.what()).find("dtype I32: a parameter must be F32, F16 or BF16") != std::string::npos);
+  }
+}
+
 TEST_CASE("safetensors: half and bfloat16 conversions are exact over every 16-bit pattern") {
   size_t bad = 0;
   for (uint32_t u = 0; u < 65536; ++u) {
@@ -167,8 +209,8 @@ TEST_CASE("safetensors: every malformed header is a one-line error naming the fi
     return error_of(raw_file("{\"w\": " + entry + "}", data));
   };
   CHECK(one("3", f4).find("tensor 'w': entry is not an object") != std::string::npos);
-  CHECK(one(R"({"dtype": "I64", "shape": [1], "data_offsets": [0, 8]})", eight)
-            .find("tensor 'w': dtype 'I64' is not F32, F16 or BF16") != std::string::npos);
+  CHECK(one(R"({"dtype": "F64", "shape": [1], "data_offsets": [0, 8]})", eight)
+            .find("tensor 'w': dtype 'F64' is not F32, F16, BF16, I64, I32, U8 or BOOL") != std::string::npos);
   CHECK(one(R"({"shape": [1], "data_offsets": [0, 4]})", f4).find("no \"dtype\" string") != std::string::npos);
   CHECK(one(R"({"dtype": "F32", "data_offsets": [0, 4]})", f4).find("no \"shape\" array") != std::string::npos);
   CHECK(one(R"({"dtype": "F32", "shape": [-1], "data_offsets": [0, 4]})", f4)
