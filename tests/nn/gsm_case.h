@@ -1,0 +1,65 @@
+// The official gsm_small reference case (../shared/data/models/gsm_small, see
+// its README): its weights, its tensors by name (intermediates and outputs,
+// integers as exact floats) and the agreement check every GSM test uses —
+// same shape, max |got - ref| / std(ref) <= 1e-4 (exact equality for integer
+// tensors). Shared by the GSM stage tests (tests/nn/test_gsm_*.cpp).
+#pragma once
+
+#include "gpu_test_context.h"
+#include "kernels/nn/cpu_tensor.h"
+#include "nn/gsm/gsm_weights.h"
+#include "nn/safetensors.h"
+
+#include <doctest/doctest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <memory>
+#include <string>
+
+namespace icube::test {
+
+// The case folder with a trailing slash, or empty (the caller returns; test_data_file reports the skip).
+inline std::string gsm_small_dir() {
+  const std::string f = test_data_file("models/gsm_small/weights.safetensors");
+  return f.empty() ? std::string() : f.substr(0, f.size() - std::string("weights.safetensors").size());
+}
+
+// A safetensors file of reference tensors (intermediates.safetensors or outputs.safetensors), read by name.
+class GsmTensors {
+ public:
+  explicit GsmTensors(const std::string& path) : file_(path) {}
+  bool has(const std::string& name) const { return file_.find(name) != nullptr; }
+  nn::CpuTensor get(const std::string& name) const {
+    const nn::TensorInfo* t = file_.find(name);
+    REQUIRE_MESSAGE(t != nullptr, "the reference has no tensor " << name);
+    return nn::CpuTensor(t->shape, file_.to_f32(*t));
+  }
+  bool is_integer(const std::string& name) const { return !nn::dtype_is_float(file_.find(name)->dtype); }
+
+ private:
+  nn::SafetensorsFile file_;
+};
+
+// Checks `got` against the reference tensor `name`: shape, then exact values (integers) or
+// max |got - ref| / std(ref) <= tol. Prints the error either way, so a run shows every stage's margin.
+inline bool check_gsm_tensor(const GsmTensors& ref, const std::string& name, const nn::CpuTensor& got, double tol = 1e-4) {
+  const nn::CpuTensor want = ref.get(name);
+  if (got.shape != want.shape) {
+    std::printf("  %-44s shape %s, the reference has %s\n", name.c_str(), got.shape_text().c_str(), want.shape_text().c_str());
+    CHECK_MESSAGE(false, name << ": shape " << got.shape_text() << " != " << want.shape_text());
+    return false;
+  }
+  if (ref.is_integer(name)) {
+    const bool ok = equal_report(got.data, want.data, name.c_str());
+    std::printf("  %-44s %s\n", name.c_str(), ok ? "equal" : "DIFFERS");
+    CHECK_MESSAGE(ok, name << ": integer values differ");
+    return ok;
+  }
+  const double e = nn::cpu::max_abs_over_std(got.data, want.data);
+  std::printf("  %-44s %.3g of std\n", name.c_str(), e);
+  CHECK_MESSAGE(e <= tol, name << ": max |got - ref| / std(ref) = " << e << " > " << tol);
+  return e <= tol;
+}
+
+}  // namespace icube::test
