@@ -63,6 +63,40 @@ struct Conv3dParams {
   uint w_ci_base;     // the first input channel of the bound weight window (0: all weights bound)
 };
 
+// conv2d: dense NCHW float32, any kernel kh x kw, stride, zero padding
+// (PyTorch's Conv2d): the GSM's image networks. Each invocation computes
+// NN_CONV_CO_TILE output channels at NN_CONV2D_XRUN consecutive output
+// columns; windows of batch elements, output and input channels as conv3d's.
+// Workgroup g: pixel tile g % pixel_tiles, then channel block, then batch.
+#define NN_CONV2D_GROUP 64
+#define NN_CONV2D_XRUN 4
+struct Conv2dParams {
+  uint batch;
+  uint in_channels;   // the whole tensor's (weight layout)
+  uint co_begin;      // multiple of NN_CONV_CO_TILE
+  uint co_count;
+  uint ci_begin;
+  uint ci_count;
+  uint co_blocks;     // ceil(co_count / NN_CONV_CO_TILE)
+  uint co_vec4s;      // packed weight row length in vec4s: ceil(out_channels / 8) * 2
+  uint in_h;
+  uint in_w;
+  uint out_h;
+  uint out_w;
+  uint kernel_h;
+  uint kernel_w;
+  uint stride;
+  uint padding;
+  uint pixel_tiles;   // ceil(out_h * ceil(out_w / NN_CONV2D_XRUN) / NN_CONV2D_GROUP)
+  uint has_bias;
+  uint accumulate;
+  uint x_offset;      // elements: channel ci_begin of the first batch element
+  uint x_batch_stride;
+  uint y_offset;      // elements: channel co_begin of the first batch element
+  uint y_batch_stride;
+  uint w_ci_base;     // the first input channel of the bound weight window (0: all weights bound)
+};
+
 // group_norm_partials / group_norm_stats / group_norm_apply: GroupNorm over
 // NCDHW float32 with fp32 statistics. A group's channels are contiguous
 // (count = channels / groups * spatial elements); partials: `chunks` Welford
@@ -323,6 +357,10 @@ ICUBE_CHECK_LAYOUT(Conv3dParams, x_offset, 60);
 ICUBE_CHECK_LAYOUT(Conv3dParams, y_batch_stride, 72);
 ICUBE_CHECK_LAYOUT(Conv3dParams, w_ci_base, 76);
 
+ICUBE_CHECK_SIZE(Conv2dParams, 96);
+ICUBE_CHECK_LAYOUT(Conv2dParams, in_h, 32);
+ICUBE_CHECK_LAYOUT(Conv2dParams, pixel_tiles, 64);
+ICUBE_CHECK_LAYOUT(Conv2dParams, w_ci_base, 92);
 ICUBE_CHECK_SIZE(GroupNormParams, 64);
 ICUBE_CHECK_LAYOUT(GroupNormParams, span_end, 52);
 ICUBE_CHECK_LAYOUT(GroupNormParams, batch_offset, 44);
