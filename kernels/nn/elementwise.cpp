@@ -61,6 +61,14 @@ void Elementwise::silu(gpu::CommandList& cmd, const gpu::Buffer& x, uint64_t cou
   run(cmd, NN_EW_SILU, x, count, nullptr, count, 0, 0, y);
 }
 
+void Elementwise::gelu(gpu::CommandList& cmd, const gpu::Buffer& x, uint64_t count, const gpu::Buffer& y) {
+  run(cmd, NN_EW_GELU, x, count, nullptr, count, 0, 0, y);
+}
+
+void Elementwise::relu(gpu::CommandList& cmd, const gpu::Buffer& x, uint64_t count, const gpu::Buffer& y) {
+  run(cmd, NN_EW_RELU, x, count, nullptr, count, 0, 0, y);
+}
+
 void Elementwise::add(gpu::CommandList& cmd, const gpu::Buffer& a, const gpu::Buffer& b, uint64_t count,
                       const gpu::Buffer& y) {
   run(cmd, NN_EW_ADD, a, count, &b, count, 0, 0, y);

@@ -1,8 +1,8 @@
-// The network's small element-wise kernels: SiLU, add, GEGLU's gating
+// The network's small element-wise kernels: SiLU, GELU (exact), ReLU, add, GEGLU's gating
 // (shaders/nn/elementwise.comp). No barrier inside. When a tensor exceeds one
-// storage binding they run in windows: SiLU and add over flat ranges, GEGLU per
+// storage binding they run in windows: the activations and add over flat ranges, GEGLU per
 // batch element over flat ranges of its value and gate halves.
-// CPU references (below, elementwise_cpu.cpp): nn::cpu::silu / gelu / add.
+// CPU references (below, elementwise_cpu.cpp): nn::cpu::silu / gelu / relu / add.
 // Tests: tests/nn/test_elementwise.cpp.
 #pragma once
 
@@ -18,6 +18,8 @@ class Elementwise {
  public:
   explicit Elementwise(gpu::Context& ctx);
   void silu(gpu::CommandList& cmd, const gpu::Buffer& x, uint64_t count, const gpu::Buffer& y);
+  void gelu(gpu::CommandList& cmd, const gpu::Buffer& x, uint64_t count, const gpu::Buffer& y);
+  void relu(gpu::CommandList& cmd, const gpu::Buffer& x, uint64_t count, const gpu::Buffer& y);
   void add(gpu::CommandList& cmd, const gpu::Buffer& a, const gpu::Buffer& b, uint64_t count, const gpu::Buffer& y);
   // x channels-first [batch, 2 * channels, tokens] -> y [batch, channels, tokens].
   void geglu(gpu::CommandList& cmd, const gpu::Buffer& x, uint32_t batch, uint32_t channels, uint64_t tokens,
@@ -43,6 +45,7 @@ namespace icube::nn::cpu {
 
 CpuTensor silu(CpuTensor x);
 CpuTensor gelu(CpuTensor x);                     // exact (erf), as F.gelu's default
+CpuTensor relu(CpuTensor x);
 CpuTensor add(CpuTensor a, const CpuTensor& b);  // same shapes
 
 }  // namespace icube::nn::cpu

@@ -22,6 +22,11 @@ CpuTensor gelu(CpuTensor x) {
   return x;
 }
 
+CpuTensor relu(CpuTensor x) {
+  for (float& v : x.data) v = v > 0.0f ? v : 0.0f;
+  return x;
+}
+
 CpuTensor add(CpuTensor a, const CpuTensor& b) {
   require(a.shape == b.shape, "add: shapes " + a.shape_text() + " and " + b.shape_text() + " differ");
   for (size_t i = 0; i < a.data.size(); ++i) a.data[i] += b.data[i];

@@ -1,6 +1,6 @@
 #version 460
 #extension GL_GOOGLE_include_directive : require
-// elementwise: SiLU, add, or GEGLU's gating (ElementwiseParams.op, see
+// elementwise: SiLU, GELU, ReLU, add, or GEGLU's gating (ElementwiseParams.op, see
 // shared/nn_params.h), one thread per output element, float32. NN_EW_GEGLU reads
 // both halves of each batch element from binding A; NN_EW_GATE_GELU, the same gating
 // over windows, reads the value from A and the gate from B at the same index. GELU is the
@@ -61,6 +61,10 @@ void main() {
     y_out[p.y_offset + i] = v / (1.0 + exp(-v));
   } else if (p.op == NN_EW_ADD) {
     y_out[p.y_offset + i] = a_in[p.a_offset + i] + b_in[p.b_offset + i];
+  } else if (p.op == NN_EW_GELU) {
+    y_out[p.y_offset + i] = gelu_f(a_in[p.a_offset + i]);
+  } else if (p.op == NN_EW_RELU) {
+    y_out[p.y_offset + i] = max(a_in[p.a_offset + i], 0.0);
   } else if (p.op == NN_EW_GATE_GELU) {
     y_out[p.y_offset + i] = a_in[p.a_offset + i] * gelu_f(b_in[p.b_offset + i]);
   } else {

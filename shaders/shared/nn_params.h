@@ -137,6 +137,8 @@ struct GroupNormParams {
 #define NN_EW_ADD 1u
 #define NN_EW_GEGLU 2u
 #define NN_EW_GATE_GELU 3u  // y = a * gelu(b): GEGLU over windows (a the value half, b the gate half)
+#define NN_EW_GELU 4u       // y = gelu(a), exact (erf)
+#define NN_EW_RELU 5u       // y = max(a, 0)
 // resample: NN_RS_AVGPOOL2 (2x2x2 mean, sizes floored) or NN_RS_UPSAMPLE2
 // (nearest x2) of [batch * channels, X, Y, Z] (input sizes given).
 #define NN_RS_AVGPOOL2 0u

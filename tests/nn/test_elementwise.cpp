@@ -26,7 +26,7 @@ std::vector<float> sweep(size_t n, uint32_t seed) {
 
 }  // namespace
 
-TEST_CASE("nn elementwise gpu: SiLU, add, GEGLU against the CPU reference") {
+TEST_CASE("nn elementwise gpu: SiLU, GELU, ReLU, add, GEGLU against the CPU reference") {
   // 0: the device's binding limit; 1000 B: SiLU, add and GEGLU (per batch element, its value and
   // gate halves of 185 elements) in windows of 246 elements (off the alignment); 400 B: windows of
   // 96 elements, two per GEGLU half.
@@ -38,15 +38,20 @@ TEST_CASE("nn elementwise gpu: SiLU, add, GEGLU against the CPU reference") {
   const uint32_t batch = 2, channels = 5, tokens = 37;
   const std::vector<float> a = sweep(2 * batch * channels * tokens, 1), b = sweep(a.size(), 2);
   gpu::Buffer ab = gpu::upload_vector(ctx, a), bb = gpu::upload_vector(ctx, b);
-  gpu::Buffer y1(ctx, a.size() * 4), y2(ctx, a.size() * 4), y3(ctx, a.size() * 2);
+  gpu::Buffer y1(ctx, a.size() * 4), y2(ctx, a.size() * 4), y3(ctx, a.size() * 2), y4(ctx, a.size() * 4), y5(ctx, a.size() * 4);
   ctx.submit_and_wait([&](gpu::CommandList& cmd) {
     ew.silu(cmd, ab, a.size(), y1);
     ew.add(cmd, ab, bb, a.size(), y2);
     ew.geglu(cmd, ab, batch, channels, tokens, y3);
+    ew.gelu(cmd, ab, a.size(), y4);
+    ew.relu(cmd, ab, a.size(), y5);
   });
   const nn::CpuTensor ta({static_cast<int64_t>(a.size())}, a), tb({static_cast<int64_t>(b.size())}, b);
   CHECK(test::allclose(gpu::download_vector<float>(ctx, y1, a.size()), nn::cpu::silu(ta).data, 1e-6, 1e-6, "silu"));
   CHECK(test::allclose(gpu::download_vector<float>(ctx, y2, a.size()), nn::cpu::add(ta, tb).data, 0.0, 0.0, "add"));
+  // GELU alone: erf to ~3e-7 absolute, times |x| / 2.
+  CHECK(test::allclose(gpu::download_vector<float>(ctx, y4, a.size()), nn::cpu::gelu(ta).data, 2e-6, 2e-6, "gelu"));
+  CHECK(test::allclose(gpu::download_vector<float>(ctx, y5, a.size()), nn::cpu::relu(ta).data, 0.0, 0.0, "relu"));
   // GEGLU reference: value half * gelu(gate half), per batch element.
   std::vector<float> want;
   const size_t per = size_t{channels} * tokens;
