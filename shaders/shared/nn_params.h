@@ -343,6 +343,51 @@ struct SparseGridParams {
   uint y_offset;
 };
 
+// interpolate: F.interpolate of [planes = batch * channels, in_h, in_w]
+// float32 maps to [planes, out_h, out_w] by output size (no antialiasing),
+// one thread per output element. A source position is exact in integers:
+// (dst + 0.5) in / out - 0.5 = ((2 dst + 1) in - out) / (2 out), or with
+// align_corners dst (in - 1) / (out - 1) (0 when out = 1), then its floor and
+// fraction. NN_INTERP_NEAREST: floor(dst in / out); BILINEAR: the position
+// clamped at 0, taps floor and floor + 1 (clamped to the map); BICUBIC: Keys'
+// cubic with a = -0.75 on taps floor - 1 .. floor + 2, border-clamped.
+#define NN_INTERP_GROUP 64
+#define NN_INTERP_NEAREST 0u
+#define NN_INTERP_BILINEAR 1u
+#define NN_INTERP_BICUBIC 2u
+
+struct InterpolateParams {
+  uint planes;         // in this dispatch (a window of whole planes)
+  uint in_h;
+  uint in_w;
+  uint out_h;
+  uint out_w;
+  uint mode;
+  uint align_corners;
+  uint x_offset;       // elements: the window's first plane inside the x binding
+  uint y_offset;       // the same inside the y binding
+};
+
+// batch_norm: inference BatchNorm as a per-channel affine y = act(x scale[c] +
+// shift[c]) over [batch, channels, spatial] float32, one thread per element;
+// act = NN_BN_ACT_*. A dispatch covers `count` consecutive elements (a flat
+// window) starting at spatial position first_spatial of channel first_channel.
+#define NN_BN_GROUP 64
+#define NN_BN_ACT_NONE 0u
+#define NN_BN_ACT_RELU 1u
+#define NN_BN_ACT_SILU 2u
+
+struct BatchNormParams {
+  uint count;
+  uint channels;
+  uint spatial;        // elements per (batch, channel)
+  uint activation;
+  uint first_channel;  // the channel of the window's first element
+  uint first_spatial;  // its position inside that channel's spatial run
+  uint x_offset;       // elements: the window's first element inside the x binding
+  uint y_offset;       // the same inside the y binding
+};
+
 ICUBE_SHADER_NAMESPACE_END
 
 ICUBE_CHECK_SIZE(SparseGridParams, 32);
@@ -380,4 +425,10 @@ ICUBE_CHECK_LAYOUT(DpmSolverStepParams, c_1, 28);
 ICUBE_CHECK_LAYOUT(ResampleParams, x_offset, 20);
 ICUBE_CHECK_LAYOUT(GroupNormParams, eps, 20);
 
+ICUBE_CHECK_SIZE(InterpolateParams, 36);
+ICUBE_CHECK_LAYOUT(InterpolateParams, mode, 20);
+ICUBE_CHECK_LAYOUT(InterpolateParams, y_offset, 32);
+ICUBE_CHECK_SIZE(BatchNormParams, 32);
+ICUBE_CHECK_LAYOUT(BatchNormParams, first_channel, 16);
+ICUBE_CHECK_LAYOUT(BatchNormParams, y_offset, 28);
 #endif
