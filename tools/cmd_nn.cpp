@@ -1,14 +1,18 @@
 // `icube nn` : the network layer's weights.
 //
-//   icube nn info WEIGHTS.safetensors [--model CONFIG|PRESET [--ema]] [--check-finite] [--limit N]
+//   icube nn info WEIGHTS.safetensors [--model CONFIG|PRESET [--ema] | --gsm-model CONFIG|infinicube-gsm]
+//                 [--check-finite] [--limit N]
 //   icube nn forward --model CONFIG|PRESET --weights W.safetensors --input x.npy --timestep t.npy
 //                    [--backend gpu|cpu] [--precision fp32|fp16] [--ema] [--check-finite] [--dump-layers FILE.safetensors] -o y.npy
-//   icube nn random-weights (--model CONFIG|PRESET | --vae-model CONFIG|PRESET) [--seed N] [--scale-factor S] -o W.safetensors
+//   icube nn random-weights (--model CONFIG|PRESET | --vae-model CONFIG|PRESET | --gsm-model CONFIG|infinicube-gsm)
+//                           [--seed N] [--scale-factor S] -o W.safetensors
 //
 // info validates the file (engine/nn/safetensors.h: header, dtypes, shapes,
 // ranges), lists its tensors and the totals per name prefix (`unet.`,
 // `unet_ema.`, `vae.` in a converted Lightning checkpoint), and with --model
-// checks it holds exactly the model's parameters (engine/nn/weights.h).
+// checks it holds exactly the model's parameters (engine/nn/weights.h); with
+// --gsm-model exactly the GSM's state dict (engine/nn/gsm/gsm_params.h: every
+// tensor, its shape and dtype, nothing else).
 // forward runs the dense diffusion UNet on .npy inputs (x [B, C, X, Y, Z]
 // float32, t [B] int64) on the GPU (engine/nn/unet_gpu.h, default) or with the
 // CPU reference (--backend cpu, engine/nn/unet_reference.h: double
@@ -18,11 +22,15 @@
 // wrong shape is a one-line error naming the file and the tensor.
 // random-weights writes a seeded random-weight model of the official
 // structure (engine/nn/random_weights.h: the UNet, or the whole structure
-// VAE), for smoke tests and benchmarks of the pipeline without a checkpoint;
+// VAE; engine/nn/gsm/gsm_random_weights.h: the GSM, in state-dict order with
+// int64 num_batches_tracked), for smoke tests and benchmarks of the pipeline
+// without a checkpoint (the released GSM is 361 M parameters, 1.44 GB of fp32);
 // --scale-factor goes into the metadata as the converter writes it.
 #include "cli_common.h"
 #include "command_registry.h"
 
+#include "nn/gsm/gsm_params.h"
+#include "nn/gsm/gsm_random_weights.h"
 #include "nn/random_weights.h"
 #include "nn/safetensors.h"
 #include "nn/vae_config.h"
@@ -48,7 +56,7 @@ namespace icube::tools {
 namespace {
 
 struct NnInfoArgs {
-  std::string weights, model;
+  std::string weights, model, gsm_model;
   bool check_finite = false, ema = false;
   size_t limit = 50;
 };
@@ -117,6 +125,15 @@ void cmd_nn_forward(const NnForwardArgs& a) {
 void cmd_nn_info(const NnInfoArgs& a) {
   run_command([&](scene::Diagnostics&) {
     const nn::SafetensorsFile f(a.weights);
+    if (!a.model.empty() && !a.gsm_model.empty()) throw std::invalid_argument("give --model (a UNet) or --gsm-model, not both");
+    if (!a.gsm_model.empty()) {
+      const std::vector<nn::GsmParamSpec> specs = nn::gsm_param_specs(nn::load_gsm_model_config(a.gsm_model));
+      nn::check_gsm_weight_file(f, specs);
+      std::printf("%s: holds every tensor of the GSM %s (%zu tensors: %llu parameters, %llu buffer elements)\n",
+                  a.weights.c_str(), a.gsm_model.c_str(), specs.size(),
+                  static_cast<unsigned long long>(nn::gsm_parameter_count(specs)),
+                  static_cast<unsigned long long>(nn::gsm_buffer_count(specs)));
+    }
     if (!a.model.empty()) {
       const nn::UNetReference net(nn::load_unet_config(a.model));
       nn::WeightOptions wo;
@@ -159,14 +176,14 @@ void cmd_nn_info(const NnInfoArgs& a) {
 }
 
 struct RandomWeightsArgs {
-  std::string model, vae_model, output;
+  std::string model, vae_model, gsm_model, output;
   uint32_t seed = 0;
   double scale_factor = 0.0;
 };
 
 // The model's parameters and the memory random-weights needs (every tensor as float32, and its
 // copy for the file), checked against this machine's memory before anything is allocated.
-void check_random_weights_size(const std::vector<nn::ParamSpec>& specs, const std::string& config, bool vae) {
+void check_random_weights_size(const std::vector<nn::ParamSpec>& specs, const std::string& config, const std::string& reduce) {
   double params = 0.0;
   for (const nn::ParamSpec& s : specs) {
     double n = 1.0;
@@ -181,21 +198,45 @@ void check_random_weights_size(const std::vector<nn::ParamSpec>& specs, const st
     std::snprintf(text, sizeof(text),
                   "%s: %.3g parameters need ~%.3g GiB to generate and write (float32 and the file's copy), over 80 %% "
                   "of this machine's %.1f GiB; reduce %s",
-                  config.c_str(), params, need / double(1ull << 30), have / double(1ull << 30),
-                  vae ? "the VAE's channel counts (its config's channel keys)" : "model_channels (or channel_mult, num_res_blocks)");
+                  config.c_str(), params, need / double(1ull << 30), have / double(1ull << 30), reduce.c_str());
     throw std::invalid_argument(text);
   }
 }
 
+// The GSM's random weights (state-dict order, int64 batch counts), its size stated before the work.
+void write_gsm_random_weights(const RandomWeightsArgs& a) {
+  const std::vector<nn::GsmParamSpec> specs = nn::gsm_param_specs(nn::load_gsm_model_config(a.gsm_model));
+  check_random_weights_size(std::vector<nn::ParamSpec>(specs.begin(), specs.end()), a.gsm_model,
+                            "the widths in its hparams and dav2_config");
+  const uint64_t params = nn::gsm_parameter_count(specs), buffers = nn::gsm_buffer_count(specs);
+  std::fprintf(stderr, "random-weights: the GSM %s: %zu tensors, %llu parameters + %llu buffer elements = %.2f GB of float32\n",
+               a.gsm_model.c_str(), specs.size(), static_cast<unsigned long long>(params),
+               static_cast<unsigned long long>(buffers), static_cast<double>(params + buffers) * 4e-9);
+  std::vector<nn::TensorToWrite> tensors = nn::gsm_weight_file_tensors(nn::gsm_random_weights(specs, a.seed), specs);
+  nn::write_safetensors(a.output, tensors,
+                        {{"source", "icube nn random-weights seed " + std::to_string(a.seed)},
+                         {"format", "gsm.Model state_dict names (" + a.gsm_model + ")"}});
+  std::printf("random-weights: %zu tensors, %llu parameters (seed %u) -> %s\n", tensors.size(),
+              static_cast<unsigned long long>(params), a.seed, a.output.c_str());
+}
+
 void cmd_random_weights(const RandomWeightsArgs& a) {
   run_command([&](scene::Diagnostics&) {
-    if (a.model.empty() == a.vae_model.empty()) throw std::invalid_argument("give --model (a UNet) or --vae-model (a VAE)");
+    if (a.model.empty() + a.vae_model.empty() + a.gsm_model.empty() != 2)
+      throw std::invalid_argument("give one of --model (a UNet), --vae-model (a VAE) or --gsm-model (the GSM)");
     if (a.scale_factor < 0.0 || !std::isfinite(a.scale_factor))
       throw std::invalid_argument("--scale-factor " + std::to_string(a.scale_factor) + " is not a positive number");
+    if (!a.gsm_model.empty()) {
+      if (a.scale_factor > 0.0) throw std::invalid_argument("--scale-factor is the diffusion latent's, not the GSM's");
+      write_gsm_random_weights(a);
+      return;
+    }
     const std::vector<nn::ParamSpec> specs = a.model.empty()
                                                  ? nn::vae_param_specs(nn::load_vae_config(a.vae_model), nn::VaePart::All)
                                                  : nn::UNetReference(nn::load_unet_config(a.model)).parameters();
-    check_random_weights_size(specs, a.model.empty() ? a.vae_model : a.model, a.model.empty());
+    check_random_weights_size(specs, a.model.empty() ? a.vae_model : a.model,
+                              a.model.empty() ? "the VAE's channel counts (its config's channel keys)"
+                                              : "model_channels (or channel_mult, num_res_blocks)");
     std::vector<nn::TensorToWrite> tensors;
     uint64_t params = 0;
     for (const auto& [name, w] : nn::random_weights(specs, a.seed)) {
@@ -222,6 +263,9 @@ void add_nn_commands(CLI::App& app) {
   cmd->add_option("--model", a->model, "Check against a UNet config JSON or preset (infinicube-diffusion)")
       ->type_name("CONFIG");
   cmd->add_flag("--ema", a->ema, "With --model: check the EMA copy (unet_ema.*)");
+  cmd->add_option("--gsm-model", a->gsm_model,
+                  "Check against the GSM's state dict: a GSM config JSON (hparams + dav2_config) or preset infinicube-gsm")
+      ->type_name("CONFIG");
   cmd->add_flag("--check-finite", a->check_finite, "Fail on the first NaN or infinity, naming the tensor");
   cmd->add_option("--limit", a->limit, "List at most N tensors (0 = all)")->capture_default_str()->type_name("N");
   cmd->callback([a] { cmd_nn_info(*a); });
@@ -257,6 +301,8 @@ void add_random_weights_command(CLI::App& app) {
   CLI::App* cmd = group.add_subcommand("random-weights", "Write a seeded random-weight model of the official structure");
   cmd->add_option("--model", r->model, "UNet config JSON or preset infinicube-diffusion")->type_name("CONFIG");
   cmd->add_option("--vae-model", r->vae_model, "Structure VAE config JSON or preset infinicube-vae")->type_name("CONFIG");
+  cmd->add_option("--gsm-model", r->gsm_model, "GSM config JSON (hparams + dav2_config) or preset infinicube-gsm")
+      ->type_name("CONFIG");
   cmd->add_option("--seed", r->seed, "Seed")->capture_default_str();
   cmd->add_option("--scale-factor", r->scale_factor, "Write this latent scale_factor into the metadata")->type_name("S");
   cmd->add_option("-o,--output", r->output, "Weights file")->required()->type_name("W.safetensors");
