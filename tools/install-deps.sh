@@ -15,12 +15,12 @@ packages=(
 
 # Test-only: PyTorch for the checkpoint converter's test and the benchmarks against
 # PyTorch (never the icube runtime; ~120 MB download).
-test_packages=(python3-torch)
+test_packages=(python3-torch python3-omegaconf)
 
 case "${1:-}" in
   -h|--help)
     echo "usage: tools/install-deps.sh [--test]   install the Debian 12 packages InfiniCube-VK needs (as root);"
-    echo "       --test adds what the test suite and benchmarks use besides (python3-torch)"
+    echo "       --test adds what the test suite and benchmarks use besides (python3-torch, python3-omegaconf)"
     exit 0 ;;
   --test) packages+=("${test_packages[@]}") ;;
   "") ;;
