@@ -1,7 +1,7 @@
 // 2-D convolutions of the GSM's image networks (the conv image encoder, the
 // Depth-Anything neck and fusion, the sky patch embedding, x-unet's frame-1
 // convolutions): PyTorch's Conv2d (any kernel, stride, zero padding, optional
-// bias) and ConvTranspose2d (the DPT neck's x4 / x2 up-projections).
+// bias). The transposed convolution is kernels/nn/conv_transpose2d.h.
 // GPU: Conv2d::record (shaders/nn/conv2d.comp, a register tile of 8 output
 // channels x 4 output columns per invocation, the input as an R32_SFLOAT texel
 // buffer). Weights are packed once on the host (pack_conv2d_weights) into
@@ -11,8 +11,7 @@
 // windows accumulating into y after a compute-to-compute barrier inside
 // record(); input channels also go in windows that keep an invocation under
 // lavapipe's 65,535 loop iterations. The packed weights must fit one binding.
-// CPU reference: nn::cpu::conv2d / conv_transpose2d (conv2d_cpu.cpp, double
-// accumulation). Tests: tests/nn/test_conv2d.cpp.
+// CPU reference: nn::cpu::conv2d (conv2d_cpu.cpp, double accumulation). Tests: tests/nn/test_conv2d.cpp.
 #pragma once
 
 #include "gpu/buffer.h"
@@ -57,8 +56,5 @@ namespace icube::nn::cpu {
 
 // x [B, Ci, H, W], w [Co, Ci, kh, kw], bias [Co] or nullptr. Output [B, Co, (H + 2p - kh) / s + 1, (W + 2p - kw) / s + 1].
 CpuTensor conv2d(const CpuTensor& x, const CpuTensor& w, const CpuTensor* bias, int stride = 1, int padding = 0);
-// ConvTranspose2d: x [B, Ci, H, W], w [Ci, Co, kh, kw] (PyTorch's layout), bias [Co] or nullptr.
-// Output [B, Co, (H - 1) s - 2p + kh, (W - 1) s - 2p + kw].
-CpuTensor conv_transpose2d(const CpuTensor& x, const CpuTensor& w, const CpuTensor* bias, int stride, int padding = 0);
 
 }  // namespace icube::nn::cpu

@@ -5,6 +5,7 @@
 #include "kernels/nn/attention.h"
 #include "kernels/nn/batch_norm.h"
 #include "kernels/nn/conv2d.h"
+#include "kernels/nn/conv_transpose2d.h"
 #include "kernels/nn/conv3d.h"
 #include "kernels/nn/elementwise.h"
 #include "kernels/nn/group_norm.h"

@@ -3,6 +3,7 @@
 
 #include "kernels/nn/attention.h"
 #include "kernels/nn/conv2d.h"
+#include "kernels/nn/conv_transpose2d.h"
 #include "kernels/nn/elementwise.h"
 #include "kernels/nn/interpolate.h"
 #include "nn/gsm/gsm_json.h"
