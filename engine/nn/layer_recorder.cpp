@@ -2,7 +2,10 @@
 #include "nn/layer_recorder.h"
 
 #include "kernels/nn/attention.h"
+#include "kernels/nn/batch_norm.h"
+#include "kernels/nn/conv2d.h"
 #include "kernels/nn/conv3d.h"
+#include "kernels/nn/interpolate.h"
 #include "kernels/nn/elementwise.h"
 #include "kernels/nn/group_norm.h"
 #include "kernels/nn/layer_norm.h"
@@ -36,6 +39,9 @@ LayerRecorder::LayerRecorder(gpu::Context& ctx, const ParameterStore& params, co
       params_(params),
       pool_(ctx, pool_name),
       conv_(std::make_unique<kernels::nn::Conv3d>(ctx)),
+      conv2d_(std::make_unique<kernels::nn::Conv2d>(ctx)),
+      channel_affine_(std::make_unique<kernels::nn::BatchNorm>(ctx)),
+      interpolate_(std::make_unique<kernels::nn::Interpolate>(ctx)),
       sparse_conv_(std::make_unique<kernels::nn::SparseConv3d>(ctx)),
       group_norm_(std::make_unique<kernels::nn::GroupNorm>(ctx)),
       layer_norm_(std::make_unique<kernels::nn::LayerNorm>(ctx)),
@@ -61,6 +67,9 @@ DeviceTensor LayerRecorder::alloc(std::vector<int64_t> shape) {
 
 void LayerRecorder::set_max_binding_bytes(uint64_t bytes) {
   conv_->set_max_binding_bytes(bytes);
+  conv2d_->set_max_binding_bytes(bytes);
+  channel_affine_->set_max_binding_bytes(bytes);
+  interpolate_->set_max_binding_bytes(bytes);
   sparse_conv_->set_max_binding_bytes(bytes);
   group_norm_->set_max_binding_bytes(bytes);
   elementwise_->set_max_binding_bytes(bytes);
@@ -81,6 +90,69 @@ DeviceTensor LayerRecorder::conv(const DeviceTensor& x, const std::string& prefi
   s.f16_weights = params_.f16_matrices();
   const std::string bias = prefix + ".bias";
   conv_->record(cmd(), s, *x.buf, params_.buffer(prefix + ".weight"), params_.has(bias) ? &params_.buffer(bias) : nullptr, *y.buf);
+  barrier();
+  return y;
+}
+
+DeviceTensor LayerRecorder::conv2d(const DeviceTensor& x, const std::string& prefix, uint32_t stride, uint32_t padding) {
+  const std::vector<int64_t>& ws = params_.shape(prefix + ".weight");
+  if (x.shape.size() != 4 || ws.size() != 4 || ws[1] != x.channels())
+    throw std::logic_error("LayerRecorder: conv2d " + prefix + " of weight " + shape_text(ws) + " on " + shape_text(x.shape));
+  kernels::nn::Conv2dShape s;
+  s.batch = u32(x.batch());
+  s.in_channels = u32(x.channels());
+  s.out_channels = u32(ws[0]);
+  s.height = u32(x.shape[2]);
+  s.width = u32(x.shape[3]);
+  s.kernel_h = u32(ws[2]);
+  s.kernel_w = u32(ws[3]);
+  s.stride = stride;
+  s.padding = padding;
+  DeviceTensor y = alloc({x.batch(), ws[0], s.out_height(), s.out_width()});
+  const std::string bias = prefix + ".bias";
+  conv2d_->record(cmd(), s, *x.buf, params_.buffer(prefix + ".weight"), params_.has(bias) ? &params_.buffer(bias) : nullptr,
+                  *y.buf);
+  barrier();
+  return y;
+}
+
+DeviceTensor LayerRecorder::channel_affine(const DeviceTensor& x, const std::string& scale, const std::string& shift,
+                                           kernels::nn::BatchNormActivation act) {
+  DeviceTensor y = alloc(x.shape);
+  channel_affine_->record(cmd(), {u32(x.batch()), u32(x.channels()), static_cast<uint64_t>(x.spatial())}, *x.buf,
+                          params_.buffer(scale), params_.buffer(shift), *y.buf, act);
+  barrier();
+  return y;
+}
+
+DeviceTensor LayerRecorder::interpolate(const DeviceTensor& x, int64_t out_h, int64_t out_w, kernels::nn::InterpolateMode mode,
+                                        bool align_corners) {
+  if (x.shape.size() != 4) throw std::logic_error("LayerRecorder: interpolate of " + shape_text(x.shape) + " (not [B, C, H, W])");
+  DeviceTensor y = alloc({x.batch(), x.channels(), out_h, out_w});
+  kernels::nn::InterpolateShape s;
+  s.batch = u32(x.batch());
+  s.channels = u32(x.channels());
+  s.in_h = u32(x.shape[2]);
+  s.in_w = u32(x.shape[3]);
+  s.out_h = u32(out_h);
+  s.out_w = u32(out_w);
+  s.mode = mode;
+  s.align_corners = align_corners;
+  interpolate_->record(cmd(), s, *x.buf, *y.buf);
+  barrier();
+  return y;
+}
+
+DeviceTensor LayerRecorder::gelu(const DeviceTensor& x) {
+  DeviceTensor y = alloc(x.shape);
+  elementwise_->gelu(cmd(), *x.buf, x.numel(), *y.buf);
+  barrier();
+  return y;
+}
+
+DeviceTensor LayerRecorder::relu(const DeviceTensor& x) {
+  DeviceTensor y = alloc(x.shape);
+  elementwise_->relu(cmd(), *x.buf, x.numel(), *y.buf);
   barrier();
   return y;
 }

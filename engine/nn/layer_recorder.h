@@ -12,6 +12,8 @@
 #pragma once
 
 #include "gpu/commands.h"
+#include "kernels/nn/batch_norm.h"
+#include "kernels/nn/interpolate.h"
 #include "nn/activation_pool.h"
 #include "nn/device_tensor.h"
 #include "nn/parameter_store.h"
@@ -21,7 +23,10 @@
 
 namespace icube::kernels::nn {
 class Attention;
+class BatchNorm;
+class Conv2d;
 class Conv3d;
+class Interpolate;
 class Elementwise;
 class GroupNorm;
 class LayerNorm;
@@ -68,6 +73,19 @@ class LayerRecorder {
   DeviceTensor resample(const DeviceTensor& x, bool up);  // [B, C, X, Y, Z]: nearest 2x up or 2x average pooling
   DeviceTensor geglu(const DeviceTensor& x);              // [B, 2C, tokens] -> [B, C, tokens]
   DeviceTensor concat(const DeviceTensor& a, const DeviceTensor& b);  // along channels (transfer copies)
+  // 2-D layers of [B, C, H, W] maps (the GSM's image networks).
+  // Conv2d with the weight [Co, Ci, kh, kw] at `prefix.weight` (+ `prefix.bias` when present).
+  DeviceTensor conv2d(const DeviceTensor& x, const std::string& prefix, uint32_t stride, uint32_t padding);
+  // y = act(x * scale[c] + shift[c]) with the vectors at `scale` and `shift` (a folded inference BatchNorm,
+  // a normalisation by a fixed mean and std, a layer scale).
+  DeviceTensor channel_affine(const DeviceTensor& x, const std::string& scale, const std::string& shift,
+                              kernels::nn::BatchNormActivation act);
+  // F.interpolate to (out_h, out_w) by mode (align_corners for bilinear and bicubic).
+  DeviceTensor interpolate(const DeviceTensor& x, int64_t out_h, int64_t out_w, kernels::nn::InterpolateMode mode,
+                           bool align_corners);
+  DeviceTensor gelu(const DeviceTensor& x);
+  DeviceTensor relu(const DeviceTensor& x);
+
   // Multi-head attention of [B, C, tokens]: q, k, v separate or one [B, 3C, tokens] (q, k, v channel thirds).
   DeviceTensor attention(const DeviceTensor& q, const DeviceTensor& k, const DeviceTensor& v, uint32_t heads);
   DeviceTensor attention_qkv(const DeviceTensor& qkv, uint32_t heads);
@@ -82,6 +100,9 @@ class LayerRecorder {
   ActivationPool pool_;
   gpu::CommandList* cmd_ = nullptr;
   std::unique_ptr<kernels::nn::Conv3d> conv_;
+  std::unique_ptr<kernels::nn::Conv2d> conv2d_;
+  std::unique_ptr<kernels::nn::BatchNorm> channel_affine_;
+  std::unique_ptr<kernels::nn::Interpolate> interpolate_;
   std::unique_ptr<kernels::nn::SparseConv3d> sparse_conv_;
   std::unique_ptr<kernels::nn::GroupNorm> group_norm_;
   std::unique_ptr<kernels::nn::LayerNorm> layer_norm_;

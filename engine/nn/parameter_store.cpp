@@ -1,6 +1,7 @@
 // A network's parameters on the device; see parameter_store.h.
 #include "nn/parameter_store.h"
 
+#include "kernels/nn/conv2d.h"
 #include "kernels/nn/conv3d.h"
 #include "scene/input_error.h"
 
@@ -26,6 +27,13 @@ ParameterStore::ParameterStore(gpu::Context& ctx, const std::vector<ParamSpec>& 
     e.shape = p.shape;
     if (options_.host_only.count(p.name)) {
       e.host = t;
+    } else if (p.shape.size() == 4) {
+      // A 2-D convolution [Co, Ci, kh, kw]: conv2d's packing, fp32 (the 2-D kernel has no fp16 path).
+      e.device = std::make_unique<gpu::Buffer>(gpu::upload_vector(
+          ctx,
+          kernels::nn::pack_conv2d_weights(t.data, static_cast<uint32_t>(p.shape[0]), static_cast<uint32_t>(p.shape[1]),
+                                           static_cast<uint32_t>(p.shape[2]), static_cast<uint32_t>(p.shape[3])),
+          p.name));
     } else if (is_matrix(p.shape)) {
       const auto co = static_cast<uint32_t>(p.shape[0]), ci = static_cast<uint32_t>(p.shape[1]);
       const uint32_t k = kernel_edge(p.shape);

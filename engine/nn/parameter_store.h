@@ -3,7 +3,9 @@
 // and uploaded once. A matrix — a convolution weight [Co, Ci, k, k, k] (k 1 or
 // 3), a Conv1d [Co, Ci, 1] or a linear [Co, Ci] — is packed for the conv
 // kernels (kernels/nn/conv3d.h's layout, the layout sparse_conv reads too),
-// in fp32 or, with f16_matrices, fp16; vectors (biases, norm parameters) stay
+// in fp32 or, with f16_matrices, fp16; a 2-D convolution [Co, Ci, kh, kw] is
+// packed for kernels/nn/conv2d.h (the same layout over kh x kw taps), always
+// fp32; vectors (biases, norm parameters) stay
 // fp32 as given. Parameters named in host_only stay on the host (embedding
 // tables looked up there). Every network's GPU module (UNetGpu, VaeGpu and
 // the ones to come) holds one store, so every weight error reads the same:
