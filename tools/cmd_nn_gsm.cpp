@@ -11,14 +11,17 @@
 // intermediate under the names of the case's intermediates.safetensors (all
 // float32; integer tensors as exact floats), so a user can find the first stage
 // that differs from PyTorch. CONFIG is a case's config.json (tools/
-// convert_checkpoint.py writes gsm_config.json in that form). The forward runs on
+// convert_checkpoint.py writes gsm_config.json in that form) or the preset
+// infinicube-gsm (the released model). The weights are checked against the
+// configuration's state dict (every tensor, shape, dtype; finite) before any
+// work. The forward runs on
 // the plain CPU reference (engine/nn/gsm/gsm_reference.h), which equals the
-// official model within 1e-4 of each tensor's std. Weights with a NaN or
-// infinity are refused. Outputs are written atomically and only after the whole
-// forward succeeded.
+// official model within 1e-4 of each tensor's std. Outputs are written
+// atomically and only after the whole forward succeeded.
 #include "cli_common.h"
 #include "command_registry.h"
 
+#include "nn/gsm/gsm_params.h"
 #include "nn/gsm/gsm_reference.h"
 #include "nn/safetensors.h"
 
@@ -45,10 +48,13 @@ void cmd_gsm_forward(const GsmForwardArgs& a) {
     if (a.dump == a.output) throw std::invalid_argument("--dump-layers and -o name the same file");
     using Clock = std::chrono::steady_clock;
     const Clock::time_point t0 = Clock::now();
-    const nn::GsmConfig config = nn::read_gsm_config(a.model);
+    const nn::GsmModelConfig model = nn::load_gsm_model_config(a.model);
+    const nn::GsmConfig& config = model.config;
     const nn::GsmInputs in = nn::read_gsm_inputs(a.inputs);
     nn::check_gsm_inputs(config, in, a.inputs);
-    const nn::GsmWeights weights = nn::load_gsm_weights(a.weights);
+    // Every tensor checked against the configuration's state dict (names, shapes, dtypes) and finite,
+    // before any work.
+    const nn::GsmWeights weights = nn::load_gsm_weights(a.weights, model, true);
     size_t voxels = 0;
     for (const auto& v : in.voxel_ijk) voxels += v.size();
     std::fprintf(stderr, "gsm forward: %lld x %lld views of %lld x %lld, %zu voxels, %zu weight tensors (CPU reference)\n",
@@ -73,7 +79,7 @@ void add_gsm_commands(CLI::App& app) {
   gsm->require_subcommand(1);
   auto a = std::make_shared<GsmForwardArgs>();
   CLI::App* fwd = gsm->add_subcommand("forward", "Run the GSM on a case folder; write its Gaussians and sky (.safetensors)");
-  fwd->add_option("--model", a->model, "GSM config JSON (a case's config.json: hparams + dav2_config)")->required()->type_name("CONFIG");
+  fwd->add_option("--model", a->model, "GSM config JSON (a case's config.json: hparams + dav2_config) or preset infinicube-gsm")->required()->type_name("CONFIG");
   fwd->add_option("--weights", a->weights, "Weights (.safetensors, gsm.Model.state_dict() names)")->required()->type_name("W");
   fwd->add_option("--inputs", a->inputs, "Case folder: images, masks, poses, intrinsics, voxel_ijk.b<i>, depth_patch_keep (.npy)")
       ->required()

@@ -59,5 +59,13 @@ TEST_CASE("cli: icube nn gsm forward reproduces gsm_small's outputs and intermed
                       tmp.path);
   CHECK(r.code != 0);
   CHECK(r.output.find("outputs.safetensors") != std::string::npos);
+  CHECK(r.output.find("missing") != std::string::npos);
+  CHECK(!std::filesystem::exists(out2));
+  // The released preset's widths against gsm_small's weights: refused before any work, the tensor named.
+  r = test::run_icube("nn gsm forward --model infinicube-gsm --weights '" + dir + "weights.safetensors' --inputs '" + dir +
+                          "inputs' -o '" + out2 + "'",
+                      tmp.path);
+  CHECK(r.code != 0);
+  CHECK(r.output.find("project_head.0.0.weight") != std::string::npos);
   CHECK(!std::filesystem::exists(out2));
 }
