@@ -1,6 +1,6 @@
 // `icube nn gsm` : InfiniCube's stage-3 feed-forward reconstruction model (GSM).
 //
-//   icube nn gsm forward --model CONFIG --weights W.safetensors --inputs DIR
+//   icube nn gsm forward --model CONFIG --weights W.safetensors --inputs DIR [--backend gpu|cpu]
 //                        [--dump-layers FILE.safetensors] -o OUT.safetensors
 //
 // forward runs the model on a case folder laid out as models/gsm_small/inputs
@@ -14,13 +14,17 @@
 // convert_checkpoint.py writes gsm_config.json in that form) or the preset
 // infinicube-gsm (the released model). The weights are checked against the
 // configuration's state dict (every tensor, shape, dtype; finite) before any
-// work. The forward runs on
-// the plain CPU reference (engine/nn/gsm/gsm_reference.h), which equals the
-// official model within 1e-4 of each tensor's std. Outputs are written
-// atomically and only after the whole forward succeeded.
+// work. The forward runs on the GPU (engine/nn/gsm/gsm_gpu.h: the network
+// stages on the device, the sky token, pixel rays and sky colours on the host)
+// or, with --backend cpu, on the plain CPU reference (gsm_reference.h); both
+// equal the official model within 1e-4 of each tensor's std. Per-stage times
+// are printed. Outputs are written atomically and only after the whole forward
+// succeeded.
 #include "cli_common.h"
 #include "command_registry.h"
 
+#include "gpu/context.h"
+#include "nn/gsm/gsm_gpu.h"
 #include "nn/gsm/gsm_params.h"
 #include "nn/gsm/gsm_reference.h"
 #include "nn/safetensors.h"
@@ -36,7 +40,7 @@ namespace icube::tools {
 namespace {
 
 struct GsmForwardArgs {
-  std::string model, weights, inputs, dump, output;
+  std::string model, weights, inputs, dump, output, backend = "gpu";
 };
 
 void cmd_gsm_forward(const GsmForwardArgs& a) {
@@ -57,11 +61,25 @@ void cmd_gsm_forward(const GsmForwardArgs& a) {
     const nn::GsmWeights weights = nn::load_gsm_weights(a.weights, model, true);
     size_t voxels = 0;
     for (const auto& v : in.voxel_ijk) voxels += v.size();
-    std::fprintf(stderr, "gsm forward: %lld x %lld views of %lld x %lld, %zu voxels, %zu weight tensors (CPU reference)\n",
+    std::fprintf(stderr, "gsm forward: %lld x %lld views of %lld x %lld, %zu voxels, %zu weight tensors (%s)\n",
                  static_cast<long long>(in.batch), static_cast<long long>(in.views), static_cast<long long>(in.height),
-                 static_cast<long long>(in.width), voxels, weights.tensors.size());
+                 static_cast<long long>(in.width), voxels, weights.tensors.size(),
+                 a.backend == "gpu" ? "GPU" : "CPU reference");
     nn::GsmTrace trace;
-    const nn::GsmOutputs out = nn::gsm_forward_reference(config, weights, in, a.dump.empty() ? nullptr : &trace);
+    nn::GsmTrace* tp = a.dump.empty() ? nullptr : &trace;
+    nn::GsmOutputs out;
+    if (a.backend == "gpu") {
+      gpu::Context ctx(gpu::ContextOptions::from_env());
+      nn::GsmGpu gsm(ctx, config, weights);
+      out = gsm.forward(in, tp);
+      for (const nn::GsmGpu::Stage& st : gsm.last_stages())
+        std::fprintf(stderr, "gsm forward: %-52s %9.1f ms%s\n", st.label.c_str(), st.ms, st.on_device ? "" : " (host)");
+      std::fprintf(stderr, "gsm forward: %.1f MiB of weights, %.1f MiB of activations (peak pool) on %s\n",
+                   static_cast<double>(gsm.weight_bytes()) / 1048576.0, static_cast<double>(gsm.last_activation_bytes()) / 1048576.0,
+                   ctx.info().name.c_str());
+    } else {
+      out = nn::gsm_forward_reference(config, weights, in, tp);
+    }
     const double seconds = std::chrono::duration<double>(Clock::now() - t0).count();
     if (!a.dump.empty()) nn::write_safetensors(a.dump, nn::gsm_trace_tensors(trace), {{"source", "icube nn gsm forward"}});
     nn::write_safetensors(a.output, nn::gsm_output_tensors(out), {{"source", "icube nn gsm forward"}});
@@ -78,12 +96,15 @@ void add_gsm_commands(CLI::App& app) {
   CLI::App* gsm = nn_group.add_subcommand("gsm", "InfiniCube's feed-forward reconstruction model (GSM)");
   gsm->require_subcommand(1);
   auto a = std::make_shared<GsmForwardArgs>();
-  CLI::App* fwd = gsm->add_subcommand("forward", "Run the GSM on a case folder; write its Gaussians and sky (.safetensors)");
+  CLI::App* fwd = gsm->add_subcommand("forward", "Run the GSM on a case folder (GPU, or the CPU reference); write its Gaussians and sky (.safetensors)");
   fwd->add_option("--model", a->model, "GSM config JSON (a case's config.json: hparams + dav2_config) or preset infinicube-gsm")->required()->type_name("CONFIG");
   fwd->add_option("--weights", a->weights, "Weights (.safetensors, gsm.Model.state_dict() names)")->required()->type_name("W");
   fwd->add_option("--inputs", a->inputs, "Case folder: images, masks, poses, intrinsics, voxel_ijk.b<i>, depth_patch_keep (.npy)")
       ->required()
       ->type_name("DIR");
+  fwd->add_option("--backend", a->backend, "gpu (Vulkan kernels) or cpu (the exact double-accumulation reference)")
+      ->check(CLI::IsMember({"gpu", "cpu"}))
+      ->capture_default_str();
   fwd->add_option("--dump-layers", a->dump, "Also write every intermediate under the reference case's names")
       ->type_name("FILE.safetensors");
   fwd->add_option("-o,--output", a->output, "The outputs (gs.b<i>.voxel.*, gs.b<i>.pixel.*, sky.*)")->required()->type_name("OUT.safetensors");

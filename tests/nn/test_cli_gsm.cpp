@@ -1,6 +1,7 @@
 // `icube nn gsm forward` (tools/cmd_nn_gsm.cpp): the gsm_small case's outputs
-// from its config, weights and inputs, under the reference's names and dtypes,
-// and every intermediate through --dump-layers; bad inputs are one-line errors
+// from its config, weights and inputs on the GPU (default) and the CPU
+// reference, under the reference's names and dtypes, and every intermediate
+// through --dump-layers (GPU); bad inputs are one-line errors
 // naming the file that leave no output.
 #include <doctest/doctest.h>
 
@@ -33,6 +34,14 @@ TEST_CASE("cli: icube nn gsm forward reproduces gsm_small's outputs and intermed
     CHECK_MESSAGE(got_file.find(t.name)->dtype == t.dtype, t.name);
     test::check_gsm_tensor(ref, t.name, got.get(t.name));
   }
+  // The CPU reference through the same command.
+  const std::string out_cpu = (tmp.path / "out_cpu.safetensors").string();
+  test::CliRun rc = test::run_icube(common + "--backend cpu --inputs '" + dir + "inputs' -o '" + out_cpu + "'", tmp.path);
+  INFO(rc.output);
+  REQUIRE(rc.code == 0);
+  CHECK(rc.output.find("CPU reference") != std::string::npos);
+  const test::GsmTensors got_cpu(out_cpu);
+  for (const nn::TensorInfo& t : ref_file.tensors()) test::check_gsm_tensor(ref, t.name, got_cpu.get(t.name));
   const test::GsmTensors layers(dump), ref_layers(dir + "intermediates.safetensors");
   const nn::SafetensorsFile ref_layers_file(dir + "intermediates.safetensors");
   for (const nn::TensorInfo& t : ref_layers_file.tensors()) {

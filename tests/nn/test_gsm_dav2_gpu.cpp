@@ -29,28 +29,6 @@ nn::CpuTensor download(gpu::Context& ctx, const nn::DeviceTensor& t) {
   return nn::CpuTensor(t.shape, gpu::download_vector<float>(ctx, *t.buf, t.numel()));
 }
 
-bool is_token_tensor(const std::string& name) {
-  for (const char* stem : {"enc.dav2.pos_embed_interp", "enc.dav2.embeddings", "enc.dav2.layer.", "enc.dav2.feature_maps."})
-    if (name.rfind(stem, 0) == 0) return true;
-  return false;
-}
-
-// A recorded GPU tensor in the reference's layout: tokens [V, C, T] -> [V, T, C]; the output
-// [V, C, h, w] -> [batch, V / batch, C, h, w].
-nn::CpuTensor reference_layout(const std::string& name, const nn::CpuTensor& x, int64_t batch) {
-  if (is_token_tensor(name)) {
-    const int64_t V = x.dim(0), C = x.dim(1), T = x.dim(2);
-    nn::CpuTensor y({V, T, C});
-    for (int64_t v = 0; v < V; ++v)
-      for (int64_t c = 0; c < C; ++c)
-        for (int64_t t = 0; t < T; ++t)
-          y.data[static_cast<size_t>((v * T + t) * C + c)] = x.data[static_cast<size_t>((v * C + c) * T + t)];
-    return y;
-  }
-  if (name == "enc.dav2.out") return nn::CpuTensor({batch, x.dim(0) / batch, x.dim(1), x.dim(2), x.dim(3)}, x.data);
-  return x;
-}
-
 // [1, 3, H, W] -> [2, 3, H, W]: the image, then its left-right mirror.
 nn::CpuTensor with_mirror(const nn::CpuTensor& image) {
   const int64_t H = image.dim(2), W = image.dim(3);
@@ -95,10 +73,11 @@ GpuRun run_gpu(gpu::Context& ctx, nn::LayerRecorder& L, const nn::Dav2Config& cf
 // Every name of `names` in the GPU trace, against the CPU reference's trace (and the official tensors when given).
 void compare(gpu::Context& ctx, const GpuRun& gpu_run, const nn::GsmTrace& cpu, const std::vector<std::string>& names, int64_t batch,
              const test::GsmTensors* official) {
+  const nn::GsmTrace got_all = nn::download_dav2_trace(ctx, gpu_run.trace, batch);
   for (const std::string& name : names) {
-    REQUIRE_MESSAGE(gpu_run.trace.tensors.count(name) == 1, "the GPU stage did not record " << name);
+    REQUIRE_MESSAGE(got_all.tensors.count(name) == 1, "the GPU stage did not record " << name);
     REQUIRE_MESSAGE(cpu.tensors.count(name) == 1, "the CPU reference did not record " << name);
-    const nn::CpuTensor got = reference_layout(name, download(ctx, gpu_run.trace.tensors.at(name)), batch);
+    const nn::CpuTensor& got = got_all.tensors.at(name);
     if (official) test::check_gsm_tensor(*official, name, got);
     const nn::CpuTensor& want = cpu.tensors.at(name);
     REQUIRE_MESSAGE(got.shape == want.shape, name << ": GPU " << got.shape_text() << ", CPU reference " << want.shape_text());

@@ -380,4 +380,35 @@ DeviceTensor dav2_gpu(LayerRecorder& L, const Dav2Config& cfg, const DeviceTenso
   return x;
 }
 
+namespace {
+
+bool is_dav2_token_tensor(const std::string& name) {
+  for (const char* stem : {"enc.dav2.pos_embed_interp", "enc.dav2.embeddings", "enc.dav2.layer.", "enc.dav2.feature_maps."})
+    if (name.rfind(stem, 0) == 0) return true;
+  return false;
+}
+
+}  // namespace
+
+GsmTrace download_dav2_trace(gpu::Context& ctx, const Dav2GpuTrace& trace, int64_t batch) {
+  GsmTrace out;
+  for (const auto& [name, t] : trace.tensors) {
+    const CpuTensor x(t.shape, gpu::download_vector<float>(ctx, *t.buf, t.numel()));
+    if (is_dav2_token_tensor(name)) {  // [V, C, T] -> [V, T, C]
+      const int64_t V = x.dim(0), C = x.dim(1), T = x.dim(2);
+      CpuTensor y({V, T, C});
+      for (int64_t v = 0; v < V; ++v)
+        for (int64_t c = 0; c < C; ++c)
+          for (int64_t k = 0; k < T; ++k)
+            y.data[static_cast<size_t>((v * T + k) * C + c)] = x.data[static_cast<size_t>((v * C + c) * T + k)];
+      out.tensors[name] = std::move(y);
+    } else if (name == "enc.dav2.out") {
+      out.tensors[name] = CpuTensor({batch, x.dim(0) / batch, x.dim(1), x.dim(2), x.dim(3)}, x.data);
+    } else {
+      out.tensors[name] = x;
+    }
+  }
+  return out;
+}
+
 }  // namespace icube::nn

@@ -14,6 +14,8 @@
 // reference on one and two views).
 #pragma once
 
+#include "nn/gsm/gsm_trace.h"
+
 #include "kernels/nn/cpu_tensor.h"
 #include "nn/device_tensor.h"
 #include "nn/gsm/dav2_reference.h"
@@ -65,6 +67,10 @@ class Dav2PositionEmbeddings {
  private:
   std::map<std::pair<int64_t, int64_t>, DeviceTensor> grids_;
 };
+
+// After the recording ran: the trace in the reference's names and layouts (tokens [V, T, C],
+// pos_embed_interp [1, T, C], out [batch, V / batch, C_out, h, w]).
+GsmTrace download_dav2_trace(gpu::Context& ctx, const Dav2GpuTrace& trace, int64_t batch);
 
 // images [V, 3, H, W] RGB in [0, 1] -> [V, C_out, h, w], recorded on L (between L.begin and L.end).
 // Without `positions` the position embeddings are interpolated in this recording (pooled).

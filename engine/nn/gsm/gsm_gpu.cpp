@@ -1,0 +1,168 @@
+// The whole GSM on the GPU; see gsm_gpu.h.
+#include "nn/gsm/gsm_gpu.h"
+
+#include "gpu/context.h"
+#include "nn/gsm/conv_encoder_gpu.h"
+#include "nn/gsm/gsm_rays.h"
+#include "nn/gsm/pixel_branch_gpu.h"
+#include "nn/gsm/voxel_branch_gpu.h"
+#include "nn/layer_recorder.h"
+
+#include <chrono>
+
+namespace icube::nn {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double ms_since(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
+
+DeviceTensor upload(gpu::Context& ctx, const CpuTensor& t, const char* name) {
+  return {std::make_shared<gpu::Buffer>(gpu::upload_vector(ctx, t.data, name)), t.shape};
+}
+
+CpuTensor download(gpu::Context& ctx, const DeviceTensor& t) {
+  return CpuTensor(t.shape, gpu::download_vector<float>(ctx, *t.buf, t.numel()));
+}
+
+// Views [first, first + count) of a [V, ...] tensor, copied into a pooled tensor (a transfer inside the list).
+DeviceTensor view_range(LayerRecorder& L, const DeviceTensor& x, int64_t first, int64_t count) {
+  if (first == 0 && count == x.batch()) return x;
+  std::vector<int64_t> shape = x.shape;
+  shape[0] = count;
+  DeviceTensor y = L.alloc(shape);
+  const uint64_t per = x.numel() / static_cast<uint64_t>(x.batch()) * 4;
+  gpu::CommandList& c = L.cmd();
+  c.barrier(gpu::deps::kComputeToTransfer);
+  c.copy_buffer(x.buf->binding(static_cast<uint64_t>(first) * per, static_cast<uint64_t>(count) * per), y.buf->binding(0, static_cast<uint64_t>(count) * per));
+  c.barrier(gpu::deps::kTransferToCompute);
+  return y;
+}
+
+void merge(GsmTrace* into, GsmTrace&& from) {
+  if (!into) return;
+  for (auto& [name, t] : from.tensors) into->tensors[name] = std::move(t);
+}
+
+}  // namespace
+
+GsmGpu::GsmGpu(gpu::Context& ctx, const GsmConfig& c, const GsmWeights& w) : ctx_(ctx), config_(c), weights_(w) {
+  check_conv_encoder_gpu(c.conv, c.source);
+  check_dav2_gpu(c.dav2, c.source);
+  check_pixel_branch_gpu(c.pixel, c.source);
+  const GsmGpuWeights g = gsm_gpu_weights(w);
+  ParameterStoreOptions o;
+  o.network = "the GSM";
+  o.source = w.source;
+  o.host_only = g.host_only;
+  store_ = std::make_unique<ParameterStore>(ctx, g.specs, g.tensors, o);
+}
+
+GsmGpu::~GsmGpu() = default;
+
+GsmOutputs GsmGpu::forward(const GsmInputs& in, GsmTrace* trace) {
+  stages_.clear();
+  const int64_t B = in.batch, N = in.views, H = in.height, W = in.width;
+  GsmOutputs out;
+  out.elements.resize(static_cast<size_t>(B));
+  LayerRecorder L(ctx_, *store_, "gsm");
+  const CpuTensor images_host = gsm_images_nchw(in);
+  const CpuTensor effective = gsm_effective_mask(in);
+  trace_put(trace, "enc.effective_mask", effective);
+
+  // 1. Image features: the conv encoder and Depth-Anything-V2, one command list.
+  Clock::time_point t0 = Clock::now();
+  const DeviceTensor images = upload(ctx_, images_host, "gsm-images");
+  DeviceTensor conv, dav2;
+  std::vector<DeviceTensor> conv_stages;
+  Dav2GpuTrace dav2_trace;
+  ctx_.submit_and_wait([&](gpu::CommandList& cmd) {
+    L.begin(cmd);
+    conv = conv_encoder_gpu(L, config_.conv, images, trace ? &conv_stages : nullptr);
+    dav2 = dav2_gpu(L, config_.dav2, images, trace ? &dav2_trace : nullptr, &positions_);
+    L.end();
+  });
+  stages_.push_back({"image features (conv encoder, Depth-Anything-V2)", ms_since(t0), true});
+  if (trace) {
+    for (size_t i = 0; i < conv_stages.size(); ++i)
+      trace_put(trace, "enc.conv.project_head." + std::to_string(i), download(ctx_, conv_stages[i]));
+    CpuTensor c = download(ctx_, conv);
+    c.shape.insert(c.shape.begin(), B);
+    c.shape[1] = N;
+    trace_put(trace, "enc.conv.out", c);
+    merge(trace, download_dav2_trace(ctx_, dav2_trace, B));
+  }
+
+  // 2. The sky token (host).
+  t0 = Clock::now();
+  out.sky_tokens = sky_tokens(config_.sky, weights_, in, images_host, trace);
+  stages_.push_back({"sky token (host)", ms_since(t0), false});
+
+  // 3. Pixel rays (host, double).
+  t0 = Clock::now();
+  std::vector<GsmPixelRays> rays;
+  for (int64_t b = 0; b < B; ++b) rays.push_back(cast_gsm_pixel_rays(in, b));
+  trace_gsm_pixel_rays(rays, trace);
+  CpuTensor voxel_depth({B * N, 1, H, W}), grid_fg({B * N, 1, H, W});
+  for (int64_t b = 0; b < B; ++b) {
+    const GsmPixelRays& r = rays[static_cast<size_t>(b)];
+    std::copy(r.voxel_depth.begin(), r.voxel_depth.end(), voxel_depth.data.begin() + b * N * H * W);
+    for (size_t i = 0; i < r.grid_foreground.size(); ++i)
+      grid_fg.data[static_cast<size_t>(b * N * H * W) + i] = r.grid_foreground[i] ? 1.0f : 0.0f;
+  }
+  stages_.push_back({"pixel rays (host, double)", ms_since(t0), false});
+
+  // 4. The voxel branch, one batch element per command list.
+  t0 = Clock::now();
+  for (int64_t b = 0; b < B; ++b) {
+    VoxelBranchGpu branch(ctx_, L);
+    VoxelBranchGpuTrace vtrace;
+    VoxelBranchGpuOutputs vo;
+    const CpuTensor eff(std::vector<int64_t>{N, H, W},
+                        std::vector<float>(effective.data.begin() + b * N * H * W, effective.data.begin() + (b + 1) * N * H * W));
+    const std::vector<std::array<float, 16>> poses(in.poses.begin() + b * N, in.poses.begin() + (b + 1) * N);
+    const std::vector<std::array<float, 6>> intr(in.intrinsics.begin() + b * N, in.intrinsics.begin() + (b + 1) * N);
+    ctx_.submit_and_wait([&](gpu::CommandList& cmd) {
+      L.begin(cmd);
+      const DeviceTensor features = view_range(L, conv, b * N, N);
+      vo = voxel_branch_gpu(branch, config_.voxel_unet, config_.voxel_heads, gsm_input_grid(in, b), features,
+                            rays[static_cast<size_t>(b)].first_voxel, eff, poses, intr, static_cast<int>(b), trace ? &vtrace : nullptr);
+      L.end();
+    });
+    out.elements[static_cast<size_t>(b)].voxel = vo.gaussians.download(ctx_);
+    if (trace) merge(trace, vtrace.download(ctx_));
+    branch.release();
+  }
+  stages_.push_back({"voxel branch", ms_since(t0), true});
+
+  // 5. The pixel branch.
+  t0 = Clock::now();
+  PixelBranchGpuInputs px;
+  px.images = images;
+  px.voxel_depth = upload(ctx_, voxel_depth, "gsm-voxel-depth");
+  px.grid_foreground = upload(ctx_, grid_fg, "gsm-grid-fg");
+  px.foreground = upload(ctx_, pixel_branch_foreground(in), "gsm-foreground");
+  px.dav2_feature = dav2;
+  PixelBranchGpuOutput po;
+  PixelBranchGpuTrace ptrace;
+  ctx_.submit_and_wait([&](gpu::CommandList& cmd) {
+    L.begin(cmd);
+    po = pixel_branch_gpu(L, config_.pixel, in, px, trace ? &ptrace : nullptr);
+    L.end();
+  });
+  std::vector<PixelGaussians> pixel = download_pixel_gaussians(ctx_, config_.pixel, in, po);
+  for (int64_t b = 0; b < B; ++b) out.elements[static_cast<size_t>(b)].pixel = std::move(pixel[static_cast<size_t>(b)]);
+  if (trace) merge(trace, download_pixel_branch_trace(ctx_, in, ptrace));
+  stages_.push_back({"pixel branch", ms_since(t0), true});
+
+  // 6. The sky's colours (host).
+  t0 = Clock::now();
+  out.sky_image = sky_image(config_.sky, weights_, in, out.sky_tokens);
+  out.sky_panorama = sky_panorama(config_.sky, weights_, out.sky_tokens, config_.sky_panorama_rows);
+  stages_.push_back({"sky colours (host)", ms_since(t0), false});
+  activation_bytes_ = L.pool().bytes();
+  return out;
+}
+
+}  // namespace icube::nn

@@ -1,0 +1,62 @@
+// The whole GSM on the GPU: the stages of gsm_reference.h in the same order,
+// each through the network layer — the conv encoder and Depth-Anything-V2
+// (one command list), the voxel branch per batch element, the pixel branch —
+// with what stays on the host named here:
+//   the sky token     a post-norm transformer over a batch element's sky patches (a few hundred tokens;
+//                     the reference's sky_tokens, exact)
+//   the pixel rays    first hits, grid mask and voxel depth marched in double (gsm_rays.h), as the
+//                     official fVDB queries need at their tie margins
+//   the sky colours   the modulator MLP for every input pixel and the 256 x 512 panorama (sky_reference.h)
+// and the structure of the voxel branch (grids, row tables: integer bookkeeping, voxel_branch_gpu.h).
+// Outputs, and with a trace every intermediate, come back under the reference's names and layouts, so
+// the GPU forward is checked against gsm_small and the CPU reference alike. Test:
+// tests/nn/test_gsm_forward_gpu.cpp.
+#pragma once
+
+#include "nn/gsm/dav2_gpu.h"
+#include "nn/gsm/gsm_gpu_weights.h"
+#include "nn/gsm/gsm_reference.h"
+#include "nn/parameter_store.h"
+
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace icube::gpu {
+class Context;
+}
+
+namespace icube::nn {
+
+class GsmGpu {
+ public:
+  struct Stage {
+    std::string label;
+    double ms = 0.0;
+    bool on_device = true;
+  };
+
+  // Checks that every stage of `c` runs on the GPU (scene::InputError naming the key otherwise) and uploads
+  // the weights.
+  GsmGpu(gpu::Context& ctx, const GsmConfig& c, const GsmWeights& w);
+  ~GsmGpu();
+  GsmGpu(const GsmGpu&) = delete;
+  GsmGpu& operator=(const GsmGpu&) = delete;
+
+  GsmOutputs forward(const GsmInputs& in, GsmTrace* trace = nullptr);
+
+  const std::vector<Stage>& last_stages() const { return stages_; }
+  uint64_t weight_bytes() const { return store_->device_bytes(); }
+  uint64_t last_activation_bytes() const { return activation_bytes_; }
+
+ private:
+  gpu::Context& ctx_;
+  GsmConfig config_;
+  const GsmWeights& weights_;  // the CPU-side stages' (the sky token, the sky colours)
+  std::unique_ptr<ParameterStore> store_;
+  Dav2PositionEmbeddings positions_;
+  std::vector<Stage> stages_;
+  uint64_t activation_bytes_ = 0;
+};
+
+}  // namespace icube::nn

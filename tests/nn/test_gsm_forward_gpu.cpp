@@ -1,0 +1,118 @@
+// The whole GSM on the GPU (nn/gsm/gsm_gpu.h) on the official gsm_small case:
+// every output (Gaussian counts and source indices equal) and every
+// intermediate within 1e-4 of the reference's std, and a batch of two
+// two-view elements against the CPU reference. Runs under the validation layer.
+#include <doctest/doctest.h>
+
+#include "gpu_test_context.h"
+#include "gsm_case.h"
+#include "nn/gsm/gsm_gpu.h"
+#include "nn/gsm/gsm_params.h"
+
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <string>
+
+using namespace icube;
+
+namespace {
+
+// Compares every pair of same-named output tensors (integers exactly).
+void check_outputs(const nn::GsmOutputs& got, const nn::GsmOutputs& want, double tol) {
+  const std::vector<nn::TensorToWrite> g = nn::gsm_output_tensors(got), w = nn::gsm_output_tensors(want);
+  REQUIRE(g.size() == w.size());
+  for (size_t i = 0; i < g.size(); ++i) {
+    CAPTURE(g[i].name);
+    REQUIRE(g[i].name == w[i].name);
+    REQUIRE(g[i].shape == w[i].shape);
+    if (g[i].dtype != nn::DType::F32) {
+      CHECK(g[i].bytes == w[i].bytes);
+      continue;
+    }
+    std::vector<float> a(g[i].bytes.size() / 4), b(w[i].bytes.size() / 4);
+    std::memcpy(a.data(), g[i].bytes.data(), g[i].bytes.size());
+    std::memcpy(b.data(), w[i].bytes.data(), w[i].bytes.size());
+    if (a.empty()) continue;
+    const double e = nn::cpu::max_abs_over_std(a, b);
+    std::printf("  %-30s %.3g of std against the CPU reference\n", g[i].name.c_str(), e);
+    CHECK(e <= tol);
+  }
+}
+
+}  // namespace
+
+TEST_CASE("gsm gpu: the whole forward matches gsm_small's outputs and intermediates") {
+  const std::string dir = test::gsm_small_dir();
+  if (dir.empty()) return;
+  gpu::Context& ctx = test::gpu_context();
+  const nn::GsmModelConfig model = nn::load_gsm_model_config(dir + "config.json");
+  const nn::GsmWeights w = nn::load_gsm_weights(dir + "weights.safetensors", model, true);
+  const nn::GsmInputs in = nn::read_gsm_inputs(dir + "inputs");
+  nn::GsmGpu gsm(ctx, model.config, w);
+  nn::GsmTrace trace;
+  const nn::GsmOutputs out = gsm.forward(in, &trace);
+  for (const nn::GsmGpu::Stage& s : gsm.last_stages()) MESSAGE(s.label << ": " << s.ms << " ms");
+  const test::GsmTensors ref_out(dir + "outputs.safetensors"), ref_mid(dir + "intermediates.safetensors");
+  size_t outputs = 0;
+  for (const nn::TensorToWrite& t : nn::gsm_output_tensors(out)) {
+    const nn::SafetensorsFile one = nn::SafetensorsFile::from_bytes(nn::safetensors_bytes({t}), t.name);
+    test::check_gsm_tensor(ref_out, t.name, nn::CpuTensor(t.shape, one.to_f32(one.tensors().front())));
+    ++outputs;
+  }
+  CHECK(outputs == 17);
+  size_t checked = 0;
+  for (const auto& [name, tensor] : trace.tensors) {
+    if (!ref_mid.has(name)) continue;
+    test::check_gsm_tensor(ref_mid, name, tensor);
+    ++checked;
+  }
+  CHECK_MESSAGE(checked >= 100, "only " << checked << " of the reference's intermediates were traced");
+}
+
+TEST_CASE("gsm gpu: a batch of two two-view elements equals the CPU reference") {
+  const std::string dir = test::gsm_small_dir();
+  if (dir.empty()) return;
+  gpu::Context& ctx = test::gpu_context();
+  const nn::GsmModelConfig model = nn::load_gsm_model_config(dir + "config.json");
+  const nn::GsmWeights w = nn::load_gsm_weights(dir + "weights.safetensors", model, true);
+  const nn::GsmInputs one = nn::read_gsm_inputs(dir + "inputs");
+  // Two elements of two views: the case's view and its mirror (yawed camera), the second element darkened
+  // with every other voxel.
+  nn::GsmInputs in = one;
+  const int64_t H = one.height, W = one.width, px = H * W;
+  in.batch = 2;
+  in.views = 2;
+  std::vector<float> img;
+  std::vector<uint8_t> masks, keep;
+  for (int e = 0; e < 2; ++e)
+    for (int v = 0; v < 2; ++v) {
+      for (int64_t r = 0; r < H; ++r)
+        for (int64_t c = 0; c < W; ++c) {
+          const int64_t sc = v ? W - 1 - c : c;
+          for (int k = 0; k < 3; ++k) img.push_back((e ? 0.6f : 1.0f) * one.images.data[static_cast<size_t>((r * W + sc) * 3 + k)]);
+          for (int k = 0; k < 4; ++k) masks.push_back(one.masks[static_cast<size_t>((r * W + sc) * 4 + k)]);
+        }
+      for (uint8_t k : one.depth_patch_keep) keep.push_back(static_cast<uint8_t>(v ? 1 - k : k));
+    }
+  in.images = nn::CpuTensor({2, 2, H, W, 3}, img);
+  in.masks = masks;
+  in.depth_patch_keep = keep;
+  std::array<float, 16> yawed = one.poses[0];
+  const float ca = std::cos(0.07f), sa = std::sin(0.07f);
+  for (int col = 0; col < 3; ++col) {
+    const float x = yawed[static_cast<size_t>(col)], y = yawed[static_cast<size_t>(4 + col)];
+    yawed[static_cast<size_t>(col)] = ca * x - sa * y;
+    yawed[static_cast<size_t>(4 + col)] = sa * x + ca * y;
+  }
+  in.poses = {one.poses[0], yawed, one.poses[0], yawed};
+  in.intrinsics = {one.intrinsics[0], one.intrinsics[0], one.intrinsics[0], one.intrinsics[0]};
+  std::vector<nn::Ijk> half;
+  for (size_t i = 0; i < one.voxel_ijk[0].size(); i += 2) half.push_back(one.voxel_ijk[0][i]);
+  in.voxel_ijk = {one.voxel_ijk[0], half};
+  (void)px;
+  nn::GsmGpu gsm(ctx, model.config, w);
+  const nn::GsmOutputs got = gsm.forward(in);
+  const nn::GsmOutputs want = nn::gsm_forward_reference(model.config, w, in, nullptr);
+  check_outputs(got, want, 1e-4);
+}
