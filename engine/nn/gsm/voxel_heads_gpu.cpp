@@ -144,42 +144,6 @@ struct Decoder {
 
 }  // namespace
 
-std::vector<std::array<double, 12>> gsm_world_to_normalized_image(const std::vector<std::array<float, 16>>& poses,
-                                                                 const std::vector<std::array<float, 6>>& intrinsics) {
-  if (poses.size() != intrinsics.size()) throw std::invalid_argument("gsm projection: poses and intrinsics differ in count");
-  std::vector<std::array<double, 12>> out;
-  for (size_t n = 0; n < poses.size(); ++n) {
-    const std::array<float, 16>& p = poses[n];
-    // Grid-to-camera = the general 4x4 inverse of camera-to-grid (Gauss-Jordan with partial pivoting), in double.
-    double m[4][8];
-    for (size_t r = 0; r < 4; ++r)
-      for (size_t q = 0; q < 8; ++q) m[r][q] = q < 4 ? static_cast<double>(p[r * 4 + q]) : (q - 4 == r ? 1.0 : 0.0);
-    for (size_t col = 0; col < 4; ++col) {
-      size_t piv = col;
-      for (size_t r = col + 1; r < 4; ++r)
-        if (std::fabs(m[r][col]) > std::fabs(m[piv][col])) piv = r;
-      if (m[piv][col] == 0.0) throw scene::InputError("poses", "view " + std::to_string(n), "the camera pose is singular");
-      for (size_t q = 0; q < 8; ++q) std::swap(m[col][q], m[piv][q]);
-      const double d = m[col][col];
-      for (size_t q = 0; q < 8; ++q) m[col][q] /= d;
-      for (size_t r = 0; r < 4; ++r) {
-        if (r == col) continue;
-        const double f = m[r][col];
-        for (size_t q = 0; q < 8; ++q) m[r][q] -= f * m[col][q];
-      }
-    }
-    const std::array<float, 6>& k = intrinsics[n];
-    const double fx = k[0], fy = k[1], cx = k[2], cy = k[3], width = k[4], height = k[5];
-    const double kn[3][3] = {{fx / width, 0.0, cx / width}, {0.0, fy / height, cy / height}, {0.0, 0.0, 1.0}};
-    std::array<double, 12> a{};
-    for (size_t r = 0; r < 3; ++r)
-      for (size_t q = 0; q < 4; ++q)
-        for (size_t s = 0; s < 3; ++s) a[r * 4 + q] += kn[r][s] * m[s][4 + q];
-    out.push_back(a);
-  }
-  return out;
-}
-
 VoxelGaussiansGpu voxel_heads_gpu(VoxelBranchGpu& B, const VoxelHeadsConfig& c, const VoxelHeadsGpuInputs& in,
                                   int batch_index, VoxelBranchGpuTrace* trace) {
   check_inputs(c, in);

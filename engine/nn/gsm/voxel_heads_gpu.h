@@ -36,10 +36,4 @@ struct VoxelHeadsGpuInputs {
 VoxelGaussiansGpu voxel_heads_gpu(VoxelBranchGpu& B, const VoxelHeadsConfig& c, const VoxelHeadsGpuInputs& in,
                                   int batch_index, VoxelBranchGpuTrace* trace);
 
-// Per view the row-major 3x4 matrix from grid coordinates to (u w, v w, w), u and v normalised by the image
-// size (camera_intrinsic_list_to_matrix(normalize_pixel=True) times inverse(pose)[:3]), in double; a singular
-// pose is a scene::InputError.
-std::vector<std::array<double, 12>> gsm_world_to_normalized_image(const std::vector<std::array<float, 16>>& poses,
-                                                                 const std::vector<std::array<float, 6>>& intrinsics);
-
 }  // namespace icube::nn

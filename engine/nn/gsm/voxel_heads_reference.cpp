@@ -66,41 +66,6 @@ SparseTensor run_head(const VoxelHeadsConfig& c, const GsmWeights& w, const std:
   return cpu::linear(h, out_w, &out_b);
 }
 
-// Per view, the 3x4 matrix from grid coordinates to (u w, v w, w) with u, v normalised by the image size
-// (camera_intrinsic_list_to_matrix(normalize_pixel=True) times inverse(pose)[:3]).
-std::vector<std::array<double, 12>> world_to_normalized_image(const VoxelHeadsInputs& in) {
-  std::vector<std::array<double, 12>> out;
-  for (size_t n = 0; n < in.poses.size(); ++n) {
-    const std::array<float, 16>& p = in.poses[n];
-    // Grid-to-camera = torch.inverse(camera-to-grid): the general 4x4 inverse (Gauss-Jordan), in double.
-    double m[4][8];
-    for (int r = 0; r < 4; ++r)
-      for (int q = 0; q < 8; ++q) m[r][q] = q < 4 ? static_cast<double>(p[static_cast<size_t>(r * 4 + q)]) : (q - 4 == r ? 1.0 : 0.0);
-    for (int col = 0; col < 4; ++col) {
-      int piv = col;
-      for (int r = col + 1; r < 4; ++r)
-        if (std::fabs(m[r][col]) > std::fabs(m[piv][col])) piv = r;
-      if (m[piv][col] == 0.0) throw scene::InputError("poses", "view " + std::to_string(n), "the camera pose is singular");
-      for (int q = 0; q < 8; ++q) std::swap(m[col][q], m[piv][q]);
-      const double d = m[col][col];
-      for (int q = 0; q < 8; ++q) m[col][q] /= d;
-      for (int r = 0; r < 4; ++r) {
-        if (r == col) continue;
-        const double f = m[r][col];
-        for (int q = 0; q < 8; ++q) m[r][q] -= f * m[col][q];
-      }
-    }
-    const std::array<float, 6>& k = in.intrinsics[n];
-    const double fx = k[0], fy = k[1], cx = k[2], cy = k[3], width = k[4], height = k[5];
-    const double kn[3][3] = {{fx / width, 0.0, cx / width}, {0.0, fy / height, cy / height}, {0.0, 0.0, 1.0}};
-    std::array<double, 12> a{};
-    for (int r = 0; r < 3; ++r)
-      for (int q = 0; q < 4; ++q)
-        for (int s = 0; s < 3; ++s) a[static_cast<size_t>(r * 4 + q)] += kn[r][s] * m[s][4 + q];
-    out.push_back(a);
-  }
-  return out;
-}
 
 // F.grid_sample(bilinear, zeros, align_corners=False) of the masked feature map `view` [C, h, w] at the
 // normalised image point (u, v) in [0, 1] (pixel x = u * w - 0.5), written to `out` [C].
@@ -148,7 +113,7 @@ SparseTensor front_children_features(const VoxelHeadsConfig& c, const VoxelHeads
   }
   x.channels = c2 + c3;
   x.data.assign(order.size() * static_cast<size_t>(x.channels), 0.0f);
-  const std::vector<std::array<double, 12>> proj = world_to_normalized_image(in);
+  const std::vector<std::array<double, 12>> proj = gsm_world_to_normalized_image(in.poses, in.intrinsics);
   std::vector<double> sample(static_cast<size_t>(c2)), best(static_cast<size_t>(c2));
   for (size_t r = 0; r < order.size(); ++r) {
     const Ijk& q = ijk[static_cast<size_t>(order[r])];
@@ -309,6 +274,42 @@ VoxelGaussians voxel_heads_forward(const VoxelHeadsConfig& c, const GsmWeights& 
   g.opacities = CpuTensor({n, 1}, std::move(opacities));
   g.colors = CpuTensor({n, int64_t{c.gs_dim} - 11}, std::move(colors));
   return g;
+}
+
+std::vector<std::array<double, 12>> gsm_world_to_normalized_image(const std::vector<std::array<float, 16>>& poses,
+                                                                 const std::vector<std::array<float, 6>>& intrinsics) {
+  if (poses.size() != intrinsics.size()) throw std::invalid_argument("gsm projection: poses and intrinsics differ in count");
+  std::vector<std::array<double, 12>> out;
+  for (size_t n = 0; n < poses.size(); ++n) {
+    const std::array<float, 16>& p = poses[n];
+    // Grid-to-camera = torch.inverse(camera-to-grid): the general 4x4 inverse (Gauss-Jordan), in double.
+    double m[4][8];
+    for (int r = 0; r < 4; ++r)
+      for (int q = 0; q < 8; ++q) m[r][q] = q < 4 ? static_cast<double>(p[static_cast<size_t>(r * 4 + q)]) : (q - 4 == r ? 1.0 : 0.0);
+    for (int col = 0; col < 4; ++col) {
+      int piv = col;
+      for (int r = col + 1; r < 4; ++r)
+        if (std::fabs(m[r][col]) > std::fabs(m[piv][col])) piv = r;
+      if (m[piv][col] == 0.0) throw scene::InputError("poses", "view " + std::to_string(n), "the camera pose is singular");
+      for (int q = 0; q < 8; ++q) std::swap(m[col][q], m[piv][q]);
+      const double d = m[col][col];
+      for (int q = 0; q < 8; ++q) m[col][q] /= d;
+      for (int r = 0; r < 4; ++r) {
+        if (r == col) continue;
+        const double f = m[r][col];
+        for (int q = 0; q < 8; ++q) m[r][q] -= f * m[col][q];
+      }
+    }
+    const std::array<float, 6>& k = intrinsics[n];
+    const double fx = k[0], fy = k[1], cx = k[2], cy = k[3], width = k[4], height = k[5];
+    const double kn[3][3] = {{fx / width, 0.0, cx / width}, {0.0, fy / height, cy / height}, {0.0, 0.0, 1.0}};
+    std::array<double, 12> a{};
+    for (int r = 0; r < 3; ++r)
+      for (int q = 0; q < 4; ++q)
+        for (int s = 0; s < 3; ++s) a[static_cast<size_t>(r * 4 + q)] += kn[r][s] * m[s][4 + q];
+    out.push_back(a);
+  }
+  return out;
 }
 
 }  // namespace icube::nn

@@ -70,6 +70,12 @@ struct VoxelGaussians {
   int64_t count() const { return static_cast<int64_t>(src_level.size()); }
 };
 
+// Per view, the 3x4 matrix from grid coordinates to (u w, v w, w) with u, v normalised by the image size
+// (camera_intrinsic_list_to_matrix(normalize_pixel=True) times torch.inverse(pose)[:3]): the general 4x4
+// inverse (Gauss-Jordan with partial pivoting) in double; a singular pose is a scene::InputError.
+std::vector<std::array<double, 12>> gsm_world_to_normalized_image(const std::vector<std::array<float, 16>>& poses,
+                                                                 const std::vector<std::array<float, 6>>& intrinsics);
+
 VoxelGaussians voxel_heads_forward(const VoxelHeadsConfig& c, const GsmWeights& w, const VoxelHeadsInputs& in,
                                    int batch_index, GsmTrace* trace);
 

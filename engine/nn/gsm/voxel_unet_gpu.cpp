@@ -41,28 +41,6 @@ void require_shape(const LayerRecorder& L, const std::string& name, const std::v
     throw std::invalid_argument("gsm voxel unet: " + name + " has shape " + shape_text(have) + ", the U-Net needs " + shape_text(shape));
 }
 
-// Level d of the hash tree (as voxel_unet_reference.cpp): for every input voxel centre the 8 level-d voxels
-// around it, lexicographic; voxel size vs 2^d, origin origin + vs (2^d - 1) / 2.
-SparseGrid hash_tree_level(const SparseGrid& input, int d) {
-  SparseGrid g;
-  const int32_t f = 1 << d;
-  for (size_t a = 0; a < 3; ++a) {
-    g.voxel_size[a] = input.voxel_size[a] * f;
-    g.origin[a] = input.origin[a] + 0.5 * input.voxel_size[a] * (f - 1);
-  }
-  g.ijk.reserve(input.ijk.size() * 8);
-  for (const Ijk& v : input.ijk) {
-    Ijk base;
-    for (size_t a = 0; a < 3; ++a) base[a] = floor_div(2 * v[a] + 1 - f, 2 * f);
-    for (int32_t i = 0; i < 2; ++i)
-      for (int32_t j = 0; j < 2; ++j)
-        for (int32_t k = 0; k < 2; ++k) g.ijk.push_back({base[0] + i, base[1] + j, base[2] + k});
-  }
-  std::sort(g.ijk.begin(), g.ijk.end());
-  g.ijk.erase(std::unique(g.ijk.begin(), g.ijk.end()), g.ijk.end());
-  return g;
-}
-
 // For each voxel of `coarse` the rows of its 2x2x2 children in `fine` (-1 where absent), [coarse rows * 8].
 std::vector<int32_t> child_rows(const SparseGrid& fine, const SparseGrid& coarse) {
   std::vector<Ijk> children;
@@ -177,7 +155,7 @@ DeviceTensor voxel_unet_gpu(VoxelBranchGpu& B, const VoxelUnetConfig& c, const V
   auto name = [&](const std::string& n) { return batch_name(n, batch_index); };
 
   std::vector<SparseGrid> tree{grid.host};
-  for (int d = 1; d < levels; ++d) tree.push_back(hash_tree_level(grid.host, d));
+  for (int d = 1; d < levels; ++d) tree.push_back(gsm_hash_tree_level(grid.host, d));
 
   require_shape(L, kPrefix + "pre_conv.weight", {c.in_channels, c.in_channels});
   DeviceTensor x = L.conv(lifted, kPrefix + "pre_conv");

@@ -1,6 +1,8 @@
 // The GSM voxel branch's lifter and sparse U-Net on the CPU; see voxel_unet_reference.h.
 #include "nn/gsm/voxel_unet_reference.h"
 
+#include "kernels/nn/scatter_mean.h"
+
 #include "kernels/nn/conv3d.h"
 #include "nn/gsm/gsm_json.h"
 #include "nn/vae_weights.h"
@@ -45,30 +47,6 @@ SparseTensor sparse_zeros(const SparseGrid& g, int64_t channels) {
   t.channels = channels;
   t.data.assign(static_cast<size_t>(g.size() * channels), 0.0f);
   return t;
-}
-
-// Level d of the hash tree: for every input voxel centre the 8 level-d voxels around it, lexicographic.
-// The centre of voxel v is at (v + 1/2) vs on its axis (relative to origin - vs/2); in level-d voxel units
-// that is (v + 1/2) / 2^d - 1/2 (level-d centres at integers), whose floor is floor((2v + 1 - 2^d) / 2^(d+1));
-// the 8 voxels are that floor and the next one per axis. Exact in integers: the fraction is never 0.
-SparseGrid hash_tree_level(const SparseGrid& input, int d) {
-  SparseGrid g;
-  const int32_t f = 1 << d;
-  for (int a = 0; a < 3; ++a) {
-    g.voxel_size[a] = input.voxel_size[a] * f;
-    g.origin[a] = input.origin[a] + 0.5 * input.voxel_size[a] * (f - 1);
-  }
-  g.ijk.reserve(input.ijk.size() * 8);
-  for (const Ijk& v : input.ijk) {
-    Ijk base;
-    for (int a = 0; a < 3; ++a) base[a] = floor_div(2 * v[a] + 1 - f, 2 * f);
-    for (int32_t i = 0; i < 2; ++i)
-      for (int32_t j = 0; j < 2; ++j)
-        for (int32_t k = 0; k < 2; ++k) g.ijk.push_back({base[0] + i, base[1] + j, base[2] + k});
-  }
-  std::sort(g.ijk.begin(), g.ijk.end(), ijk_less);
-  g.ijk.erase(std::unique(g.ijk.begin(), g.ijk.end()), g.ijk.end());
-  return g;
 }
 
 // 2x2x2 max pooling of `fine` onto the given coarse grid: each coarse voxel is the maximum of its existing
@@ -219,44 +197,13 @@ VoxelUnetConfig voxel_unet_config_from_json(const nlohmann::json& hparams) {
   return c;
 }
 
-CpuTensor lift_pixel_features(const CpuTensor& image_features, const std::vector<int32_t>& first_voxel,
-                              const CpuTensor& effective_mask, int64_t voxels) {
-  if (image_features.rank() != 4) throw std::invalid_argument("voxel lifter: image features " + image_features.shape_text() + " are not [N, C, H, W]");
-  const int64_t N = image_features.dim(0), C = image_features.dim(1), H = image_features.dim(2),
-                W = image_features.dim(3), HW = H * W;
-  if (effective_mask.shape != std::vector<int64_t>{N, H, W})
-    throw std::invalid_argument("voxel lifter: effective mask " + effective_mask.shape_text() + " for features " +
-                                image_features.shape_text());
-  if (static_cast<int64_t>(first_voxel.size()) != N * HW)
-    throw std::invalid_argument("voxel lifter: " + std::to_string(first_voxel.size()) + " first-voxel rows for " +
-                                std::to_string(N * HW) + " pixels");
-  std::vector<double> sum(static_cast<size_t>(voxels * C), 0.0);
-  std::vector<int64_t> count(static_cast<size_t>(voxels), 0);
-  for (int64_t n = 0; n < N; ++n)
-    for (int64_t p = 0; p < HW; ++p) {
-      const int32_t row = first_voxel[static_cast<size_t>(n * HW + p)];
-      if (row < 0 || !(effective_mask.data[static_cast<size_t>(n * HW + p)] > 0.0f)) continue;
-      if (row >= voxels) throw std::invalid_argument("voxel lifter: first-voxel row " + std::to_string(row) + " of " + std::to_string(voxels));
-      ++count[static_cast<size_t>(row)];
-      for (int64_t ch = 0; ch < C; ++ch)
-        sum[static_cast<size_t>(row * C + ch)] += static_cast<double>(image_features.data[static_cast<size_t>((n * C + ch) * HW + p)]);
-    }
-  CpuTensor out({voxels, C});
-  for (int64_t r = 0; r < voxels; ++r)
-    if (count[static_cast<size_t>(r)] > 0)
-      for (int64_t ch = 0; ch < C; ++ch)
-        out.data[static_cast<size_t>(r * C + ch)] =
-            static_cast<float>(sum[static_cast<size_t>(r * C + ch)] / static_cast<double>(count[static_cast<size_t>(r)]));
-  return out;
-}
-
 CpuTensor voxel_lifter_forward(const VoxelUnetConfig& c, const GsmWeights& w, const CpuTensor& image_features,
                                const std::vector<int32_t>& first_voxel, const CpuTensor& effective_mask, int64_t voxels,
                                int batch_index, GsmTrace* trace) {
   if (image_features.rank() != 4 || image_features.dim(1) != c.image_channels)
     throw std::invalid_argument("voxel lifter: image features " + image_features.shape_text() + ", expected " +
                                 std::to_string(c.image_channels) + " channels");
-  const CpuTensor mean = lift_pixel_features(image_features, first_voxel, effective_mask, voxels);
+  const CpuTensor mean = cpu::scatter_mean(image_features, first_voxel, effective_mask, voxels);
   trace_put(trace, batch_name("vox.lifter.in", batch_index), mean);
   const CpuTensor& fc_w = w.at(kPrefix + "lifter.mix_fc.weight", {c.in_channels, c.image_channels});
   const CpuTensor& fc_b = w.at(kPrefix + "lifter.mix_fc.bias", {c.in_channels});
@@ -276,7 +223,7 @@ CpuTensor voxel_unet_forward(const VoxelUnetConfig& c, const GsmWeights& w, cons
   auto name = [&](const std::string& n) { return batch_name(n, batch_index); };
 
   std::vector<SparseGrid> tree{grid};
-  for (int d = 1; d < levels; ++d) tree.push_back(hash_tree_level(grid, d));
+  for (int d = 1; d < levels; ++d) tree.push_back(gsm_hash_tree_level(grid, d));
 
   SparseTensor x;
   x.grid = grid;
@@ -363,6 +310,26 @@ VoxelBranchFeatures voxel_branch_features(const VoxelUnetConfig& c, const GsmWei
   out.features = voxel_unet_forward(c, w, grid, lifted, batch_index, trace);
   out.front = voxel_front_masks(first_voxel, image_features.dim(0), grid.size(), batch_index, trace);
   return out;
+}
+
+SparseGrid gsm_hash_tree_level(const SparseGrid& input, int d) {
+  SparseGrid g;
+  const int32_t f = 1 << d;
+  for (int a = 0; a < 3; ++a) {
+    g.voxel_size[a] = input.voxel_size[a] * f;
+    g.origin[a] = input.origin[a] + 0.5 * input.voxel_size[a] * (f - 1);
+  }
+  g.ijk.reserve(input.ijk.size() * 8);
+  for (const Ijk& v : input.ijk) {
+    Ijk base;
+    for (int a = 0; a < 3; ++a) base[a] = floor_div(2 * v[a] + 1 - f, 2 * f);
+    for (int32_t i = 0; i < 2; ++i)
+      for (int32_t j = 0; j < 2; ++j)
+        for (int32_t k = 0; k < 2; ++k) g.ijk.push_back({base[0] + i, base[1] + j, base[2] + k});
+  }
+  std::sort(g.ijk.begin(), g.ijk.end(), ijk_less);
+  g.ijk.erase(std::unique(g.ijk.begin(), g.ijk.end()), g.ijk.end());
+  return g;
 }
 
 }  // namespace icube::nn

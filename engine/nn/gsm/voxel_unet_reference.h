@@ -56,11 +56,6 @@ struct VoxelUnetConfig {
 // attention, a dense neck, non-residual blocks) are a scene::InputError naming the key.
 VoxelUnetConfig voxel_unet_config_from_json(const nlohmann::json& hparams);
 
-// The lifter's mean: image_features [N, C, H, W], first_voxel [N * H * W] (row or -1), effective_mask
-// [N, H, W] (> 0 = effective) -> [voxels, C] (traced as vox.lifter.in).
-CpuTensor lift_pixel_features(const CpuTensor& image_features, const std::vector<int32_t>& first_voxel,
-                              const CpuTensor& effective_mask, int64_t voxels);
-
 // The lifter: the mean, then lifter.mix_fc -> [voxels, in_channels] (traces vox.lifter.in, vox.lifter).
 CpuTensor voxel_lifter_forward(const VoxelUnetConfig& c, const GsmWeights& w, const CpuTensor& image_features,
                                const std::vector<int32_t>& first_voxel, const CpuTensor& effective_mask, int64_t voxels,
@@ -69,6 +64,12 @@ CpuTensor voxel_lifter_forward(const VoxelUnetConfig& c, const GsmWeights& w, co
 // The sparse U-Net on the input grid: lifted [V, in_channels] -> [V, f_maps], rows = grid rows.
 CpuTensor voxel_unet_forward(const VoxelUnetConfig& c, const GsmWeights& w, const SparseGrid& grid,
                              const CpuTensor& lifted, int batch_index, GsmTrace* trace);
+
+// Level d of the hash tree: for every input voxel centre the 8 level-d voxels around it, lexicographic; voxel
+// size vs 2^d, origin origin + vs (2^d - 1) / 2. The centre of voxel v is at (v + 1/2) vs on its axis; in
+// level-d voxel units (v + 1/2) / 2^d - 1/2, whose floor is floor((2v + 1 - 2^d) / 2^(d+1)); the 8 voxels are
+// that floor and the next one per axis. Exact in integers: the fraction is never 0.
+SparseGrid gsm_hash_tree_level(const SparseGrid& input, int d);
 
 struct VoxelFrontMasks {
   std::vector<uint8_t> front;           // [V]: first hit of some view
