@@ -35,8 +35,6 @@ const std::string kLayerScaleShift = kModel + "backbone.layer_scale_shift";
 const std::string kTransposedWeight = "transposed_weight";
 
 // torchvision's ImageNet normalisation in the official encoder (as dav2_reference.cpp).
-constexpr double kImageNetMean[3] = {0.485f, 0.456f, 0.406f};
-constexpr double kImageNetStd[3] = {0.229f, 0.224f, 0.225f};
 
 std::string index_name(const std::string& prefix, size_t i) { return prefix + std::to_string(i) + "."; }
 
@@ -303,8 +301,8 @@ void add_dav2_gpu_tensors(const GsmWeights& w, std::map<std::string, CpuTensor>&
 
   CpuTensor scale({3}), shift({3});
   for (size_t c = 0; c < 3; ++c) {
-    scale.data[c] = static_cast<float>(1.0 / kImageNetStd[c]);
-    shift.data[c] = static_cast<float>(-kImageNetMean[c] / kImageNetStd[c]);
+    scale.data[c] = static_cast<float>(1.0 / static_cast<double>(kImageNetStd[c]));
+    shift.data[c] = static_cast<float>(-static_cast<double>(kImageNetMean[c]) / static_cast<double>(kImageNetStd[c]));
   }
   out[kPixelScale] = scale;
   out[kPixelShift] = shift;

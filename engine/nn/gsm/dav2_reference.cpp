@@ -25,8 +25,6 @@ const std::string kModel = "img_encoder.encoders.dav2.model.";
 const std::string kUpsampler = "img_encoder.encoders.dav2.upsampler.";
 
 // torchvision's ImageNet normalisation in the official encoder.
-constexpr float kImageNetMean[3] = {0.485f, 0.456f, 0.406f};
-constexpr float kImageNetStd[3] = {0.229f, 0.224f, 0.225f};
 
 // ---- configuration -------------------------------------------------------------------------------
 

@@ -23,6 +23,10 @@
 
 namespace icube::nn {
 
+// Depth-Anything's input normalisation (ImageNet's mean and std, float32 as the official transform holds them).
+constexpr float kImageNetMean[3] = {0.485f, 0.456f, 0.406f};
+constexpr float kImageNetStd[3] = {0.229f, 0.224f, 0.225f};
+
 // One of the upsampler's residual blocks (basic_modules.ResBlock, 2-D).
 struct Dav2UpsamplerBlock {
   int64_t out_dim = 0;
