@@ -3,7 +3,7 @@
 
 #include "gpu/context.h"
 #include "kernels/nn/buffer_checks.h"
-#include "shared/nn_gsm_voxel_params.h"
+#include "shared/nn_gsm_params.h"
 
 #include <stdexcept>
 #include <string>

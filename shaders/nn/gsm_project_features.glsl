@@ -8,10 +8,10 @@
 // the views from -inf (or from 0: NN_GSM_PROJECT_FLAG_MAX_FROM_ZERO, the
 // official loop of 30 views and more). One invocation per output element
 // y[c][r]; the sample point's position is the only part in double (the
-// bilinear sum is float32). Layouts in shared/nn_gsm_voxel_params.h.
+// bilinear sum is float32). Layouts in shared/nn_gsm_params.h.
 // Host module: kernels/nn/gsm_project_features.{h,cpp}; CPU reference:
 // nn::cpu::gsm_project_features. Tests: tests/nn/test_gsm_project_features.cpp.
-#include "shared/nn_gsm_voxel_params.h"
+#include "shared/nn_gsm_params.h"
 #include "common/dispatch.glsl"
 
 #ifdef GSM_PROJECT_F64

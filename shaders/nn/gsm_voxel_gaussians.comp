@@ -7,10 +7,10 @@
 // max_scaling <= 0), rotation = v6..9 / max(|v6..9|, 1e-12), opacity =
 // sigmoid(v10), colour = v11.. as they are. One invocation per Gaussian; the
 // outputs are row-major per Gaussian from Gaussian first_gaussian on (the
-// second head appends after the first). Layouts in shared/nn_gsm_voxel_params.h.
+// second head appends after the first). Layouts in shared/nn_gsm_params.h.
 // Host module: kernels/nn/gsm_voxel_gaussians.{h,cpp}; CPU reference:
 // nn::cpu::gsm_voxel_gaussians. Tests: tests/nn/test_gsm_voxel_gaussians.cpp.
-#include "shared/nn_gsm_voxel_params.h"
+#include "shared/nn_gsm_params.h"
 #include "common/dispatch.glsl"
 
 layout(local_size_x = NN_GSM_GAUSSIANS_GROUP) in;
