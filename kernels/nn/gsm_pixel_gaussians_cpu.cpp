@@ -52,8 +52,8 @@ GsmPixelGaussiansDense gsm_pixel_gaussians(const kernels::nn::GsmPixelGaussiansS
         for (int j = 0; j < 4; ++j) sum += static_cast<double>(P4[i * 4 + j]) * local[j];
         d[i] = static_cast<float>(sum) - P4[i * 4 + 3];
       }
-      const double norm = std::sqrt(static_cast<double>(d[0]) * d[0] + static_cast<double>(d[1]) * d[1] +
-                                    static_cast<double>(d[2]) * d[2]);
+      const double dx = d[0], dy = d[1], dz = d[2];
+      const double norm = std::sqrt(dx * dx + dy * dy + dz * dz);
       float dir[3];
       for (int i = 0; i < 3; ++i) dir[i] = static_cast<float>(static_cast<double>(d[i]) / norm);
       const float cosine = P4[2] * dir[0] + P4[6] * dir[1] + P4[10] * dir[2];

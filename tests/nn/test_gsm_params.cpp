@@ -199,7 +199,9 @@ TEST_CASE("gsm params: load_gsm_weights refuses a missing, misshapen, unexpected
   int files = 0;
   // Writes `tensors` to a new file and returns its path.
   auto write = [&](const std::vector<nn::TensorToWrite>& tensors) {
-    const std::string path = (tmp.path / ("w" + std::to_string(files++) + ".safetensors")).string();
+    std::string name = "w";  // not "w" + std::to_string(...): GCC 12's -Wrestrict false positive on a short literal
+    name += std::to_string(files++) + ".safetensors";
+    const std::string path = (tmp.path / name).string();
     nn::write_safetensors(path, tensors);
     return path;
   };

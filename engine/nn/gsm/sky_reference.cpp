@@ -18,12 +18,15 @@ namespace icube::nn {
 
 namespace {
 
-
 const std::string kSky = "skybox.";
 
 void require_value(const nlohmann::json& hparams, const std::string& path, const std::string& want) {
-  if (gsm_json::text(hparams, path) != want)
-    throw scene::InputError("the GSM config", path, "\"" + gsm_json::text(hparams, path) + "\" is not implemented (only \"" + want + "\")");
+  const std::string got = gsm_json::text(hparams, path);
+  if (got == want) return;
+  std::string message = "\"";
+  message += got;
+  message += "\" is not implemented (only \"" + want + "\")";
+  throw scene::InputError("the GSM config", path, message);
 }
 
 CpuTensor linear_of(const GsmWeights& w, const std::string& p, const CpuTensor& x) {
