@@ -16,8 +16,13 @@
 // origin travel as float pairs hi + lo), else in float32 with the hi parts
 // (gsm_project_features.comp: ~1e-7 of the image width off, which moves a
 // sample by that times the feature map's gradient); the bilinear sum is
-// float32. Every tensor must fit one storage binding (checked; the released
-// model's are far below). No barrier inside.
+// float32. Tensors past one storage binding (4 key frames of the released
+// model's 64-channel 480 x 832 feature maps are 390 MiB; lavapipe binds 128
+// MiB) go in windows of views, channels and children (GsmProjectFeatures::
+// windows), one dispatch each; a window of later views takes the maximum
+// with what the earlier ones wrote, so the caller puts a compute barrier
+// before each window marked barrier_before. One view's feature plane and mask
+// and the seen table must fit one binding (checked). No barrier inside.
 // CPU reference: nn::cpu::gsm_project_features (double).
 // Tests: tests/nn/test_gsm_project_features.cpp.
 #pragma once
@@ -45,15 +50,28 @@ struct GsmProjectShape {
 // The projection matrices ([views][12] row-major 3x4, double) as the kernel's buffer: (hi, lo) float pairs.
 std::vector<float> gsm_projection_pairs(const std::vector<double>& proj);
 
+// One dispatch's part of the output: views [view_first, + view_count) of channels [channel_first, + count)
+// at children [row_first, + count).
+struct GsmProjectWindow {
+  uint32_t view_first = 0, view_count = 0;
+  uint32_t channel_first = 0, channel_count = 0;
+  uint32_t row_first = 0, row_count = 0;
+  bool barrier_before = false;  // the first window of later views: order the earlier windows' writes before it
+};
+
 class GsmProjectFeatures {
  public:
   explicit GsmProjectFeatures(gpu::Context& ctx);
-  // features float [views][channels][height][width], mask float [views][height][width], ijk int32 [rows][3],
-  // parent int32 [rows] (rows of `seen`), seen uint32 [parents][views], proj from gsm_projection_pairs ->
-  // y float [channels][rows] (channel-major). The caller orders inputs before, y after.
-  void record(gpu::CommandList& cmd, const GsmProjectShape& s, const gpu::Buffer& features, const gpu::Buffer& mask,
-              const gpu::Buffer& ijk, const gpu::Buffer& parent, const gpu::Buffer& seen, const gpu::Buffer& proj,
-              const gpu::Buffer& y);
+  // The windows of `s` in recording order (one when every tensor fits one binding); std::invalid_argument
+  // when one view's plane or the seen table exceed one binding.
+  std::vector<GsmProjectWindow> windows(const GsmProjectShape& s) const;
+  // One window: features float [views][channels][height][width], mask float [views][height][width], ijk int32
+  // [rows][3], parent int32 [rows] (rows of `seen`), seen uint32 [parents][views], proj from
+  // gsm_projection_pairs -> y float [channels][rows] (channel-major). The caller orders inputs before, y after,
+  // and the windows among themselves (barrier_before).
+  void record(gpu::CommandList& cmd, const GsmProjectShape& s, const GsmProjectWindow& w, const gpu::Buffer& features,
+              const gpu::Buffer& mask, const gpu::Buffer& ijk, const gpu::Buffer& parent, const gpu::Buffer& seen,
+              const gpu::Buffer& proj, const gpu::Buffer& y);
   // Whether the projection runs in double (the device has shaderFloat64 and float32 is not forced).
   bool projects_in_double() const;
   // Tests: the float32 projection even where double is available.

@@ -9,8 +9,11 @@
 // Gaussian r * per_voxel + s is sub-Gaussian s of voxel r.
 // GPU: GsmVoxelGaussians::record (shaders/nn/gsm_voxel_gaussians.comp), one
 // invocation per Gaussian, float32, the outputs written from Gaussian
-// first_gaussian on (a second head appends after the first). Every tensor must
-// fit one storage binding (checked). No barrier inside.
+// first_gaussian on (a second head appends after the first). Tensors past one
+// storage binding go in windows of subs and voxels, one dispatch each (the
+// raw values' channel rows of one sub over all the head's voxels must fit
+// one binding: ~2.4 M voxels on lavapipe's 128 MiB; checked). No barrier
+// inside.
 // CPU reference: nn::cpu::gsm_voxel_gaussians (double, rounded once).
 // Tests: tests/nn/test_gsm_voxel_gaussians.cpp.
 #pragma once
@@ -49,12 +52,17 @@ class GsmVoxelGaussians {
  public:
   explicit GsmVoxelGaussians(gpu::Context& ctx);
   // raw float [per_voxel * gs_dim][rows] (channel-major: a head's output), ijk int32 [rows][3].
+  // Tensors past one storage binding go in windows of subs and voxels (one dispatch each, independent: no
+  // barrier between them); a head whose gs_dim channel rows of all its voxels exceed one window is refused.
   void record(gpu::CommandList& cmd, const GsmVoxelGaussiansShape& s, const gpu::Buffer& raw, const gpu::Buffer& ijk,
               const GsmGaussianBuffers& out);
+  // Dispatches of the last record (tests: the windows were used).
+  size_t last_dispatches() const { return last_dispatches_; }
 
  private:
   gpu::Context& ctx_;
   gpu::Program& program_;
+  size_t last_dispatches_ = 0;
 };
 
 }  // namespace icube::kernels::nn

@@ -184,6 +184,7 @@ ICUBE_CHECK_LAYOUT(GsmPixelGaussiansParams, mask_offset, 52);
 // The voxel branch's own kernels (gsm_project_features, gsm_voxel_gaussians).
 #define NN_GSM_PROJECT_GROUP 64
 #define NN_GSM_PROJECT_FLAG_MAX_FROM_ZERO 1u  // the maximum over the views starts from 0 (else -inf)
+#define NN_GSM_PROJECT_FLAG_ACCUMULATE 2u     // ... from the y of the earlier views' windows
 // Views one invocation loops over (lavapipe's 65,535 loop iterations; 4 taps each).
 #define NN_GSM_PROJECT_MAX_VIEWS 4096u
 
@@ -202,16 +203,28 @@ ICUBE_SHADER_NAMESPACE_BEGIN
 // the matrices as proj[(n * 12 + k) * 2 + {0, 1}], voxel size and origin here;
 // the float32 shader uses hi alone, the float64 one hi + lo. Features
 // [views][channels][height][width], mask [views][height][width], y
-// [channels][rows]. One invocation per output element.
+// [channels][rows]. Tensors past one storage binding go in windows of views,
+// channels and children, one dispatch each, one invocation per output element
+// of the window; a window of later views (NN_GSM_PROJECT_FLAG_ACCUMULATE)
+// takes the maximum with the y the earlier views left (the caller orders the
+// two with a barrier).
 struct GsmProjectParams {
-  uint rows;
-  uint channels;
-  uint views;
+  uint rows;      // children of the dispatch's window
+  uint channels;  // channels of the window
+  uint views;     // all views (the seen table's stride; proj holds them all)
   uint height;
   uint width;
   uint flags;
+  uint view_first;  // the window's views: view_first .. + view_count
+  uint view_count;
+  uint channel_stride;  // all channels (the features' layout)
+  uint row_stride;      // all children (the output's channel stride)
+  uint features_offset;  // each window's first element inside its binding (bound from an aligned offset)
+  uint mask_offset;
+  uint ijk_offset;
+  uint parent_offset;
+  uint out_offset;
   uint pad0;
-  uint pad1;
   float voxel_size_hi[4];  // x, y, z, unused
   float voxel_size_lo[4];
   float origin_hi[4];
@@ -224,12 +237,24 @@ struct GsmProjectParams {
 // * voxel_size, scale = exp(raw) * scale_unit (clamped to max_scaling when
 // > 0), rotation = quaternion / max(norm, 1e-12), opacity = sigmoid, colour =
 // the remaining gs_dim - 11 raw values. Outputs row-major per Gaussian. One
-// invocation per (voxel, sub).
+// dispatch per window of `rows` voxels from r0 and `subs` subs from s0 (the
+// tensors past one storage binding): one invocation per (voxel, sub) of the
+// window; every binding starts at its window (the *_offset fields: the
+// window's first element inside its binding, which starts at an aligned
+// offset), raw's channel stride is `row_stride` (all the voxels).
 struct GsmVoxelGaussiansParams {
-  uint rows;
-  uint per_voxel;
+  uint rows;        // voxels of the window
+  uint per_voxel;   // Gaussians per voxel (the outputs' stride per voxel)
   uint gs_dim;
-  uint first_gaussian;
+  uint subs;        // subs of the window
+  uint row_stride;  // voxels of the head (raw's channel stride)
+  uint raw_offset;  // raw[(s0 * gs_dim) * row_stride + r0] inside the raw binding
+  uint ijk_offset;  // ijk[3 * r0]
+  uint means_offset;  // per output: Gaussian first_gaussian + r0 * per_voxel + s0's first value
+  uint scales_offset;
+  uint rotations_offset;
+  uint opacities_offset;
+  uint colors_offset;
   float voxel_size_x;
   float voxel_size_y;
   float voxel_size_z;
@@ -242,10 +267,12 @@ struct GsmVoxelGaussiansParams {
 
 ICUBE_SHADER_NAMESPACE_END
 
-ICUBE_CHECK_SIZE(GsmProjectParams, 96);
-ICUBE_CHECK_LAYOUT(GsmProjectParams, voxel_size_hi, 32);
-ICUBE_CHECK_LAYOUT(GsmProjectParams, origin_lo, 80);
-ICUBE_CHECK_SIZE(GsmVoxelGaussiansParams, 48);
-ICUBE_CHECK_LAYOUT(GsmVoxelGaussiansParams, scale_unit, 28);
-ICUBE_CHECK_LAYOUT(GsmVoxelGaussiansParams, max_scaling, 44);
+ICUBE_CHECK_SIZE(GsmProjectParams, 128);
+ICUBE_CHECK_LAYOUT(GsmProjectParams, out_offset, 56);
+ICUBE_CHECK_LAYOUT(GsmProjectParams, voxel_size_hi, 64);
+ICUBE_CHECK_LAYOUT(GsmProjectParams, origin_lo, 112);
+ICUBE_CHECK_SIZE(GsmVoxelGaussiansParams, 80);
+ICUBE_CHECK_LAYOUT(GsmVoxelGaussiansParams, colors_offset, 44);
+ICUBE_CHECK_LAYOUT(GsmVoxelGaussiansParams, scale_unit, 60);
+ICUBE_CHECK_LAYOUT(GsmVoxelGaussiansParams, max_scaling, 76);
 #endif

@@ -81,41 +81,7 @@ TEST_CASE("gsm gpu: a batch of two two-view elements equals the CPU reference") 
   gpu::Context& ctx = test::gpu_context();
   const nn::GsmModelConfig model = nn::load_gsm_model_config(dir + "config.json");
   const nn::GsmWeights w = nn::load_gsm_weights(dir + "weights.safetensors", model, true);
-  const nn::GsmInputs one = nn::read_gsm_inputs(dir + "inputs");
-  // Two elements of two views: the case's view and its mirror (yawed camera), the second element darkened
-  // with every other voxel.
-  nn::GsmInputs in = one;
-  const int64_t H = one.height, W = one.width, px = H * W;
-  in.batch = 2;
-  in.views = 2;
-  std::vector<float> img;
-  std::vector<uint8_t> masks, keep;
-  for (int e = 0; e < 2; ++e)
-    for (int v = 0; v < 2; ++v) {
-      for (int64_t r = 0; r < H; ++r)
-        for (int64_t c = 0; c < W; ++c) {
-          const int64_t sc = v ? W - 1 - c : c;
-          for (int k = 0; k < 3; ++k) img.push_back((e ? 0.6f : 1.0f) * one.images.data[static_cast<size_t>((r * W + sc) * 3 + k)]);
-          for (int k = 0; k < 4; ++k) masks.push_back(one.masks[static_cast<size_t>((r * W + sc) * 4 + k)]);
-        }
-      for (uint8_t k : one.depth_patch_keep) keep.push_back(static_cast<uint8_t>(v ? 1 - k : k));
-    }
-  in.images = nn::CpuTensor({2, 2, H, W, 3}, img);
-  in.masks = masks;
-  in.depth_patch_keep = keep;
-  std::array<float, 16> yawed = one.poses[0];
-  const float ca = std::cos(0.07f), sa = std::sin(0.07f);
-  for (int col = 0; col < 3; ++col) {
-    const float x = yawed[static_cast<size_t>(col)], y = yawed[static_cast<size_t>(4 + col)];
-    yawed[static_cast<size_t>(col)] = ca * x - sa * y;
-    yawed[static_cast<size_t>(4 + col)] = sa * x + ca * y;
-  }
-  in.poses = {one.poses[0], yawed, one.poses[0], yawed};
-  in.intrinsics = {one.intrinsics[0], one.intrinsics[0], one.intrinsics[0], one.intrinsics[0]};
-  std::vector<nn::Ijk> half;
-  for (size_t i = 0; i < one.voxel_ijk[0].size(); i += 2) half.push_back(one.voxel_ijk[0][i]);
-  in.voxel_ijk = {one.voxel_ijk[0], half};
-  (void)px;
+  const nn::GsmInputs in = test::gsm_two_view_batch(dir);
   nn::GsmGpu gsm(ctx, model.config, w);
   const nn::GsmOutputs got = gsm.forward(in);
   const nn::GsmOutputs want = nn::gsm_forward_reference(model.config, w, in, nullptr);

@@ -5,12 +5,14 @@
 // across the image border, far outside and behind the camera, masked pixels,
 // views that did not see the parent (they give 0, which wins over negative
 // samples), parents seen by no view; the float32 projection and the double one
-// (where the device has shaderFloat64). Bounds for features in [-1, 1]:
+// (where the device has shaderFloat64); and windows of views, channels and
+// children with storage bindings capped at 4 KiB. Bounds for features in [-1, 1]:
 // 5e-5 with the float32 projection (it moves the sample point by ~1e-5 pixel
 // and the masked bilinear interpolation is 2-Lipschitz per pixel), 1e-6 with
 // the double one (the float32 bilinear sum). Runs under the validation layer.
 #include <doctest/doctest.h>
 
+#include "capped_context.h"
 #include "gpu_test_context.h"
 #include "kernels/nn/gsm_project_features.h"
 
@@ -60,8 +62,10 @@ ProjectCase make_case(int64_t views, int64_t channels, int64_t h, int64_t w, int
   return c;
 }
 
-std::vector<float> run_gpu(const ProjectCase& c, bool from_zero, bool float32) {
-  gpu::Context& ctx = test::gpu_context();
+// The windows the last run_gpu recorded.
+size_t g_last_windows = 0;
+
+std::vector<float> run_gpu(const ProjectCase& c, bool from_zero, bool float32, gpu::Context& ctx = test::gpu_context()) {
   const int64_t N = c.features.dim(0), C = c.features.dim(1), R = static_cast<int64_t>(c.parent.size());
   gpu::Buffer f = gpu::upload_vector(ctx, c.features.data, "project-features");
   gpu::Buffer m = gpu::upload_vector(ctx, c.mask.data, "project-mask");
@@ -82,15 +86,23 @@ std::vector<float> run_gpu(const ProjectCase& c, bool from_zero, bool float32) {
   s.max_from_zero = from_zero;
   kernels::nn::GsmProjectFeatures k(ctx);
   k.force_float32(float32);
-  ctx.submit_and_wait([&](gpu::CommandList& cmd) { k.record(cmd, s, f, m, ijk, parent, seen, proj, y); });
+  const std::vector<kernels::nn::GsmProjectWindow> windows = k.windows(s);
+  g_last_windows = windows.size();
+  ctx.submit_and_wait([&](gpu::CommandList& cmd) {
+    for (const kernels::nn::GsmProjectWindow& w : windows) {
+      if (w.barrier_before) cmd.barrier(gpu::deps::kComputeToCompute);
+      k.record(cmd, s, w, f, m, ijk, parent, seen, proj, y);
+    }
+  });
   return gpu::download_vector<float>(ctx, y, static_cast<size_t>(R * C));
 }
 
 // Compares GPU [C][R] with the CPU [R, C]; returns the worst difference.
-double compare(const ProjectCase& c, bool from_zero, bool float32, int64_t& nonzero, int64_t& negative) {
+double compare(const ProjectCase& c, bool from_zero, bool float32, int64_t& nonzero, int64_t& negative,
+               gpu::Context& ctx = test::gpu_context()) {
   const nn::CpuTensor want =
       nn::cpu::gsm_project_features(c.features, c.mask, c.ijk, c.parent, c.seen, c.proj, c.voxel_size, c.origin, from_zero);
-  const std::vector<float> got = run_gpu(c, from_zero, float32);
+  const std::vector<float> got = run_gpu(c, from_zero, float32, ctx);
   const int64_t R = want.dim(0), C = want.dim(1);
   double worst = 0.0;
   for (int64_t r = 0; r < R; ++r)
@@ -142,4 +154,23 @@ TEST_CASE("gsm_project_features gpu: a view that did not see the parent gives 0,
   c.seen = {1, 0, 1, 1, 0, 0};
   for (int n = 0; n < 2; ++n) c.proj.insert(c.proj.end(), {1.0, 0.0, 0.5, 0.0, 0.0, 1.0, 0.5, 0.0, 0.0, 0.0, 1.0, 0.0});
   for (const bool float32 : {true, false}) CHECK(run_gpu(c, false, float32) == std::vector<float>{0.0f, -1.0f, 0.0f});
+}
+
+TEST_CASE("gsm_project_features gpu: tensors past one storage binding go in windows of views, channels and children") {
+  // 4 KiB bindings (~1,000 values): 7 views of 3 channels of 10 x 14 (140 values a plane) go three views at a
+  // time (later views take the maximum with the earlier ones' output); 600 children of 3 channels in windows
+  // of one channel and ~330 children; from -inf and from 0, both projections.
+  gpu::Context& capped = test::capped_gpu_context(4u << 10);
+  for (const bool from_zero : {false, true})
+    for (const bool float32 : {true, false}) {
+      CAPTURE(from_zero);
+      CAPTURE(float32);
+      const ProjectCase c = make_case(7, 3, 10, 14, 600, 12, 91u);
+      int64_t nonzero = 0, negative = 0;
+      const double e = compare(c, from_zero, float32, nonzero, negative, capped);
+      MESSAGE("windows: " << g_last_windows);
+      CHECK(g_last_windows >= 12);
+      CHECK(e <= (float32 || !capped.info().shader_float64 ? 5e-5 : 1e-6));
+      CHECK(nonzero > 600 * 3 / 4);
+    }
 }

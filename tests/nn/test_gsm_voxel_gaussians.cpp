@@ -5,9 +5,11 @@
 // raw values (exp overflowing, sigmoid saturating, tiny quaternions), and two
 // heads appended into the same outputs (first_gaussian). Bounds: means 1e-6 of
 // the coordinate range, scales 2e-6 relative, rotations and opacities 1e-6,
-// colours exact. Runs under the validation layer.
+// colours exact; and with storage bindings capped at 16 KiB, the windows of
+// subs and voxels. Runs under the validation layer.
 #include <doctest/doctest.h>
 
+#include "capped_context.h"
 #include "gpu_test_context.h"
 #include "kernels/nn/gsm_voxel_gaussians.h"
 
@@ -57,16 +59,16 @@ double max_rel(const std::vector<float>& got, const std::vector<float>& want, do
   return worst;
 }
 
-}  // namespace
-
-TEST_CASE("gsm_voxel_gaussians gpu: decoding matches the CPU reference, two heads appended") {
-  gpu::Context& ctx = test::gpu_context();
+// Two heads of rows_a and rows_b voxels decoded into the same outputs; returns the dispatches of the first.
+size_t check_decoding(gpu::Context& ctx, int64_t rows_a, int64_t rows_b) {
+  size_t dispatches = 0;
   for (const auto& [G, D, max_scaling] : {std::tuple{4, 14, 1.0f}, {1, 16, 0.0f}, {4, 14, 0.0f}}) {
     CAPTURE(G);
     CAPTURE(D);
     CAPTURE(max_scaling);
-    const Head a = make_head(37, G, D, 0.1f, 11u + static_cast<uint32_t>(D)), b = make_head(23, G, D, 0.2f, 29u + static_cast<uint32_t>(G));
-    const int64_t n = (37 + 23) * G, colors = D - 11;
+    const Head a = make_head(rows_a, G, D, 0.1f, 11u + static_cast<uint32_t>(D)),
+               b = make_head(rows_b, G, D, 0.2f, 29u + static_cast<uint32_t>(G));
+    const int64_t n = (rows_a + rows_b) * G, colors = D - 11;
     gpu::Buffer means(ctx, static_cast<uint64_t>(n) * 12), scales(ctx, static_cast<uint64_t>(n) * 12),
         rotations(ctx, static_cast<uint64_t>(n) * 16), opacities(ctx, static_cast<uint64_t>(n) * 4),
         color(ctx, static_cast<uint64_t>(n * colors) * 4);
@@ -91,6 +93,7 @@ TEST_CASE("gsm_voxel_gaussians gpu: decoding matches the CPU reference, two head
         s.scale_unit = h->voxel_size[0];
         s.max_scaling = max_scaling;
         k.record(cmd, s, keep[keep.size() - 2], keep.back(), {&means, &scales, &rotations, &opacities, &color});
+        if (h == &a) dispatches = std::max(dispatches, k.last_dispatches());
         first += static_cast<uint32_t>(rows * G);
       }
     });
@@ -117,4 +120,17 @@ TEST_CASE("gsm_voxel_gaussians gpu: decoding matches the CPU reference, two head
     CHECK(want.scales.data[0] == (max_scaling > 0.0f ? max_scaling : INFINITY));
     CHECK(want.rotations.data[0] == doctest::Approx(0.06).epsilon(1e-5));
   }
+  return dispatches;
+}
+
+}  // namespace
+
+TEST_CASE("gsm_voxel_gaussians gpu: decoding matches the CPU reference, two heads appended") {
+  CHECK(check_decoding(test::gpu_context(), 37, 23) == 1);
+}
+
+TEST_CASE("gsm_voxel_gaussians gpu: heads past one storage binding decode in windows of subs and voxels") {
+  // 16 KiB bindings (~4,000 values): 260 voxels of 4 x 14 raw values go one sub at a time, each in two
+  // windows of voxels (the rotations' 4 values per Gaussian); the 23-voxel head in one window of all its subs.
+  CHECK(check_decoding(test::capped_gpu_context(16u << 10), 260, 23) == 8);
 }

@@ -186,9 +186,15 @@ VoxelGaussiansGpu voxel_heads_gpu(VoxelBranchGpu& B, const VoxelHeadsConfig& c, 
     s.origin = occ.origin;
     s.max_from_zero = views >= kViewsOfLoopedMax;
     const DeviceTensor projected = L.alloc({1, c2, occ.size()});
-    B.project_features().record(L.cmd(), s, *in.image_features.buf, B.upload(in.effective_mask.data, "gsm-effective-mask"),
-                                *grid.ijk, B.upload(parents, "gsm-occ-parents"), B.upload(seen, "gsm-occ-seen"),
-                                B.upload(kernels::nn::gsm_projection_pairs(proj), "gsm-projections"), *projected.buf);
+    const gpu::Buffer& mask = B.upload(in.effective_mask.data, "gsm-effective-mask");
+    const gpu::Buffer& parent_rows = B.upload(parents, "gsm-occ-parents");
+    const gpu::Buffer& seen_table = B.upload(seen, "gsm-occ-seen");
+    const gpu::Buffer& projections = B.upload(kernels::nn::gsm_projection_pairs(proj), "gsm-projections");
+    for (const kernels::nn::GsmProjectWindow& win : B.project_features().windows(s)) {
+      if (win.barrier_before) L.barrier();  // later views take the maximum with the earlier ones' output
+      B.project_features().record(L.cmd(), s, win, *in.image_features.buf, mask, *grid.ijk, parent_rows, seen_table,
+                                  projections, *projected.buf);
+    }
     L.barrier();
     const DeviceTensor head_in = L.concat(projected, B.gather_rows(in.voxel_features, parents));
     const DeviceTensor head_out = run_head(L, c, kHybridHead, head_in, *grid.kmap);
