@@ -7,11 +7,13 @@
 //                  [--frames A:B[:S]] [--camera ... | --camera-preset NAME | --trajectory F | --route M]
 //                  [--key-every N] [--gaussians-per-cell 1|4] [--no-video | --video-preset NAME] [--no-preview]
 //                  [--frames-from DIR|VIDEO [--sky-masks DIR [--sky-label N]]] [--pixel-frames N]
+//                  [--gsm DIR | --gsm-model CONFIG --gsm-weights W [--gsm-size WxH] [--gsm-radius M] [--gsm-backend B]]
 //   icube generate --batch SCENES.txt [--shard I/N] -o OUT_ROOT [the options above]
 #include "command_registry.h"
 #include "generate_batch.h"
 #include "camera_path_options.h"
 #include "generate_job.h"
+#include "gsm_lift_options.h"
 #include "video/mp4_writer.h"
 
 #include "cli_common.h"
@@ -28,20 +30,27 @@ namespace {
 struct GenerateCommand {
   pipeline::GenerateArgs args;
   std::string batch, shard = "0/1";
+  GsmCliArgs gsm;
 };
 
 void cmd_generate(const GenerateCommand& c) {
   run_command([&](scene::Diagnostics& diag) {
+    pipeline::GenerateArgs args = c.args;
+    if (const std::optional<lift::GsmModelPaths> gsm = gsm_paths_of(c.gsm)) {
+      args.gsm = *gsm;
+      apply_gsm_options(c.gsm, c.args.key_every, args.gsm_options);
+      args.key_every = args.gsm_options.key_every;
+    }
     if (!c.batch.empty()) {
       if (!c.args.path.scene.empty())
         throw std::invalid_argument("give either a SCENE or --batch SCENES.txt, not both");
       if (!c.args.world.empty()) throw std::invalid_argument("--world gives one scene's world; it cannot go with --batch");
-      const size_t failed = run_generate_batch(c.args, c.batch, parse_shard(c.shard));
+      const size_t failed = run_generate_batch(args, c.batch, parse_shard(c.shard));
       if (failed) throw std::runtime_error(c.batch + ": " + std::to_string(failed) + " scene(s) of this shard failed");
       return;
     }
     if (c.shard != "0/1") throw std::invalid_argument("--shard goes with --batch");
-    pipeline::GenerateArgs a = c.args;
+    pipeline::GenerateArgs a = args;
     report_on_terminal(a);
     const pipeline::GenerateResult r = pipeline::generate_package(a, diag);
     if (r.skipped) {
@@ -67,9 +76,10 @@ void add_generate_command(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--seed", a->seed, "Seed of every stage (world detail, instance colours, appearance)")
       ->capture_default_str();
-  cmd->add_option("--key-every", a->key_every, "Stage 3 lifts every N-th frame; the others are held out")
-      ->capture_default_str()
-      ->check(CLI::Range(size_t{1}, size_t{1000000}));
+  c->gsm.key_every = cmd->add_option("--key-every", a->key_every,
+                                     "Stage 3 lifts every N-th frame; the others are held out (with --gsm default 6)")
+                         ->capture_default_str()
+                         ->check(CLI::Range(size_t{1}, size_t{1000000}));
   cmd->add_option("--gaussians-per-cell", a->per_cell, "Gaussians per seen 0.1 m face cell (1, or 4: official density)")
       ->capture_default_str()
       ->check(CLI::IsMember({1, 4}));
@@ -81,6 +91,7 @@ void add_generate_command(CLI::App& app) {
   cmd->add_option("--pixel-frames", a->pixel_frames,
                   "Stage 3 pixel branch: Gaussians for the mid-ground pixels of the last N key frames (0 = off)")
       ->capture_default_str();
+  add_gsm_options(cmd, c->gsm);
   cmd->add_flag("--no-video", a->no_video, "No mp4s (guidance buffers, the preview's fly-through)");
   cmd->add_option("--video-preset", a->video_preset,
                   "x264 preset of the guidance buffers' mp4s (InfiniCube's: veryslow; ultrafast ... veryslow trades "
@@ -101,7 +112,7 @@ void add_generate_command(CLI::App& app) {
       ->type_name("PACKAGE");
   cmd->footer(
       "Stage 1 with the procedural world prior (or --world), Stage 2 with the built-in appearance renderer, Stage 3 "
-      "with the non-learned lifting of docs/stage3-lifting.md. The package is written atomically; see docs/generate.md "
+      "with the non-learned lifting of docs/stage3-lifting.md, or with --gsm the learned model (InfiniCube's GSM). The package is written atomically; see docs/generate.md "
       "(also for running shards as a Slurm job array or a Kubernetes Indexed Job).");
   cmd->callback([c] { cmd_generate(*c); });
 }

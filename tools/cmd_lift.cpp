@@ -3,6 +3,13 @@
 //
 //   icube lift WORLD FRAMES_DIR [--scene SCENE] [--key-every N] [--gaussians-per-cell 1|4]
 //              [--face-gaussians] [--no-hidden] [--eval-frames N] -o OUT_DIR
+//   icube lift WORLD FRAMES_DIR --gsm DIR | --gsm-model CONFIG --gsm-weights W [--scene SCENE]
+//              [--key-every N] [--pixel-frames N] [--gsm-size WxH] [--gsm-radius M] [--gsm-backend gpu|cpu] -o OUT_DIR
+//
+// With --gsm the learned model (engine/lift/gsm_lift.h) replaces the
+// non-learned lift and writes the same files; its configuration, its input
+// size and its weights (every tensor against the configuration, finite) are
+// checked before any work (tools/gsm_lift_options.h).
 //
 // OUT_DIR: gaussians_static.ply (3DGS layout, SH0), sky.png (equirect
 // panorama), with --scene object_<id>.ply per dynamic vehicle (object frame),
@@ -13,11 +20,13 @@
 // staging folder and renamed into place: an error leaves nothing half-written.
 // Engine: engine/lift/.
 #include "cli_common.h"
+#include "gsm_lift_options.h"
 #include "command_registry.h"
 #include "progress.h"
 #include "staging_dir.h"
 
 #include "gpu/context.h"
+#include "lift/gsm_lift.h"
 #include "lift/lift_frames.h"
 #include "lift/lift_output.h"
 #include "render/buffers/frame_scene.h"
@@ -47,10 +56,69 @@ struct LiftArgs {
   float cell_sigma = lift::kCellSigma;
   double hidden_radius = 40.0;
   bool face_gaussians = false, no_hidden = false;
+  GsmCliArgs gsm;
 };
+
+// `icube lift --gsm`: the learned lift, into the same files.
+void cmd_lift_gsm(const LiftArgs& a, const lift::GsmModelPaths& paths, scene::Diagnostics& diag) {
+  using Clock = std::chrono::steady_clock;
+  const auto t_start = Clock::now();
+  refuse_overwriting_input(a.world, a.output);
+  refuse_overwriting_input(a.frames, a.output);
+  for (const std::string& f : {paths.config, paths.weights}) refuse_overwriting_input(f, a.output);
+  lift::GsmLiftOptions o;
+  apply_gsm_options(a.gsm, a.key_every, o);
+  o.pixel_frames = a.pixel_frames;
+  o.max_eval_frames = a.eval_frames;
+  // Before any work: the configuration, the sizes it would run at, the weights.
+  const nn::GsmModelConfig config = lift::load_gsm_lift_config(paths);
+  const render::FramesMeta meta = render::read_frames_meta(a.frames);
+  lift::gsm_lift_plan(meta.poses.size(), meta.width, meta.height, a.frames + "/frames_meta.json", config.config, o);
+  const lift::GsmLiftModel model = lift::load_gsm_lift_model(paths);
+  world::VoxelGrid world = world::load_world(a.world);
+  std::optional<scene::Scene> sc;
+  const world::TriangleMesh mesh = world::builtin_car_mesh();
+  if (!a.scene.empty()) {
+    sc = scene::load_scene(a.scene, scene::LoadOptions{}, &diag);
+    if (scene::tracks_unclassified(*sc)) scene::classify_tracks(*sc);
+    const int t0 = meta.source_time_indices.empty() ? 0 : std::max(0, meta.source_time_indices[0]);
+    world = render::make_static_world(world, *sc, t0, mesh);
+    o.scene = &*sc;
+    o.car_mesh = &mesh;
+  }
+  gpu::Context ctx(gpu::ContextOptions::from_env());
+  ProgressBar frames_bar("frames", "frames");
+  ProgressBar gsm_bar("gsm", "stages");
+  ProgressBar eval_bar("eval", "frames");
+  o.progress = [&](const char* stage, size_t done, size_t total) {
+    const std::string s(stage);
+    (s == "frames" ? frames_bar : s == "gsm" ? gsm_bar : eval_bar).update(done, total);
+  };
+  const lift::GsmLiftResult r = lift::gsm_lift_frames(ctx, world, a.world, a.frames, meta, model, o);
+
+  const fs::path final_dir = fs::absolute(a.output);
+  StagingDir staging(final_dir.parent_path(), final_dir.filename().string());
+  lift::write_gsm_lift_outputs(staging.path.string(), meta, r, o);
+  if (fs::exists(final_dir)) fs::remove_all(final_dir);
+  fs::rename(staging.path, final_dir);
+  staging.keep = true;
+  const double total_s = std::chrono::duration<double>(Clock::now() - t_start).count();
+  size_t object_gaussians = 0;
+  for (const auto& obj : r.lift.objects) object_gaussians += obj.gaussians.size();
+  const lift::GsmLiftStats& g = r.gsm;
+  for (const auto& [label, ms] : g.stages_ms) std::fprintf(stderr, "lift: gsm %-60s %9.1f ms\n", label.c_str(), ms);
+  std::printf("lift (gsm): %zu key frames of %zu at %ux%u, %zu input voxels (%zu first hits) -> %zu Gaussians (%zu voxel, "
+              "%zu pixel), %zu dynamic objects (%zu Gaussians, %zu key frames); held-out PSNR %.2f dB over %zu frames; "
+              "%.2f s [inputs %.2f, forward %.2f, dynamic %.2f, eval %.2f] -> %s\n",
+              r.lift.key_frames.size(), meta.poses.size(), g.width, g.height, g.input_voxels, g.front_voxels,
+              r.lift.cloud.size(), g.voxel_gaussians, g.pixel_gaussians, r.lift.objects.size(), object_gaussians,
+              g.dynamic_views, r.lift.mean_psnr(), r.lift.eval.size(), total_s, g.inputs_s, g.forward_s, g.dynamic_s,
+              r.lift.eval_s, final_dir.string().c_str());
+}
 
 void cmd_lift(const LiftArgs& a) {
   run_command([&](scene::Diagnostics& diag) {
+    if (const std::optional<lift::GsmModelPaths> gsm = gsm_paths_of(a.gsm)) return cmd_lift_gsm(a, *gsm, diag);
     using Clock = std::chrono::steady_clock;
     const auto t_start = Clock::now();
     refuse_overwriting_input(a.world, a.output);
@@ -116,9 +184,11 @@ void add_lift_command(CLI::App& app) {
                   "The scene the frames were rendered with: its vehicles as car meshes, its moving ones lifted into "
                   "their object frames")
       ->type_name("SCENE");
-  cmd->add_option("--key-every", a->key_every, "Lift from every N-th frame; the others are held out for the figures")
-      ->capture_default_str()
-      ->check(CLI::Range(size_t{1}, size_t{1000000}));
+  a->gsm.key_every =
+      cmd->add_option("--key-every", a->key_every,
+                      "Lift from every N-th frame; the others are held out for the figures (with --gsm default 6)")
+          ->capture_default_str()
+          ->check(CLI::Range(size_t{1}, size_t{1000000}));
   cmd->add_option("--gaussians-per-cell", a->per_cell,
                   "Gaussians per seen 0.1 m face cell: 1, or 4 (the official density, 4 per sub-voxel)")
       ->capture_default_str()
@@ -138,13 +208,16 @@ void add_lift_command(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--eval-frames", a->eval_frames, "Held-out frames rendered for the PSNR figures and eval.png")
       ->capture_default_str();
+  add_gsm_options(cmd, a->gsm);
   cmd->add_option("-o,--output", a->output, "Output folder")->required()->type_name("OUT_DIR");
   cmd->footer(
       "Non-learned voxel branch: each key frame's pixels (not sky, not dynamic objects) colour the 0.1 m cells of "
       "the voxel faces they hit; every seen cell becomes flat Gaussians on that face, hidden surface voxels one "
       "Gaussian in their class's colour. Mid-ground pixels of the last key frame (sky masks segmented from the "
       "frames say not sky, no voxel hit) become two Gaussians each on the road plane or at the world's bounds. The "
-      "sky is an equirectangular panorama of the sky pixels.");
+      "sky is an equirectangular panorama of the sky pixels. With --gsm the learned model (InfiniCube's GSM) lifts the "
+      "key frames instead: voxel and pixel Gaussians, the moving cars from its pixel branch, the sky from its sky "
+      "token (docs/stage3-lifting.md, \"The learned lift (GSM)\").");
   cmd->callback([a] { cmd_lift(*a); });
 }
 

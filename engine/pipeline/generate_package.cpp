@@ -5,8 +5,10 @@
 
 #include "gpu/context.h"
 #include "lift/flythrough.h"
+#include "lift/gsm_lift.h"
 #include "lift/lift_frames.h"
 #include "lift/lift_output.h"
+#include "nn/gsm/gsm_preset.h"
 #include "render/appearance/frames_import.h"
 #include "render/appearance/frames_render.h"
 #include "render/buffers/contact_sheet.h"
@@ -94,6 +96,7 @@ class GenerateJob {
   std::string buffers_stage();
   std::string frames_stage();
   std::string lift_stage();
+  std::string gsm_lift_stage(const render::FramesMeta& meta);
   std::string preview_stage();
   void write_trajectory() const;
   void write_manifest() const;
@@ -113,6 +116,7 @@ class GenerateJob {
   std::optional<world::VoxelGrid> static_world;
   std::optional<gpu::Context> ctx;
   std::optional<render::OverlayWorld> overlay;
+  std::optional<lift::GsmLiftModel> gsm_model;  // Stage 3's learned model, loaded and checked with the inputs
   render::OverlayWorld& shared_overlay() {
     if (!overlay) overlay.emplace(*ctx, *static_world);
     return *overlay;
@@ -142,6 +146,15 @@ void GenerateJob::check_inputs() {
   } else if (!a.frames_from.empty() && !fs::is_regular_file(a.frames_from)) {
     throw scene::InputError(a.frames_from, "", "neither a folder of PNG frames nor a video file");
   }
+  if (!a.gsm.weights.empty()) {  // the learned lift: its configuration, sizes and weights before any stage
+    for (const std::string& f : {a.gsm.config, a.gsm.weights}) scene::refuse_overwriting_input(f, a.output);
+    const nn::GsmModelConfig config = lift::load_gsm_lift_config(a.gsm);
+    lift::GsmLiftOptions o = a.gsm_options;
+    o.key_every = a.key_every;
+    o.pixel_frames = a.pixel_frames;
+    lift::gsm_lift_plan(traj->size(), cp.K.width, cp.K.height, a.path.scene, config.config, o);
+    gsm_model.emplace(lift::load_gsm_lift_model(a.gsm));
+  }
   if (!a.sky_masks.empty()) {  // before any stage too: one mask per camera pose (sizes: the import)
     const size_t n = render::png_files(a.sky_masks).size();
     if (n != traj->size())
@@ -165,6 +178,13 @@ void GenerateJob::fingerprint_inputs() {
     inputs["sky_masks_sha256"] = sha256_of_path(a.sky_masks);
     inputs["sky_label"] = a.sky_label;
   }
+  if (!a.gsm.weights.empty()) {
+    const bool preset = a.gsm.config == nn::kInfinicubeGsmPreset;  // the name wins over a file of that name
+    inputs["gsm_config"] = a.gsm.config;
+    inputs["gsm_config_sha256"] = preset ? std::string("preset") : scene::sha256_file(a.gsm.config);
+    inputs["gsm_weights"] = a.gsm.weights;
+    inputs["gsm_weights_sha256"] = scene::sha256_file(a.gsm.weights);
+  }
   if (!a.path.trajectory.empty()) {
     inputs["trajectory"] = a.path.trajectory;
     inputs["trajectory_sha256"] = scene::sha256_file(a.path.trajectory);
@@ -174,6 +194,10 @@ void GenerateJob::fingerprint_inputs() {
              {"route_m", a.path.route_m}, {"key_every", a.key_every},
              {"gaussians_per_cell", a.per_cell}, {"pixel_frames", a.pixel_frames}, {"videos", !a.no_video},
              {"video_preset", a.video_preset}, {"preview", !a.no_preview}};
+  if (!a.gsm.weights.empty())
+    options["gsm"] = {{"input_size", {a.gsm_options.width, a.gsm_options.height}},
+                      {"radius_m", a.gsm_options.radius},
+                      {"backend", a.gsm_options.cpu_reference ? "cpu" : "gpu"}};
   fingerprint = scene::sha256_hex(inputs.dump() + "\n" + options.dump());
 }
 
@@ -276,6 +300,7 @@ std::string GenerateJob::frames_stage() {
 std::string GenerateJob::lift_stage() {
   fs::remove_all(pkg->gaussians());
   const render::FramesMeta meta = render::read_frames_meta(pkg->frames().string());
+  if (gsm_model) return gsm_lift_stage(meta);
   lift::LiftFramesOptions lo;
   lo.key_every = a.key_every;
   lo.lift.per_cell = a.per_cell;
@@ -296,6 +321,31 @@ std::string GenerateJob::lift_stage() {
                 "held-out PSNR %.2f dB over %zu frames",
                 lr.cloud.size(), lr.pixel.gaussians, lr.pixel.pixels, lr.objects.size(), object_gaussians, lr.mean_psnr(),
                 lr.eval.size());
+  return detail;
+}
+
+// Stage 3 with the learned GSM: the same files.
+std::string GenerateJob::gsm_lift_stage(const render::FramesMeta& meta) {
+  lift::GsmLiftOptions o = a.gsm_options;
+  o.key_every = a.key_every;
+  o.pixel_frames = a.pixel_frames;
+  o.scene = &*cp.scene;
+  o.car_mesh = &mesh;
+  const auto lift_progress = progress_of("lift", "GSM stages");
+  o.progress = [&](const char* what, size_t done, size_t total) {
+    if (lift_progress && std::string(what) == "gsm") lift_progress(done, total);
+  };
+  const lift::GsmLiftResult r =
+      lift::gsm_lift_frames(*ctx, *static_world, pkg->world().string(), pkg->frames().string(), meta, *gsm_model, o);
+  lift::write_gsm_lift_outputs(pkg->gaussians().string(), meta, r, o);
+  size_t object_gaussians = 0;
+  for (const auto& obj : r.lift.objects) object_gaussians += obj.gaussians.size();
+  char detail[256];
+  std::snprintf(detail, sizeof detail,
+                "GSM: %zu static Gaussians (%zu voxel, %zu pixel) from %zu key frames at %ux%u and %zu voxels, %zu dynamic "
+                "objects (%zu Gaussians), held-out PSNR %.2f dB over %zu frames",
+                r.lift.cloud.size(), r.gsm.voxel_gaussians, r.gsm.pixel_gaussians, r.gsm.views, r.gsm.width, r.gsm.height,
+                r.gsm.input_voxels, r.lift.objects.size(), object_gaussians, r.lift.mean_psnr(), r.lift.eval.size());
   return detail;
 }
 

@@ -12,6 +12,8 @@
 
 #include "pipeline/camera_path.h"
 
+#include "lift/gsm_lift.h"
+
 #include "render/appearance/prompt.h"
 #include "scene/input_error.h"
 
@@ -41,6 +43,12 @@ struct GenerateArgs {
   std::string sky_masks;
   int sky_label = -1;
   size_t pixel_frames = 1;  // Stage 3 pixel branch: the last N key frames (lift_frames.h)
+  // Stage 3 with the learned GSM (lift/gsm_lift.h) when gsm.weights is set, else the non-learned lift.
+  // gsm_options: its input size, radius and backend (key_every and pixel_frames are the fields above;
+  // the scene and the car mesh are the job's). The configuration, the sizes and the weights are checked
+  // before any stage.
+  lift::GsmModelPaths gsm;
+  lift::GsmLiftOptions gsm_options;
   // Skip the package when it is complete and made from the same inputs and
   // options; else continue a killed run's staging folder after its last finished stage.
   bool resume = false;

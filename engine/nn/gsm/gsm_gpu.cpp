@@ -61,6 +61,11 @@ GsmGpu::GsmGpu(gpu::Context& ctx, const GsmConfig& c, const GsmWeights& w) : ctx
 
 GsmGpu::~GsmGpu() = default;
 
+void GsmGpu::finish_stage(std::string label, double ms, bool on_device) {
+  stages_.push_back({std::move(label), ms, on_device});
+  if (progress_) progress_(stages_.back(), stages_.size(), kStages);
+}
+
 GsmOutputs GsmGpu::forward(const GsmInputs& in, GsmTrace* trace) {
   stages_.clear();
   const int64_t B = in.batch, N = in.views, H = in.height, W = in.width;
@@ -83,7 +88,7 @@ GsmOutputs GsmGpu::forward(const GsmInputs& in, GsmTrace* trace) {
     dav2 = dav2_gpu(L, config_.dav2, images, trace ? &dav2_trace : nullptr, &positions_);
     L.end();
   });
-  stages_.push_back({"image features (conv encoder, Depth-Anything-V2)", ms_since(t0), true});
+  finish_stage("image features (conv encoder, Depth-Anything-V2)", ms_since(t0), true);
   if (trace) {
     for (size_t i = 0; i < conv_stages.size(); ++i)
       trace_put(trace, "enc.conv.project_head." + std::to_string(i), download(ctx_, conv_stages[i]));
@@ -97,7 +102,7 @@ GsmOutputs GsmGpu::forward(const GsmInputs& in, GsmTrace* trace) {
   // 2. The sky token (host).
   t0 = Clock::now();
   out.sky_tokens = sky_tokens(config_.sky, weights_, in, images_host, trace);
-  stages_.push_back({"sky token (host)", ms_since(t0), false});
+  finish_stage("sky token (host)", ms_since(t0), false);
 
   // 3. Pixel rays (host, double).
   t0 = Clock::now();
@@ -111,7 +116,7 @@ GsmOutputs GsmGpu::forward(const GsmInputs& in, GsmTrace* trace) {
     for (size_t i = 0; i < r.grid_foreground.size(); ++i)
       grid_fg.data[static_cast<size_t>(b * N * H * W) + i] = r.grid_foreground[i] ? 1.0f : 0.0f;
   }
-  stages_.push_back({"pixel rays (host, double)", ms_since(t0), false});
+  finish_stage("pixel rays (host, double)", ms_since(t0), false);
 
   // 4. The voxel branch, one batch element per command list.
   t0 = Clock::now();
@@ -134,7 +139,7 @@ GsmOutputs GsmGpu::forward(const GsmInputs& in, GsmTrace* trace) {
     if (trace) merge(trace, vtrace.download(ctx_));
     branch.release();
   }
-  stages_.push_back({"voxel branch", ms_since(t0), true});
+  finish_stage("voxel branch", ms_since(t0), true);
 
   // 5. The pixel branch.
   t0 = Clock::now();
@@ -154,13 +159,13 @@ GsmOutputs GsmGpu::forward(const GsmInputs& in, GsmTrace* trace) {
   std::vector<PixelGaussians> pixel = download_pixel_gaussians(ctx_, config_.pixel, in, po);
   for (int64_t b = 0; b < B; ++b) out.elements[static_cast<size_t>(b)].pixel = std::move(pixel[static_cast<size_t>(b)]);
   if (trace) merge(trace, download_pixel_branch_trace(ctx_, in, ptrace));
-  stages_.push_back({"pixel branch", ms_since(t0), true});
+  finish_stage("pixel branch", ms_since(t0), true);
 
   // 6. The sky's colours (host).
   t0 = Clock::now();
   out.sky_image = sky_image(config_.sky, weights_, in, out.sky_tokens);
   out.sky_panorama = sky_panorama(config_.sky, weights_, out.sky_tokens, config_.sky_panorama_rows);
-  stages_.push_back({"sky colours (host)", ms_since(t0), false});
+  finish_stage("sky colours (host)", ms_since(t0), false);
   activation_bytes_ = L.pool().bytes();
   return out;
 }

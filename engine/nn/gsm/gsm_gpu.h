@@ -18,6 +18,7 @@
 #include "nn/gsm/gsm_reference.h"
 #include "nn/parameter_store.h"
 
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -46,6 +47,9 @@ class GsmGpu {
   GsmOutputs forward(const GsmInputs& in, GsmTrace* trace = nullptr);
 
   const std::vector<Stage>& last_stages() const { return stages_; }
+  // Called after each of the forward's kStages stages (long forwards show progress).
+  static constexpr size_t kStages = 6;
+  void set_progress(std::function<void(const Stage& finished, size_t done, size_t total)> f) { progress_ = std::move(f); }
   uint64_t weight_bytes() const { return store_->device_bytes(); }
   uint64_t last_activation_bytes() const { return activation_bytes_; }
 
@@ -56,7 +60,9 @@ class GsmGpu {
   std::unique_ptr<ParameterStore> store_;
   Dav2PositionEmbeddings positions_;
   std::vector<Stage> stages_;
+  std::function<void(const Stage&, size_t, size_t)> progress_;
   uint64_t activation_bytes_ = 0;
+  void finish_stage(std::string label, double ms, bool on_device);
 };
 
 }  // namespace icube::nn
