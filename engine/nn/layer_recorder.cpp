@@ -85,7 +85,12 @@ DeviceTensor LayerRecorder::conv(const DeviceTensor& x, const std::string& prefi
   s.batch = u32(x.batch());
   s.in_channels = u32(x.channels());
   s.out_channels = u32(ws[0]);
-  extent(x, s.x, s.y, s.z);
+  if (x.shape.size() == 5) {
+    extent(x, s.x, s.y, s.z);
+  } else {  // a linear over tokens: the tokens along z, where the register tile's runs of NN_CONV_ZRUN voxels lie
+    s.x = s.y = 1;
+    s.z = u32(x.spatial());
+  }
   s.kernel = ParameterStore::kernel_edge(ws);
   s.f16_weights = params_.f16_matrices();
   const std::string bias = prefix + ".bias";
