@@ -1,6 +1,6 @@
 // Push constants of the network-layer kernels the GSM's image and voxel
 // branches add (shaders/nn/conv_transpose2d.comp, rms_norm.comp, gsm_pixel_gaussians.comp,
-// gsm_project_features.comp, gsm_voxel_gaussians.comp, scatter_mean.comp; host modules
+// gsm_project_features.comp, gsm_voxel_gaussians.comp, gsm_sky_colors.comp, scatter_mean.comp; host modules
 // kernels/nn/<op>.cpp). Shared between GLSL
 // and C++ (gpu_types.h); the sizes and offsets are checked at the end.
 #ifndef ICUBE_NN_GSM_PARAMS_H
@@ -190,6 +190,13 @@ ICUBE_CHECK_LAYOUT(GsmPixelGaussiansParams, mask_offset, 52);
 
 #define NN_GSM_GAUSSIANS_GROUP 64
 
+// gsm_sky_colors: one invocation per direction walks the hidden units three
+// times (mean, variance, output), so hidden * (3 + out_channels) stays far
+// under lavapipe's 65,535 loop iterations.
+#define NN_GSM_SKY_GROUP 64
+#define NN_GSM_SKY_MAX_OUT 4u
+#define NN_GSM_SKY_MAX_HIDDEN 4096u
+
 ICUBE_SHADER_NAMESPACE_BEGIN
 
 // gsm_project_features: for each child voxel r of a grid (centre ijk[r] *
@@ -265,6 +272,26 @@ struct GsmVoxelGaussiansParams {
   float max_scaling;  // <= 0: none
 };
 
+// gsm_sky_colors: the sky modulator MLP (InfiniCube skybox_mlp_modulator) for
+// unit directions dirs [rows][3]: h = pos_w d + pos_b ([hidden]), LayerNorm
+// over h without affine (eps 1e-6), m = n (1 + scale_e) + shift_e with the
+// modulation [elements][2 hidden] (shift, then scale) of row g's element e =
+// element_first + g / element_rows, colour = out_w m + out_b ([out_channels]).
+// mlp = pos_w [hidden][3], pos_b [hidden], out_w [out_channels][hidden], out_b
+// [out_channels]. One dispatch per window of rows (directions and colours past
+// one storage binding), one invocation per row; first_row is the window's
+// first row, the offsets its first elements inside the bindings.
+struct GsmSkyColorsParams {
+  uint rows;           // of the window
+  uint hidden;
+  uint out_channels;   // 1 to NN_GSM_SKY_MAX_OUT
+  uint element_rows;   // rows per element
+  uint first_row;      // the window's first row (its element)
+  uint element_first;  // the element of row 0
+  uint dir_offset;     // dirs[3 * first_row] inside the directions' binding
+  uint out_offset;     // y[out_channels * first_row] inside the output's binding
+};
+
 ICUBE_SHADER_NAMESPACE_END
 
 ICUBE_CHECK_SIZE(GsmProjectParams, 128);
@@ -275,4 +302,6 @@ ICUBE_CHECK_SIZE(GsmVoxelGaussiansParams, 80);
 ICUBE_CHECK_LAYOUT(GsmVoxelGaussiansParams, colors_offset, 44);
 ICUBE_CHECK_LAYOUT(GsmVoxelGaussiansParams, scale_unit, 60);
 ICUBE_CHECK_LAYOUT(GsmVoxelGaussiansParams, max_scaling, 76);
+ICUBE_CHECK_SIZE(GsmSkyColorsParams, 32);
+ICUBE_CHECK_LAYOUT(GsmSkyColorsParams, out_offset, 28);
 #endif

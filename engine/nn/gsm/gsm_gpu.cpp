@@ -4,10 +4,12 @@
 #include "gpu/context.h"
 #include "nn/gsm/conv_encoder_gpu.h"
 #include "nn/gsm/gsm_rays.h"
+#include "nn/gsm/sky_reference.h"
 #include "nn/gsm/pixel_branch_gpu.h"
 #include "nn/gsm/voxel_branch_gpu.h"
 #include "nn/layer_recorder.h"
 
+#include <algorithm>
 #include <chrono>
 
 namespace icube::nn {
@@ -57,6 +59,12 @@ GsmGpu::GsmGpu(gpu::Context& ctx, const GsmConfig& c, const GsmWeights& w) : ctx
   o.source = w.source;
   o.host_only = g.host_only;
   store_ = std::make_unique<ParameterStore>(ctx, g.specs, g.tensors, o);
+  const std::string m = "skybox.modulator.";
+  sky_mlp_ = std::make_unique<gpu::Buffer>(gpu::upload_vector(
+      ctx, kernels::nn::pack_gsm_sky_mlp(w.at(m + "pos_emb.weight").data, w.at(m + "pos_emb.bias").data,
+                                         w.at(m + "output.weight").data, w.at(m + "output.bias").data),
+      "gsm-sky-mlp"));
+  sky_colors_ = std::make_unique<kernels::nn::GsmSkyColors>(ctx);
 }
 
 GsmGpu::~GsmGpu() = default;
@@ -161,11 +169,46 @@ GsmOutputs GsmGpu::forward(const GsmInputs& in, GsmTrace* trace) {
   if (trace) merge(trace, download_pixel_branch_trace(ctx_, in, ptrace));
   finish_stage("pixel branch", ms_since(t0), true);
 
-  // 6. The sky's colours (host).
+  // 6. The sky's colours: the modulator MLP per pixel direction and per panorama direction (the adaLN vectors
+  // of each element's token on the host: two small linears).
   t0 = Clock::now();
-  out.sky_image = sky_image(config_.sky, weights_, in, out.sky_tokens);
-  out.sky_panorama = sky_panorama(config_.sky, weights_, out.sky_tokens, config_.sky_panorama_rows);
-  finish_stage("sky colours (host)", ms_since(t0), false);
+  {
+    const SkyConfig& sc = config_.sky;
+    const int64_t C = sc.out_channels, rows = config_.sky_panorama_rows, cols = 2 * rows;
+    std::vector<float> modulation;
+    for (int64_t b = 0; b < B; ++b) {
+      const std::vector<float> m = sky_modulation(sc, weights_, out.sky_tokens.data.data() + b * sc.embed_dim);
+      modulation.insert(modulation.end(), m.begin(), m.end());
+    }
+    const gpu::Buffer mod = gpu::upload_vector(ctx_, modulation, "gsm-sky-modulation");
+    const gpu::Buffer image_dirs = gpu::upload_vector(ctx_, sky_image_directions(in).data, "gsm-sky-image-dirs");
+    // The panorama's directions once per element (each under its own token).
+    const CpuTensor pano = sky_panorama_directions(rows);
+    std::vector<float> pano_all;
+    for (int64_t b = 0; b < B; ++b) pano_all.insert(pano_all.end(), pano.data.begin(), pano.data.end());
+    const gpu::Buffer pano_dirs = gpu::upload_vector(ctx_, pano_all, "gsm-sky-panorama-dirs");
+    const uint64_t image_rows = static_cast<uint64_t>(B * N * H * W), pano_rows = static_cast<uint64_t>(rows * cols);
+    gpu::Buffer image_rgb(ctx_, std::max<uint64_t>(1, image_rows * static_cast<uint64_t>(C)) * 4, gpu::MemoryUsage::DeviceLocal,
+                          "gsm-sky-image");
+    gpu::Buffer pano_rgb(ctx_, std::max<uint64_t>(1, static_cast<uint64_t>(B) * pano_rows * static_cast<uint64_t>(C)) * 4,
+                         gpu::MemoryUsage::DeviceLocal, "gsm-sky-panorama");
+    ctx_.submit_and_wait([&](gpu::CommandList& cmd) {
+      kernels::nn::GsmSkyColorsShape s;
+      s.hidden = static_cast<uint32_t>(sc.hidden_channels);
+      s.out_channels = static_cast<uint32_t>(C);
+      s.elements = static_cast<uint32_t>(B);
+      s.rows = static_cast<uint32_t>(image_rows);
+      s.element_rows = static_cast<uint32_t>(std::max<int64_t>(1, N * H * W));
+      sky_colors_->record(cmd, s, image_dirs, *sky_mlp_, mod, image_rgb);
+      s.rows = static_cast<uint32_t>(static_cast<uint64_t>(B) * pano_rows);
+      s.element_rows = static_cast<uint32_t>(std::max<uint64_t>(1, pano_rows));
+      sky_colors_->record(cmd, s, pano_dirs, *sky_mlp_, mod, pano_rgb);
+    });
+    out.sky_image = CpuTensor({B, N, H, W, C}, gpu::download_vector<float>(ctx_, image_rgb, static_cast<size_t>(image_rows * C)));
+    out.sky_panorama = CpuTensor({B, rows, cols, C},
+                                 gpu::download_vector<float>(ctx_, pano_rgb, static_cast<size_t>(B * pano_rows * C)));
+  }
+  finish_stage("sky colours", ms_since(t0), true);
   activation_bytes_ = L.pool().bytes();
   return out;
 }

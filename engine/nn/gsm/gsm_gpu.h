@@ -1,12 +1,12 @@
 // The whole GSM on the GPU: the stages of gsm_reference.h in the same order,
 // each through the network layer — the conv encoder and Depth-Anything-V2
-// (one command list), the voxel branch per batch element, the pixel branch —
-// with what stays on the host named here:
+// (one command list), the voxel branch per batch element, the pixel branch,
+// the sky colours (the modulator MLP for every input pixel and the 256 x 512
+// panorama: kernels/nn/gsm_sky_colors.h) — with what stays on the host named here:
 //   the sky token     a post-norm transformer over a batch element's sky patches (a few hundred tokens;
-//                     the reference's sky_tokens, exact)
-//   the pixel rays    first hits, grid mask and voxel depth marched in double (gsm_rays.h), as the
-//                     official fVDB queries need at their tie margins
-//   the sky colours   the modulator MLP for every input pixel and the 256 x 512 panorama (sky_reference.h)
+//                     the reference's sky_tokens, exact), and from it the modulator's adaLN vectors
+//   the pixel rays    first hits, grid mask and voxel depth marched in double (gsm_rays.h, on all cores),
+//                     as the official fVDB queries need at their tie margins
 // and the structure of the voxel branch (grids, row tables: integer bookkeeping, voxel_branch_gpu.h).
 // Outputs, and with a trace every intermediate, come back under the reference's names and layouts, so
 // the GPU forward is checked against gsm_small and the CPU reference alike. Test:
@@ -16,6 +16,7 @@
 #include "nn/gsm/dav2_gpu.h"
 #include "nn/gsm/gsm_gpu_weights.h"
 #include "nn/gsm/gsm_reference.h"
+#include "kernels/nn/gsm_sky_colors.h"
 #include "nn/parameter_store.h"
 
 #include <functional>
@@ -56,8 +57,10 @@ class GsmGpu {
  private:
   gpu::Context& ctx_;
   GsmConfig config_;
-  const GsmWeights& weights_;  // the CPU-side stages' (the sky token, the sky colours)
+  const GsmWeights& weights_;  // the CPU-side stages' (the sky token, the sky's adaLN vectors)
   std::unique_ptr<ParameterStore> store_;
+  std::unique_ptr<gpu::Buffer> sky_mlp_;  // the sky modulator's pos_emb and output layers (kernels/nn/gsm_sky_colors.h)
+  std::unique_ptr<kernels::nn::GsmSkyColors> sky_colors_;
   Dav2PositionEmbeddings positions_;
   std::vector<Stage> stages_;
   std::function<void(const Stage&, size_t, size_t)> progress_;

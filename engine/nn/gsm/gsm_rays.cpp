@@ -2,10 +2,13 @@
 #include "nn/gsm/gsm_rays.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
 #include <string>
+#include <thread>
+#include <vector>
 
 namespace icube::nn {
 
@@ -160,31 +163,47 @@ GsmPixelRays cast_gsm_pixel_rays(const GsmInputs& in, int64_t batch_element) {
   out.grid_foreground.assign(n, 0);
   out.voxel_depth.assign(n, 0.0f);
   for (int64_t view = 0; view < N; ++view) {
-    const std::array<float, 16>& pose = in.poses[static_cast<size_t>(b * N + view)];
     const std::array<float, 6>& k = in.intrinsics[static_cast<size_t>(b * N + view)];
     if (static_cast<int64_t>(k[4]) != W || static_cast<int64_t>(k[5]) != H)
       throw std::invalid_argument("gsm pixel rays: intrinsics of view " + std::to_string(b * N + view) + " are for " +
                                   std::to_string(k[4]) + " x " + std::to_string(k[5]) + " pixels, the images have " +
                                   std::to_string(W) + " x " + std::to_string(H));
+  }
+  // One image row per task on up to hardware_concurrency threads; every pixel is independent, so the result
+  // does not depend on the count.
+  auto cast_row = [&](int64_t row) {
+    const int64_t view = row / H, v = row % H;
+    const std::array<float, 16>& pose = in.poses[static_cast<size_t>(b * N + view)];
+    const std::array<float, 6>& k = in.intrinsics[static_cast<size_t>(b * N + view)];
     const std::array<double, 3> centre{pose[3], pose[7], pose[11]};
     // The optical axis: the pose's third column, normalised (float32 as the official code).
     std::array<float, 3> axis{pose[2], pose[6], pose[10]};
     const float axis_norm = std::sqrt(axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2]);
     for (float& c : axis) c /= axis_norm;
-    for (int64_t v = 0; v < H; ++v)
-      for (int64_t u = 0; u < W; ++u) {
-        const std::array<float, 3> dir = gsm_pixel_ray_direction(pose, k, u, v);
-        const VoxelRayWalk walk = grid.march(centre, {dir[0], dir[1], dir[2]});
-        const size_t p = static_cast<size_t>((view * H + v) * W + u);
-        out.first_voxel[p] = walk.first_voxel;
-        out.grid_foreground[p] = walk.first_segment_start(kGsmGridMaskMinSegment) >= 0.0 ? 1 : 0;
-        const double start = walk.first_segment_start(kGsmDepthMinSegment);
-        if (start >= 0.0) {
-          const float cosine = axis[0] * dir[0] + axis[1] * dir[1] + axis[2] * dir[2];
-          out.voxel_depth[p] = static_cast<float>(start) * cosine;
-        }
+    for (int64_t u = 0; u < W; ++u) {
+      const std::array<float, 3> dir = gsm_pixel_ray_direction(pose, k, u, v);
+      const VoxelRayWalk walk = grid.march(centre, {dir[0], dir[1], dir[2]});
+      const size_t p = static_cast<size_t>((view * H + v) * W + u);
+      out.first_voxel[p] = walk.first_voxel;
+      out.grid_foreground[p] = walk.first_segment_start(kGsmGridMaskMinSegment) >= 0.0 ? 1 : 0;
+      const double start = walk.first_segment_start(kGsmDepthMinSegment);
+      if (start >= 0.0) {
+        const float cosine = axis[0] * dir[0] + axis[1] * dir[1] + axis[2] * dir[2];
+        out.voxel_depth[p] = static_cast<float>(start) * cosine;
       }
-  }
+    }
+  };
+  const int64_t rows = N * H;
+  const size_t threads = std::min<size_t>(static_cast<size_t>(std::max<int64_t>(rows, 1)),
+                                          std::max(1u, std::thread::hardware_concurrency()));
+  std::atomic<int64_t> next{0};
+  auto work = [&] {
+    for (int64_t row = next++; row < rows; row = next++) cast_row(row);
+  };
+  std::vector<std::thread> pool;
+  for (size_t t = 1; t < threads; ++t) pool.emplace_back(work);
+  work();
+  for (std::thread& t : pool) t.join();
   return out;
 }
 

@@ -71,6 +71,7 @@ struct GsmPixelRays {
   std::vector<float> voxel_depth;        // metres along the optical axis, 0 = none
 };
 
+// Image rows in parallel on up to hardware_concurrency threads (the result does not depend on the count).
 GsmPixelRays cast_gsm_pixel_rays(const GsmInputs& in, int64_t batch_element);
 
 // Records vox.lifter.pixel_first_voxel.b<i> [N, H, W] per element and the batch-wide pre.grid_fg_mask and

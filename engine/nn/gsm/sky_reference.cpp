@@ -162,43 +162,55 @@ CpuTensor sky_tokens(const SkyConfig& c, const GsmWeights& w, const GsmInputs& i
   return tokens;
 }
 
+std::vector<float> sky_modulation(const SkyConfig& c, const GsmWeights& w, const float* token) {
+  const std::string m = kSky + "modulator.";
+  const CpuTensor cond = linear_of(w, m + "condition_mapping.", CpuTensor({1, static_cast<int64_t>(c.embed_dim)},
+                                                                          std::vector<float>(token, token + c.embed_dim)));
+  return linear_of(w, m + "adaLN_modulation.1.", cpu::silu(cond)).data;  // [1, 2 Hc]: shift, then scale
+}
+
 CpuTensor sky_colors(const SkyConfig& c, const GsmWeights& w, const float* token, const CpuTensor& directions) {
   const std::string m = kSky + "modulator.";
   const int64_t Hc = c.hidden_channels;
-  const CpuTensor cond = linear_of(w, m + "condition_mapping.", CpuTensor({1, static_cast<int64_t>(c.embed_dim)},
-                                                                          std::vector<float>(token, token + c.embed_dim)));
-  const CpuTensor ss = linear_of(w, m + "adaLN_modulation.1.", cpu::silu(cond));  // [1, 2 Hc]: shift, then scale
+  const std::vector<float> ss = sky_modulation(c, w, token);
   CpuTensor x = linear_of(w, m + "pos_emb.", directions);
   x = cpu::layer_norm(x, CpuTensor({Hc}, 1.0f), CpuTensor({Hc}, 0.0f), 1e-6);
   for (int64_t r = 0; r < x.dim(0); ++r)
     for (int64_t h = 0; h < Hc; ++h) {
       float& v = x.data[static_cast<size_t>(r * Hc + h)];
-      v = static_cast<float>(static_cast<double>(v) * (1.0 + static_cast<double>(ss.data[static_cast<size_t>(Hc + h)])) +
-                             static_cast<double>(ss.data[static_cast<size_t>(h)]));
+      v = static_cast<float>(static_cast<double>(v) * (1.0 + static_cast<double>(ss[static_cast<size_t>(Hc + h)])) +
+                             static_cast<double>(ss[static_cast<size_t>(h)]));
     }
   return linear_of(w, m + "output.", x);
 }
 
+CpuTensor sky_image_directions(const GsmInputs& in) {
+  const int64_t N = in.views, H = in.height, W = in.width;
+  CpuTensor dirs({in.batch * N * H * W, 3});
+  for (int64_t v = 0; v < in.batch * N; ++v)
+    for (int64_t r = 0; r < H; ++r)
+      for (int64_t col = 0; col < W; ++col) {
+        const std::array<double, 3> d = sky_pixel_direction(in.poses[static_cast<size_t>(v)], in.intrinsics[static_cast<size_t>(v)],
+                                                            static_cast<double>(col), static_cast<double>(r));
+        for (int a = 0; a < 3; ++a) dirs.data[static_cast<size_t>(((v * H + r) * W + col) * 3 + a)] = static_cast<float>(d[static_cast<size_t>(a)]);
+      }
+  return dirs;
+}
+
 CpuTensor sky_image(const SkyConfig& c, const GsmWeights& w, const GsmInputs& in, const CpuTensor& tokens) {
-  const int64_t N = in.views, H = in.height, W = in.width, C = c.out_channels;
+  const int64_t N = in.views, H = in.height, W = in.width, C = c.out_channels, per = N * H * W;
+  const CpuTensor all = sky_image_directions(in);
   CpuTensor out({in.batch, N, H, W, C});
   for (int64_t b = 0; b < in.batch; ++b) {
-    CpuTensor dirs({N * H * W, 3});
-    for (int64_t n = 0; n < N; ++n)
-      for (int64_t r = 0; r < H; ++r)
-        for (int64_t col = 0; col < W; ++col) {
-          const size_t v = static_cast<size_t>(b * N + n);
-          const std::array<double, 3> d = sky_pixel_direction(in.poses[v], in.intrinsics[v], static_cast<double>(col), static_cast<double>(r));
-          for (int a = 0; a < 3; ++a) dirs.data[static_cast<size_t>(((n * H + r) * W + col) * 3 + a)] = static_cast<float>(d[static_cast<size_t>(a)]);
-        }
+    CpuTensor dirs({per, 3}, std::vector<float>(all.data.begin() + b * per * 3, all.data.begin() + (b + 1) * per * 3));
     const CpuTensor rgb = sky_colors(c, w, tokens.data.data() + b * c.embed_dim, dirs);
-    std::copy(rgb.data.begin(), rgb.data.end(), out.data.begin() + b * N * H * W * C);
+    std::copy(rgb.data.begin(), rgb.data.end(), out.data.begin() + b * per * C);
   }
   return out;
 }
 
-CpuTensor sky_panorama(const SkyConfig& c, const GsmWeights& w, const CpuTensor& tokens, int64_t rows) {
-  const int64_t cols = 2 * rows, C = c.out_channels, B = tokens.dim(0);
+CpuTensor sky_panorama_directions(int64_t rows) {
+  const int64_t cols = 2 * rows;
   CpuTensor dirs({rows * cols, 3});
   for (int64_t i = 0; i < rows; ++i)
     for (int64_t j = 0; j < cols; ++j) {
@@ -210,6 +222,12 @@ CpuTensor sky_panorama(const SkyConfig& c, const GsmWeights& w, const CpuTensor&
       const double n = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
       for (int a = 0; a < 3; ++a) dirs.data[static_cast<size_t>((i * cols + j) * 3 + a)] = static_cast<float>(d[a] / n);
     }
+  return dirs;
+}
+
+CpuTensor sky_panorama(const SkyConfig& c, const GsmWeights& w, const CpuTensor& tokens, int64_t rows) {
+  const int64_t cols = 2 * rows, C = c.out_channels, B = tokens.dim(0);
+  const CpuTensor dirs = sky_panorama_directions(rows);
   CpuTensor out({B, rows, cols, C});
   for (int64_t b = 0; b < B; ++b) {
     const CpuTensor rgb = sky_colors(c, w, tokens.data.data() + b * c.embed_dim, dirs);

@@ -39,6 +39,10 @@ SkyConfig sky_config_from_json(const nlohmann::json& hparams);
 // The sky token [B, embed_dim] of every batch element (images [B * N, 3, H, W]).
 CpuTensor sky_tokens(const SkyConfig& c, const GsmWeights& w, const GsmInputs& in, const CpuTensor& images, GsmTrace* trace);
 
+// The modulator's adaLN vectors under one sky token [embed_dim]: [2 hidden_channels], shift then scale
+// (adaLN_modulation(silu(condition_mapping(token)))).
+std::vector<float> sky_modulation(const SkyConfig& c, const GsmWeights& w, const float* token);
+
 // Sky colours [n, out_channels] for unit directions [n, 3] (OpenGL axes) under one sky token [embed_dim].
 CpuTensor sky_colors(const SkyConfig& c, const GsmWeights& w, const float* token, const CpuTensor& directions);
 
@@ -46,6 +50,11 @@ CpuTensor sky_colors(const SkyConfig& c, const GsmWeights& w, const float* token
 // (row - cy) / fy, 1) rotated by the pose, as the official rays are built.
 std::array<double, 3> sky_pixel_direction(const std::array<float, 16>& pose, const std::array<float, 6>& intrinsics,
                                           double col, double row);
+
+// The directions sky_image evaluates: every pixel of every view of every element, [B * N * H * W, 3].
+CpuTensor sky_image_directions(const GsmInputs& in);
+// The directions sky_panorama evaluates: [rows * 2 rows, 3].
+CpuTensor sky_panorama_directions(int64_t rows);
 
 // The sky colour of every pixel of every view: [B, N, H, W, out_channels].
 CpuTensor sky_image(const SkyConfig& c, const GsmWeights& w, const GsmInputs& in, const CpuTensor& tokens);
