@@ -138,6 +138,13 @@ GsmLiftPlan gsm_lift_plan(size_t frames, uint32_t frame_width, uint32_t frame_he
                                 std::to_string(P) + "-pixel patches (its sky and depth patches): give the model's input "
                                 "size (--gsm-size), e.g. " + size_text(w, h) + " (the frames are resized to it)");
   }
+  const uint64_t view_pixels = uint64_t(plan.width) * plan.height;
+  if (view_pixels > o.max_view_pixels)
+    throw scene::InputError(source, "",
+                            "the GSM's input size " + size_text(plan.width, plan.height) + " is " + std::to_string(view_pixels) +
+                                " pixels per key frame, more than its limit of " + std::to_string(o.max_view_pixels) +
+                                " (one key frame's 64-channel feature maps must fit one storage binding): give a smaller "
+                                "input size (--gsm-size; the official one is 832x480)");
   const uint64_t pixels = uint64_t(plan.key_frames.size()) * plan.width * plan.height;
   if (pixels > o.max_pixels)
     throw scene::InputError(source, "",

@@ -73,6 +73,10 @@ struct GsmLiftOptions {
   uint32_t width = 0, height = 0;  // the model's input size; 0 = the frames' size
   double radius = 80.0;     // input voxels within this many metres (x, y) of a key camera; <= 0: all
   uint64_t max_pixels = 24ull * 480 * 832;  // key frames x width x height
+  // width x height: one key frame's widest tensors (64 float channels at full resolution: the conv encoder's
+  // features, x-unet's first level) must fit one storage binding, 128 MiB on lavapipe (the official 832 x 480
+  // is 399,360)
+  uint64_t max_view_pixels = (128ull << 20) / (64 * 4);
   uint64_t max_voxels = 3'000'000;          // input voxels
   bool cpu_reference = false;  // the plain CPU reference (nn/gsm/gsm_reference.h) instead of the GPU
   bool dynamic = true;         // the dynamic pass (needs `scene`)
