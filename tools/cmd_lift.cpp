@@ -59,6 +59,25 @@ struct LiftArgs {
   GsmCliArgs gsm;
 };
 
+// The voxel world the lift reads and the scene: with --scene, the frames were rendered from the world with
+// the scene's vehicles as car meshes, so its parked cars are voxelised in and the vehicles' cells removed
+// (render::make_static_world at the folder's first time index).
+struct LiftWorld {
+  world::VoxelGrid world;
+  std::optional<scene::Scene> scene;
+};
+
+LiftWorld load_lift_world(const LiftArgs& a, const render::FramesMeta& meta, const world::TriangleMesh& mesh,
+                          scene::Diagnostics& diag) {
+  LiftWorld lw{world::load_world(a.world), std::nullopt};
+  if (a.scene.empty()) return lw;
+  lw.scene = scene::load_scene(a.scene, scene::LoadOptions{}, &diag);
+  if (scene::tracks_unclassified(*lw.scene)) scene::classify_tracks(*lw.scene);
+  const int t0 = meta.source_time_indices.empty() ? 0 : std::max(0, meta.source_time_indices[0]);
+  lw.world = render::make_static_world(lw.world, *lw.scene, t0, mesh);
+  return lw;
+}
+
 // `icube lift --gsm`: the learned lift, into the same files.
 void cmd_lift_gsm(const LiftArgs& a, const lift::GsmModelPaths& paths, scene::Diagnostics& diag) {
   using Clock = std::chrono::steady_clock;
@@ -75,15 +94,11 @@ void cmd_lift_gsm(const LiftArgs& a, const lift::GsmModelPaths& paths, scene::Di
   const render::FramesMeta meta = render::read_frames_meta(a.frames);
   lift::gsm_lift_plan(meta.poses.size(), meta.width, meta.height, a.frames + "/frames_meta.json", config.config, o);
   const lift::GsmLiftModel model = lift::load_gsm_lift_model(paths);
-  world::VoxelGrid world = world::load_world(a.world);
-  std::optional<scene::Scene> sc;
   const world::TriangleMesh mesh = world::builtin_car_mesh();
-  if (!a.scene.empty()) {
-    sc = scene::load_scene(a.scene, scene::LoadOptions{}, &diag);
-    if (scene::tracks_unclassified(*sc)) scene::classify_tracks(*sc);
-    const int t0 = meta.source_time_indices.empty() ? 0 : std::max(0, meta.source_time_indices[0]);
-    world = render::make_static_world(world, *sc, t0, mesh);
-    o.scene = &*sc;
+  LiftWorld lw = load_lift_world(a, meta, mesh, diag);
+  const world::VoxelGrid& world = lw.world;
+  if (lw.scene) {
+    o.scene = &*lw.scene;
     o.car_mesh = &mesh;
   }
   gpu::Context ctx(gpu::ContextOptions::from_env());
@@ -124,16 +139,10 @@ void cmd_lift(const LiftArgs& a) {
     refuse_overwriting_input(a.world, a.output);
     refuse_overwriting_input(a.frames, a.output);
     const render::FramesMeta meta = render::read_frames_meta(a.frames);
-    world::VoxelGrid world = world::load_world(a.world);
-    std::optional<scene::Scene> sc;
     const world::TriangleMesh mesh = world::builtin_car_mesh();
-    if (!a.scene.empty()) {
-      // The frames were rendered from the world with the scene's vehicles as car meshes.
-      sc = scene::load_scene(a.scene, scene::LoadOptions{}, &diag);
-      if (scene::tracks_unclassified(*sc)) scene::classify_tracks(*sc);
-      const int t0 = meta.source_time_indices.empty() ? 0 : std::max(0, meta.source_time_indices[0]);
-      world = render::make_static_world(world, *sc, t0, mesh);
-    }
+    const LiftWorld lw = load_lift_world(a, meta, mesh, diag);
+    const world::VoxelGrid& world = lw.world;
+    const std::optional<scene::Scene>& sc = lw.scene;
     gpu::Context ctx(gpu::ContextOptions::from_env());
     lift::LiftFramesOptions o;
     o.key_every = a.key_every;

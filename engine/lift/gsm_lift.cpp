@@ -255,13 +255,8 @@ GsmLiftResult gsm_lift_frames(gpu::Context& ctx, const world::VoxelGrid& static_
   st.forward_s = seconds_since(t0);
 
   // Splat-scene frames (as lift_frames): every scene state by time index, or the folder's frames.
-  const size_t n = meta.poses.size();
   const bool by_time = splat_frames_are_times(meta);
-  size_t splat_frames = n;
-  if (by_time && o.scene) {
-    splat_frames = o.scene->timestamps.size();
-    for (int t : meta.source_time_indices) splat_frames = std::max(splat_frames, size_t(t) + 1);
-  }
+  const size_t splat_frames = splat_frame_count(meta, o.scene);
   lr.splat_frames = splat_frames;
 
   // The dynamic pass.
@@ -348,25 +343,7 @@ GsmLiftResult gsm_lift_frames(gpu::Context& ctx, const world::VoxelGrid& static_
     if (o.progress) o.progress("gsm", total_stages, total_stages);  // also when no key frame had dynamic pixels
   }
 
-  // Held-out frames, evenly spread (as lift_frames).
-  std::vector<size_t> held;
-  for (size_t f = 0; f < n; ++f)
-    if (o.key_every == 1 || f % o.key_every != 0) held.push_back(f);
-  std::vector<size_t> pick;
-  const size_t m = std::min(o.max_eval_frames, held.size());
-  for (size_t i = 0; i < m; ++i) pick.push_back(held[(2 * i + 1) * held.size() / (2 * m)]);
-  if (pick.empty() || lr.cloud.size() == 0) return res;
-  t0 = Clock::now();
-  splat::SplatScene placed;
-  placed.static_set = lr.cloud;
-  placed.objects = lr.objects;
-  placed.frame_count = splat_frames;
-  HeldOutRenderer renderer(ctx, placed, lr.sky, meta.pixels);
-  for (size_t i = 0; i < pick.size(); ++i) {
-    lr.eval.push_back(renderer.evaluate(frames_dir, meta, pick[i]));
-    if (o.progress) o.progress("eval", i + 1, pick.size());
-  }
-  lr.eval_s = seconds_since(t0);
+  evaluate_held_out_frames(ctx, frames_dir, meta, o.key_every, o.max_eval_frames, o.progress, lr);
   return res;
 }
 

@@ -132,11 +132,7 @@ LiftFramesResult lift_frames(gpu::Context& ctx, const world::VoxelGrid& static_w
   res.sky = sky.image();
   // Splat-scene frames: every scene state (by time index) or the folder's frames (splat_frames_are_times).
   const bool by_time = splat_frames_are_times(meta);
-  size_t splat_frames = n;
-  if (by_time && o.scene) {
-    splat_frames = o.scene->timestamps.size();
-    for (int t : meta.source_time_indices) splat_frames = std::max(splat_frames, size_t(t) + 1);
-  }
+  const size_t splat_frames = splat_frame_count(meta, o.scene);
   res.splat_frames = splat_frames;
   if (o.scene) {
     // Each object with its pose in every splat-scene frame where its track places it.
@@ -158,26 +154,41 @@ LiftFramesResult lift_frames(gpu::Context& ctx, const world::VoxelGrid& static_w
   }
   res.emit_s = seconds_since(t0);
 
-  // Held-out frames, evenly spread.
+  evaluate_held_out_frames(ctx, frames_dir, meta, o.key_every, o.max_eval_frames, o.progress, res);
+  return res;
+}
+
+size_t splat_frame_count(const render::FramesMeta& meta, const scene::Scene* scene) {
+  size_t frames = meta.poses.size();
+  if (splat_frames_are_times(meta) && scene) {
+    frames = scene->timestamps.size();
+    for (int t : meta.source_time_indices) frames = std::max(frames, size_t(t) + 1);
+  }
+  return frames;
+}
+
+void evaluate_held_out_frames(gpu::Context& ctx, const std::string& frames_dir, const render::FramesMeta& meta,
+                              size_t key_every, size_t max_eval_frames,
+                              const std::function<void(const char*, size_t, size_t)>& progress, LiftFramesResult& r) {
+  const size_t n = meta.poses.size();
   std::vector<size_t> held;
   for (size_t f = 0; f < n; ++f)
-    if (o.key_every == 1 || f % o.key_every != 0) held.push_back(f);
+    if (key_every == 1 || f % key_every != 0) held.push_back(f);
   std::vector<size_t> pick;
-  const size_t m = std::min(o.max_eval_frames, held.size());
+  const size_t m = std::min(max_eval_frames, held.size());
   for (size_t i = 0; i < m; ++i) pick.push_back(held[(2 * i + 1) * held.size() / (2 * m)]);
-  if (pick.empty() || res.cloud.size() == 0) return res;
-  t0 = Clock::now();
+  if (pick.empty() || r.cloud.size() == 0) return;
+  const auto t0 = Clock::now();
   splat::SplatScene placed;
-  placed.static_set = res.cloud;
-  placed.objects = res.objects;
-  placed.frame_count = splat_frames;
-  HeldOutRenderer renderer(ctx, placed, res.sky, meta.pixels);
+  placed.static_set = r.cloud;
+  placed.objects = r.objects;
+  placed.frame_count = r.splat_frames;
+  HeldOutRenderer renderer(ctx, placed, r.sky, meta.pixels);
   for (size_t i = 0; i < pick.size(); ++i) {
-    res.eval.push_back(renderer.evaluate(frames_dir, meta, pick[i]));
-    if (o.progress) o.progress("eval", i + 1, pick.size());
+    r.eval.push_back(renderer.evaluate(frames_dir, meta, pick[i]));
+    if (progress) progress("eval", i + 1, pick.size());
   }
-  res.eval_s = seconds_since(t0);
-  return res;
+  r.eval_s = seconds_since(t0);
 }
 
 }  // namespace icube::lift

@@ -71,8 +71,18 @@ render::Camera frame_camera(const render::FramesMeta& meta, size_t frame);
 // else the folder's frame numbers. splat_frame_of gives folder frame f's frame in the splat scene.
 bool splat_frames_are_times(const render::FramesMeta& meta);
 size_t splat_frame_of(const render::FramesMeta& meta, size_t frame);
+// The splat scene's frame count: every state of `scene` (and every time index of the folder) when the frames
+// are times, else the folder's frames.
+size_t splat_frame_count(const render::FramesMeta& meta, const scene::Scene* scene);
 
 LiftFramesResult lift_frames(gpu::Context& ctx, const world::VoxelGrid& static_world, const std::string& frames_dir,
                              const render::FramesMeta& meta, const LiftFramesOptions& o);
+
+// The held-out figures of a lift (both lifts' last step): up to max_eval_frames of the frames that are not
+// key frames (every key_every-th from 0), evenly spread, rendered from r's Gaussians, objects and sky into
+// r.eval (and r.eval_s); nothing without Gaussians. progress("eval", done, total) after each frame.
+void evaluate_held_out_frames(gpu::Context& ctx, const std::string& frames_dir, const render::FramesMeta& meta,
+                              size_t key_every, size_t max_eval_frames,
+                              const std::function<void(const char*, size_t, size_t)>& progress, LiftFramesResult& r);
 
 }  // namespace icube::lift

@@ -8,6 +8,7 @@
 #include "gpu_test_context.h"
 #include "kernels/nn/cpu_tensor.h"
 #include "nn/gsm/gsm_inputs.h"
+#include "nn/gsm/gsm_reference.h"
 #include "nn/gsm/gsm_weights.h"
 #include "nn/safetensors.h"
 
@@ -16,6 +17,7 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <memory>
 #include <string>
 #include <vector>
@@ -102,6 +104,29 @@ inline nn::GsmInputs gsm_two_view_batch(const std::string& dir) {
   for (size_t i = 0; i < one.voxel_ijk[0].size(); i += 2) half.push_back(one.voxel_ijk[0][i]);
   in.voxel_ijk = {one.voxel_ijk[0], half};
   return in;
+}
+
+// Every pair of same-named output tensors of two forwards (integers exactly, floats within tol of the
+// reference's std), each float tensor's figure printed.
+inline void check_gsm_outputs(const nn::GsmOutputs& got, const nn::GsmOutputs& want, double tol) {
+  const std::vector<nn::TensorToWrite> g = nn::gsm_output_tensors(got), w = nn::gsm_output_tensors(want);
+  REQUIRE(g.size() == w.size());
+  for (size_t i = 0; i < g.size(); ++i) {
+    CAPTURE(g[i].name);
+    REQUIRE(g[i].name == w[i].name);
+    REQUIRE(g[i].shape == w[i].shape);
+    if (g[i].dtype != nn::DType::F32) {
+      CHECK(g[i].bytes == w[i].bytes);
+      continue;
+    }
+    std::vector<float> a(g[i].bytes.size() / 4), b(w[i].bytes.size() / 4);
+    std::memcpy(a.data(), g[i].bytes.data(), g[i].bytes.size());
+    std::memcpy(b.data(), w[i].bytes.data(), w[i].bytes.size());
+    if (a.empty()) continue;
+    const double e = nn::cpu::max_abs_over_std(a, b);
+    std::printf("  %-30s %.3g of std against the CPU reference\n", g[i].name.c_str(), e);
+    CHECK(e <= tol);
+  }
 }
 
 }  // namespace icube::test

@@ -16,36 +16,10 @@
 
 #include <cmath>
 #include <cstdio>
-#include <cstring>
 #include <string>
 
 using namespace icube;
 
-namespace {
-
-// Compares every pair of same-named output tensors (integers exactly).
-void check_outputs(const nn::GsmOutputs& got, const nn::GsmOutputs& want, double tol) {
-  const std::vector<nn::TensorToWrite> g = nn::gsm_output_tensors(got), w = nn::gsm_output_tensors(want);
-  REQUIRE(g.size() == w.size());
-  for (size_t i = 0; i < g.size(); ++i) {
-    CAPTURE(g[i].name);
-    REQUIRE(g[i].name == w[i].name);
-    REQUIRE(g[i].shape == w[i].shape);
-    if (g[i].dtype != nn::DType::F32) {
-      CHECK(g[i].bytes == w[i].bytes);
-      continue;
-    }
-    std::vector<float> a(g[i].bytes.size() / 4), b(w[i].bytes.size() / 4);
-    std::memcpy(a.data(), g[i].bytes.data(), g[i].bytes.size());
-    std::memcpy(b.data(), w[i].bytes.data(), w[i].bytes.size());
-    if (a.empty()) continue;
-    const double e = nn::cpu::max_abs_over_std(a, b);
-    std::printf("  %-30s %.3g of std against the CPU reference\n", g[i].name.c_str(), e);
-    CHECK(e <= tol);
-  }
-}
-
-}  // namespace
 
 TEST_CASE("gsm gpu: the whole forward matches gsm_small's outputs and intermediates") {
   const std::string dir = test::gsm_small_dir();
@@ -85,7 +59,7 @@ TEST_CASE("gsm gpu: a batch of two two-view elements equals the CPU reference") 
   nn::GsmGpu gsm(ctx, model.config, w);
   const nn::GsmOutputs got = gsm.forward(in);
   const nn::GsmOutputs want = nn::gsm_forward_reference(model.config, w, in, nullptr);
-  check_outputs(got, want, 1e-4);
+  test::check_gsm_outputs(got, want, 1e-4);
 }
 
 TEST_CASE("gsm gpu: other widths with seeded random weights equal the CPU reference") {
@@ -119,5 +93,5 @@ TEST_CASE("gsm gpu: other widths with seeded random weights equal the CPU refere
   const nn::GsmOutputs want = nn::gsm_forward_reference(model.config, w, in, nullptr);
   CHECK(got.elements[0].voxel.count() > 0);
   CHECK(got.elements[0].pixel.count() > 0);
-  check_outputs(got, want, 1e-4);
+  test::check_gsm_outputs(got, want, 1e-4);
 }
