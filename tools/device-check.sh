@@ -6,11 +6,14 @@
 # demo town through Stages 1-3 with the CLI (lift), and issue 38's performance
 # run (perf: the network kernels at the released shapes, the released UNet's
 # 64^3 batch-2 forward in fp32 and fp16, a full-chunk VAE decode, splatting 1 M
-# Gaussians at 1080p, then one table of them). Pack first on this machine
+# Gaussians at 1080p, then one table of them), and issue 39's GSM run (gsm: icube-bench-gsm at the released
+# widths and input size, 1 and 4 key frames: time, GFLOP/s and memory per stage, the GPU against the CPU
+# reference at reduced widths, Depth-Anything-V2-Large per image). Pack first on this machine
 # with tools/device-pack.sh; .gl/ holds Debian's libglvnd .debs (the NVIDIA
 # ICD needs libGLdispatch; see the device tool's README). Then run:
-#   run(command="tools/device-check.sh [unet] [tests] [bench] [lift] [perf]", carry=[".dev", ".gl"], timeout_s=560)
-# (perf alone: at most ~8.5 min by its steps' limits, ~6 min expected on an H100/H200; run it by itself.)
+#   run(command="tools/device-check.sh [unet] [tests] [bench] [lift] [perf] [gsm]", carry=[".dev", ".gl"], timeout_s=560)
+# (perf alone: at most ~8.5 min by its steps' limits, ~6 min expected on an H100/H200; run it by itself.
+#  gsm alone: at most ~8.5 min by its steps' limits, ~4 min expected; run it by itself.)
 # Every step has its own time limit so the whole run ends inside the lease;
 # logs go to $OUT (the tool brings them back), a summary is printed last.
 set -u
@@ -28,7 +31,7 @@ nv_icd=/usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json
 built_in=/work/main
 if [[ ! -e $built_in/assets ]]; then mkdir -p "$(dirname $built_in)" && ln -sfn "$PWD" "$built_in"; fi
 bin=/tmp/dev/bin
-steps="$*"  # a subset of: unet tests bench lift perf (default: all but perf)
+steps="$*"  # a subset of: unet tests bench lift perf gsm (default: all but perf and gsm)
 summary=()
 step() {  # step NAME LIMIT_S CMD...: runs CMD with a limit, log in $out/NAME.txt
   local name=$1 limit=$2; shift 2
@@ -43,7 +46,7 @@ nvidia-smi --query-gpu=name,driver_version,clocks.sm,memory.used --format=csv 2>
 ls /usr/local/nvidia/share/vulkan/icd.d /usr/share/vulkan/icd.d /etc/vulkan/icd.d 2>&1 | head
 step devices 30 env VK_LOADER_DEBUG=error,warn,driver "$bin/icube" devices
 grep -qi "NVIDIA" "$out/devices.txt" || { echo "no NVIDIA Vulkan device: stopping"; exit 1; }
-want() { [[ ( -z $steps && $1 != perf ) || " $steps " == *" $1 "* ]]; }
+want() { [[ ( -z $steps && $1 != perf && $1 != gsm ) || " $steps " == *" $1 "* ]]; }
 if want unet; then
   # Issue 18: one forward of the released UNet (812 M parameters) at 64^3, batch 1, fp32 and fp16 weights.
   step unet64 160 "$bin/icube-bench-nn" --only none --unet infinicube-diffusion --unet-grid 64 64 64 \
@@ -102,6 +105,23 @@ if want perf; then
     grep -E "1920x1080" "$out/perf_splat.txt" | tail -n 3 | sed -E 's/^/| perf_splat | /; s/$/ |/'
   } > "$out/perf_table.md"
   cat "$out/perf_table.md"
+fi
+if want gsm; then
+  # Issue 39: the GSM on the GPU. First the GPU forward against the CPU reference (one CPU thread) at reduced widths
+  # (gsm_small's) on the benchmark's street at 480 x 832, 1 and 4 views; then the released widths (360.7 M random
+  # parameters) at 1 and 4 key frames, 5 runs after a warm-up, per stage time / GFLOP/s / peak RSS, the device's
+  # weights and activation pool; then Depth-Anything-V2-Large per image (PyTorch's row skips without python3-torch).
+  step gsm_check 200 "$bin/icube-bench-gsm" --views 1,4 --no-released --no-dav2
+  step gsm 300 "$bin/icube-bench-gsm" --views 1,4 --runs 5 --warmup 1 --no-check --dav2-runs 5 --dav2-warmup 1 --dav2-parts
+  {
+    echo "| measurement | result |"
+    echo "|---|---|"
+    grep -E "^[0-9]+ +[0-9.]+ +[0-9.]+ .*(ok|FAIL)$" "$out/gsm_check.txt" | sed -E 's/^/| gsm_check views | /; s/$/ |/'
+    grep -E "^(image features|sky token|pixel rays|voxel branch|pixel branch|sky colours|whole forward|device memory|[0-9]+ views?)" \
+      "$out/gsm.txt" | sed -E 's/^/| gsm | /; s/$/ |/'
+    grep -E "^engine (GPU|output)|^= " "$out/gsm.txt" | sed -E 's/^/| gsm dav2 | /; s/$/ |/'
+  } > "$out/gsm_table.md"
+  cat "$out/gsm_table.md"
 fi
 echo "== summary (t+$(( $(date +%s) - t0 )) s)"
 printf '%s\n' "${summary[@]}"
