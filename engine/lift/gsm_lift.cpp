@@ -10,10 +10,8 @@
 #include "nn/gsm/gsm_rays.h"
 #include "nn/gsm/gsm_reference.h"
 #include "render/buffers/frame_scene.h"
-#include "scene/atomic_file.h"
 #include "scene/frames.h"
 #include "scene/input_error.h"
-#include "scene/package_layout.h"
 #include "splat/splat_scene.h"
 
 #include <nlohmann/json.hpp>
@@ -352,9 +350,7 @@ void write_gsm_lift_outputs(const std::string& dir, const render::FramesMeta& me
   LiftFramesOptions lo;
   lo.key_every = o.key_every;
   lo.pixel_frames = o.pixel_frames;
-  write_lift_outputs(dir, meta, r.lift, lo);
-  const std::string path = (fs::path(dir) / scene::PackageLayout::kLiftReport).string();
-  nlohmann::ordered_json rep = nlohmann::ordered_json::parse(scene::read_file(path));
+  const nlohmann::ordered_json rep = lift_report(meta, r.lift, lo);
   const GsmLiftStats& s = r.gsm;
   nlohmann::ordered_json out;
   for (auto it = rep.begin(); it != rep.end(); ++it) {
@@ -388,7 +384,7 @@ void write_gsm_lift_outputs(const std::string& dir, const render::FramesMeta& me
                 {"dynamic_candidates", s.dynamic_candidates},
                 {"floored_scales", s.floored_scales},
                 {"identity_rotations", s.identity_rotations}};
-  scene::write_file_atomic(path, out.dump(1) + "\n");
+  write_lift_outputs(dir, meta, r.lift, out);
 }
 
 }  // namespace icube::lift

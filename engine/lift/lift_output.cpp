@@ -12,38 +12,7 @@
 
 namespace icube::lift {
 
-void write_lift_outputs(const std::string& dir_name, const render::FramesMeta& meta,
-                        const LiftFramesResult& r, const LiftFramesOptions& o) {
-  namespace fs = std::filesystem;
-  const fs::path dir(dir_name);
-  fs::create_directories(dir);
-  splat::write_gaussians_ply((dir / scene::PackageLayout::kStaticPly).string(), r.cloud);
-  scene::write_file_atomic((dir / scene::PackageLayout::kSky).string(),
-                           scene::encode_png(r.sky.rgba.data(), int(r.sky.width), int(r.sky.height), 4));
-  nlohmann::ordered_json sj;
-  sj["format"] = splat::kSplatSceneFormat;
-  sj["version"] = splat::kSplatSceneVersion;
-  sj["static"] = scene::PackageLayout::kStaticPly;
-  if (!r.objects.empty()) {
-    // Each dynamic object's Gaussians in its object frame, and its pose in every frame that has it.
-    sj["frames"] = r.splat_frames;
-    nlohmann::ordered_json objs = nlohmann::ordered_json::array();
-    for (const splat::SplatObject& obj : r.objects) {
-      splat::write_gaussians_ply((dir / obj.source).string(), obj.gaussians);
-      nlohmann::ordered_json track = nlohmann::ordered_json::array();
-      for (size_t f = 0; f < obj.present.size(); ++f) {
-        if (!obj.present[f]) continue;
-        nlohmann::ordered_json rows = nlohmann::ordered_json::array();
-        for (int rr = 0; rr < 4; ++rr)
-          rows.push_back({obj.poses[f][0][rr], obj.poses[f][1][rr], obj.poses[f][2][rr], obj.poses[f][3][rr]});
-        track.push_back({{"frame", f}, {"object_to_world", rows}});
-      }
-      objs.push_back({{"id", obj.id}, {"gaussians", obj.source}, {"track", track}});
-    }
-    sj["objects"] = objs;
-  }
-  scene::write_file_atomic((dir / scene::PackageLayout::kSplatScene).string(), sj.dump(1) + "\n");
-
+nlohmann::ordered_json lift_report(const render::FramesMeta& meta, const LiftFramesResult& r, const LiftFramesOptions& o) {
   nlohmann::ordered_json rep;
   rep["format"] = kLiftReportFormat;
   rep["version"] = 1;
@@ -76,6 +45,46 @@ void write_lift_outputs(const std::string& dir_name, const render::FramesMeta& m
   }
   rep["held_out"] = ev;
   rep["mean_psnr_db"] = r.mean_psnr();
+  return rep;
+}
+
+void write_lift_outputs(const std::string& dir_name, const render::FramesMeta& meta, const LiftFramesResult& r,
+                        const LiftFramesOptions& o) {
+  write_lift_outputs(dir_name, meta, r, lift_report(meta, r, o));
+}
+
+void write_lift_outputs(const std::string& dir_name, const render::FramesMeta& meta, const LiftFramesResult& r,
+                        const nlohmann::ordered_json& rep) {
+  namespace fs = std::filesystem;
+  const fs::path dir(dir_name);
+  fs::create_directories(dir);
+  splat::write_gaussians_ply((dir / scene::PackageLayout::kStaticPly).string(), r.cloud);
+  scene::write_file_atomic((dir / scene::PackageLayout::kSky).string(),
+                           scene::encode_png(r.sky.rgba.data(), int(r.sky.width), int(r.sky.height), 4));
+  nlohmann::ordered_json sj;
+  sj["format"] = splat::kSplatSceneFormat;
+  sj["version"] = splat::kSplatSceneVersion;
+  sj["static"] = scene::PackageLayout::kStaticPly;
+  if (!r.objects.empty()) {
+    // Each dynamic object's Gaussians in its object frame, and its pose in every frame that has it.
+    sj["frames"] = r.splat_frames;
+    nlohmann::ordered_json objs = nlohmann::ordered_json::array();
+    for (const splat::SplatObject& obj : r.objects) {
+      splat::write_gaussians_ply((dir / obj.source).string(), obj.gaussians);
+      nlohmann::ordered_json track = nlohmann::ordered_json::array();
+      for (size_t f = 0; f < obj.present.size(); ++f) {
+        if (!obj.present[f]) continue;
+        nlohmann::ordered_json rows = nlohmann::ordered_json::array();
+        for (int rr = 0; rr < 4; ++rr)
+          rows.push_back({obj.poses[f][0][rr], obj.poses[f][1][rr], obj.poses[f][2][rr], obj.poses[f][3][rr]});
+        track.push_back({{"frame", f}, {"object_to_world", rows}});
+      }
+      objs.push_back({{"id", obj.id}, {"gaussians", obj.source}, {"track", track}});
+    }
+    sj["objects"] = objs;
+  }
+  scene::write_file_atomic((dir / scene::PackageLayout::kSplatScene).string(), sj.dump(1) + "\n");
+
   scene::write_file_atomic((dir / scene::PackageLayout::kLiftReport).string(), rep.dump(1) + "\n");
   if (r.eval.empty()) return;
 

@@ -10,6 +10,8 @@
 
 #include "lift/lift_frames.h"
 
+#include <nlohmann/json_fwd.hpp>
+
 #include <string>
 
 namespace icube::lift {
@@ -18,5 +20,10 @@ inline constexpr const char* kLiftReportFormat = "icube-lift-report";
 
 void write_lift_outputs(const std::string& dir, const render::FramesMeta& meta,
                         const LiftFramesResult& r, const LiftFramesOptions& o);
+
+// The same files with a given lift_report.json (the learned lift's: lift_report() edited).
+nlohmann::ordered_json lift_report(const render::FramesMeta& meta, const LiftFramesResult& r, const LiftFramesOptions& o);
+void write_lift_outputs(const std::string& dir, const render::FramesMeta& meta, const LiftFramesResult& r,
+                        const nlohmann::ordered_json& report);
 
 }  // namespace icube::lift

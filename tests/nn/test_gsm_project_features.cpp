@@ -4,8 +4,9 @@
 // 31 views (the maximum from -inf and from 0), children projecting inside,
 // across the image border, far outside and behind the camera, masked pixels,
 // views that did not see the parent (they give 0, which wins over negative
-// samples), parents seen by no view; the float32 projection and the double one
-// (where the device has shaderFloat64); and windows of views, channels and
+// samples), parents seen by no view; the float32 projection
+// (gsm_project_features.comp) and the double one (gsm_project_features_f64.comp,
+// where the device has shaderFloat64); and windows of views, channels and
 // children with storage bindings capped at 4 KiB. Bounds for features in [-1, 1]:
 // 5e-5 with the float32 projection (it moves the sample point by ~1e-5 pixel
 // and the masked bilinear interpolation is 2-Lipschitz per pixel), 1e-6 with
@@ -173,4 +174,15 @@ TEST_CASE("gsm_project_features gpu: tensors past one storage binding go in wind
       CHECK(e <= (float32 || !capped.info().shader_float64 ? 5e-5 : 1e-6));
       CHECK(nonzero > 600 * 3 / 4);
     }
+}
+
+TEST_CASE("gsm_project_features gpu: gsm_project_features_f64 (the double projection) runs where the device has shaderFloat64") {
+  gpu::Context& ctx = test::gpu_context();
+  kernels::nn::GsmProjectFeatures k(ctx);
+  CHECK(k.projects_in_double() == ctx.info().shader_float64);
+  k.force_float32(true);
+  CHECK_FALSE(k.projects_in_double());
+  const std::string which = ctx.info().shader_float64 ? "gsm_project_features_f64: tested above"
+                                                     : "no shaderFloat64: the float32 shader stands in";
+  MESSAGE(which);
 }
