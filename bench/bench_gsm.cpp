@@ -24,6 +24,8 @@
 #include "nn/gsm/gsm_params.h"
 #include "nn/gsm/gsm_preset.h"
 #include "nn/gsm/gsm_random_weights.h"
+#include "nn/gsm/gsm_rays.h"
+#include "nn/gsm/gsm_rays_gpu.h"
 #include "nn/layer_recorder.h"
 #include "nn/parameter_store.h"
 #include "nn/safetensors.h"
@@ -289,7 +291,7 @@ struct Options {
   int64_t height = 480, width = 832;
   int64_t check_height = 0, check_width = 0;  // 0: half of height x width
   uint32_t seed = 39;
-  bool check = true, released = true, dav2 = true, dav2_cpu = false, dav2_parts = false, torch = true, flops_only = false;
+  bool check = true, rays = true, released = true, dav2 = true, dav2_cpu = false, dav2_parts = false, torch = true, flops_only = false;
   std::vector<std::string> torch_matmul{"onednn"};
   int torch_runs = 5, torch_warmup = 1, torch_blas_runs = 1;
   int dav2_runs = 5, dav2_warmup = 1;
@@ -306,6 +308,7 @@ struct GsmBench {
   int lp_threads = 0;  // LP_NUM_THREADS, 0 when unset
 
   void check_table();
+  void rays_table();
   void released_table(const nn::GsmModelConfig& model, const nn::GsmWeights& w);
   void dav2_table(const nn::GsmModelConfig& model, const nn::GsmWeights& w);
   void flops_table(const nn::GsmModelConfig& model, const nn::GsmWeights& w) const;
@@ -361,6 +364,54 @@ void GsmBench::check_table() {
     std::fflush(stdout);
   }
   std::printf("(GPU s: one forward, the first at each view count includes pipeline creation; CPU ref: one thread)\n");
+}
+
+// The pixel rays both ways at the released input size: the double reference on every core
+// (cast_gsm_pixel_rays) and the engine's ray caster with the marked rays re-marched in double
+// (cast_gsm_pixel_rays_gpu), the same answer required pixel for pixel.
+void GsmBench::rays_table() {
+  std::printf("\nPixel rays (first voxel, grid mask, voxel depth), %lld x %lld, the street's %zu voxels: host double on %u"
+              " threads vs the ray caster (marked rays re-marched in double)\n",
+              static_cast<long long>(o.height), static_cast<long long>(o.width), scene.voxel_ijk[0].size(),
+              bench::online_cpus());
+  std::printf("%-6s %-34s %10s %10s %10s %10s  %s\n", "views", "route", "min s", "median s", "Mrays/s", "re-checked",
+              "check");
+  for (int64_t v : o.views) {
+    const nn::GsmInputs in = bench::first_views(scene, v);
+    const double rays = static_cast<double>(v * o.height * o.width);
+    std::vector<double> host_s, gpu_s;
+    nn::GsmPixelRays want, got;
+    nn::GsmRayCastStats stats;
+    for (int r = 0; r < o.warmup + o.runs; ++r) {
+      Clock::time_point t0 = Clock::now();
+      want = nn::cast_gsm_pixel_rays(in, 0);
+      if (r >= o.warmup) host_s.push_back(seconds_since(t0));
+      stats = {};
+      t0 = Clock::now();
+      got = nn::cast_gsm_pixel_rays_gpu(*ctx, in, 0, &stats);
+      if (r >= o.warmup) gpu_s.push_back(seconds_since(t0));
+    }
+    size_t bad = 0;
+    for (size_t p = 0; p < want.first_voxel.size(); ++p)
+      bad += got.first_voxel[p] != want.first_voxel[p] || got.grid_foreground[p] != want.grid_foreground[p] ||
+             std::fabs(double(got.voxel_depth[p]) - double(want.voxel_depth[p])) >
+                 2e-6 + 1e-6 * std::fabs(double(want.voxel_depth[p]));
+    const MinMedian h = min_median(host_s), g = min_median(gpu_s);
+    char marked[32];
+    std::snprintf(marked, sizeof marked, "%.3f%%", 100.0 * static_cast<double>(stats.rechecked) / rays);
+    std::printf("%-6lld %-34s %10.3f %10.3f %10.2f %10s  %s\n", static_cast<long long>(v), "host double (reference)", h.min,
+                h.median, rays / h.min * 1e-6, "-", "ref");
+    std::printf("%-6lld %-34s %10.3f %10.3f %10.2f %10s  %s\n", static_cast<long long>(v), "ray caster + double re-check",
+                g.min, g.median, rays / g.min * 1e-6, marked, bad == 0 ? "ok" : "FAIL");
+    std::printf("       (ray caster run: GPU part %.3f s, host re-check and row lookups %.3f s)\n", stats.gpu_ms * 1e-3,
+                stats.host_ms * 1e-3);
+    if (bad) {
+      std::fprintf(stderr, "pixel rays differ at %zu pixels (%lld views)\n", bad, static_cast<long long>(v));
+      failed = true;
+    }
+    std::fflush(stdout);
+  }
+  std::printf("(%d warm-up + %d timed runs each; a run includes the world and ray uploads)\n", o.warmup, o.runs);
 }
 
 void GsmBench::released_table(const nn::GsmModelConfig& model, const nn::GsmWeights& w) {
@@ -672,7 +723,7 @@ void GsmBench::dav2_table(const nn::GsmModelConfig& model, const nn::GsmWeights&
 int main(int argc, char** argv) {
   Options o;
   std::string size_text = "480x832", check_size_text;
-  bool no_check = false, no_released = false, no_dav2 = false, no_torch = false;
+  bool no_check = false, no_rays = false, no_released = false, no_dav2 = false, no_torch = false;
   CLI::App app(
       "icube-bench-gsm: the GSM (stage-3 reconstruction) on the default device: GPU vs CPU reference at reduced widths, "
       "one forward of the released widths per view count (time, GFLOP/s and memory per stage), and Depth-Anything-V2-Large "
@@ -685,6 +736,7 @@ int main(int argc, char** argv) {
   app.add_option("--seed", o.seed, "Seed of the random weights and the depth-patch draw")->capture_default_str();
   app.add_flag("--flops", o.flops_only, "Only print the FLOP model of the released widths per view count (no forwards)");
   app.add_flag("--no-check", no_check, "Skip the GPU-vs-CPU-reference check at reduced widths");
+  app.add_flag("--no-rays", no_rays, "Skip the pixel-ray table (host double vs the ray caster)");
   app.add_flag("--no-released", no_released, "Skip the released-width forwards");
   app.add_flag("--no-dav2", no_dav2, "Skip the Depth-Anything-V2 table");
   app.add_option("--dav2-runs", o.dav2_runs, "Timed Depth-Anything-V2 runs of the engine's GPU stage")->capture_default_str();
@@ -709,6 +761,7 @@ int main(int argc, char** argv) {
   CLI11_PARSE(app, argc, argv);
   o.check = !no_check;
   o.released = !no_released;
+  o.rays = !no_rays;
   o.dav2 = !no_dav2;
   o.torch = !no_torch;
   auto parse_size = [](const std::string& text, int64_t& h, int64_t& w) {
@@ -772,6 +825,7 @@ int main(int argc, char** argv) {
                         : bench::street_scene(b.scene.views, o.check_height, o.check_width, o.seed);
     b.check_table();
   }
+  if (o.rays) b.rays_table();
   if (o.released || o.dav2) {
     const nn::GsmModelConfig model = nn::load_gsm_model_config(nn::kInfinicubeGsmPreset);
     t0 = Clock::now();

@@ -92,6 +92,8 @@ void cmd_lift_gsm(const LiftArgs& a, const lift::GsmModelPaths& paths, scene::Di
   // Before any work: the configuration, the sizes it would run at, the weights.
   const nn::GsmModelConfig config = lift::load_gsm_lift_config(paths);
   const render::FramesMeta meta = render::read_frames_meta(a.frames);
+  gpu::Context ctx(gpu::ContextOptions::from_env());  // its storage-binding size bounds the key frames' size
+  if (!o.cpu_reference) o.max_view_pixels = lift::gsm_max_view_pixels(ctx.info().max_storage_buffer_range);
   lift::gsm_lift_plan(meta.poses.size(), meta.width, meta.height, a.frames + "/frames_meta.json", config.config, o);
   const lift::GsmLiftModel model = lift::load_gsm_lift_model(paths);
   const world::TriangleMesh mesh = world::builtin_car_mesh();
@@ -101,7 +103,6 @@ void cmd_lift_gsm(const LiftArgs& a, const lift::GsmModelPaths& paths, scene::Di
     o.scene = &*lw.scene;
     o.car_mesh = &mesh;
   }
-  gpu::Context ctx(gpu::ContextOptions::from_env());
   ProgressBar frames_bar("frames", "frames");
   ProgressBar gsm_bar("gsm", "stages");
   ProgressBar eval_bar("eval", "frames");

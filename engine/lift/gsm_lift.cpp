@@ -118,6 +118,8 @@ GsmLiftModel load_gsm_lift_model(const GsmModelPaths& paths) {
   return m;
 }
 
+uint64_t gsm_max_view_pixels(uint64_t max_binding_bytes) { return max_binding_bytes / (64 * 4); }
+
 GsmLiftPlan gsm_lift_plan(size_t frames, uint32_t frame_width, uint32_t frame_height, const std::string& source,
                           const nn::GsmConfig& config, const GsmLiftOptions& o) {
   if (o.key_every == 0) throw std::invalid_argument("key_every must be at least 1");
@@ -141,8 +143,9 @@ GsmLiftPlan gsm_lift_plan(size_t frames, uint32_t frame_width, uint32_t frame_he
     throw scene::InputError(source, "",
                             "the GSM's input size " + size_text(plan.width, plan.height) + " is " + std::to_string(view_pixels) +
                                 " pixels per key frame, more than its limit of " + std::to_string(o.max_view_pixels) +
-                                " (one key frame's 64-channel feature maps must fit one storage binding): give a smaller "
-                                "input size (--gsm-size; the official one is 832x480)");
+                                " (one key frame's 64-channel feature maps must fit one storage binding of " +
+                                std::to_string(o.max_view_pixels * 64 * 4 >> 20) + " MiB on this device): give a "
+                                "smaller input size (--gsm-size; the official one is 832x480)");
   const uint64_t pixels = uint64_t(plan.key_frames.size()) * plan.width * plan.height;
   if (pixels > o.max_pixels)
     throw scene::InputError(source, "",
@@ -157,8 +160,10 @@ GsmLiftResult gsm_lift_frames(gpu::Context& ctx, const world::VoxelGrid& static_
                               const std::string& frames_dir, const render::FramesMeta& meta, const GsmLiftModel& model,
                               const GsmLiftOptions& o) {
   const nn::GsmConfig& config = model.model.config;
+  GsmLiftOptions sized = o;  // on the GPU, this device's storage bindings bound the key frames' size
+  if (!o.cpu_reference) sized.max_view_pixels = gsm_max_view_pixels(ctx.info().max_storage_buffer_range);
   const GsmLiftPlan plan = gsm_lift_plan(meta.poses.size(), meta.width, meta.height,
-                                         (fs::path(frames_dir) / "frames_meta.json").string(), config, o);
+                                         (fs::path(frames_dir) / "frames_meta.json").string(), config, sized);
   if (o.scene && o.dynamic && !o.car_mesh) throw std::invalid_argument("gsm_lift_frames: a scene needs the cars' mesh");
   GsmLiftResult res;
   res.model = model.paths;

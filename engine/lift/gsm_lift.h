@@ -67,16 +67,22 @@ GsmLiftModel load_gsm_lift_model(const GsmModelPaths& paths);
 // The configuration alone (the size checks before the weights are read).
 nn::GsmModelConfig load_gsm_lift_config(const GsmModelPaths& paths);
 
+// The most pixels per key frame a device whose storage bindings hold max_binding_bytes takes: one key
+// frame's widest tensors (64 float channels at full resolution: the conv encoder's features, x-unet's
+// first level) must fit one binding. 524,288 on lavapipe (128 MiB; the official 832 x 480 is 399,360),
+// 16.7 M with NVIDIA's 4 GiB.
+uint64_t gsm_max_view_pixels(uint64_t max_binding_bytes);
+
 struct GsmLiftOptions {
   size_t key_every = 6;     // the official use_frame_interval
   size_t pixel_frames = 1;  // pixel branch on the last N key frames (0 = off)
   uint32_t width = 0, height = 0;  // the model's input size; 0 = the frames' size
   double radius = 80.0;     // input voxels within this many metres (x, y) of a key camera; <= 0: all
   uint64_t max_pixels = 24ull * 480 * 832;  // key frames x width x height
-  // width x height: one key frame's widest tensors (64 float channels at full resolution: the conv encoder's
-  // features, x-unet's first level) must fit one storage binding, 128 MiB on lavapipe (the official 832 x 480
-  // is 399,360)
-  uint64_t max_view_pixels = (128ull << 20) / (64 * 4);
+  // width x height: one key frame's widest tensors must fit one storage binding (gsm_max_view_pixels); the
+  // default is lavapipe's 128 MiB; gsm_lift_frames on the GPU and the callers' checks before work (icube lift,
+  // icube generate) use their device's
+  uint64_t max_view_pixels = gsm_max_view_pixels(128ull << 20);
   uint64_t max_voxels = 3'000'000;          // input voxels
   bool cpu_reference = false;  // the plain CPU reference (nn/gsm/gsm_reference.h) instead of the GPU
   bool dynamic = true;         // the dynamic pass (needs `scene`)

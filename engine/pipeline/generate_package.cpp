@@ -152,6 +152,10 @@ void GenerateJob::check_inputs() {
     lift::GsmLiftOptions o = a.gsm_options;
     o.key_every = a.key_every;
     o.pixel_frames = a.pixel_frames;
+    if (!o.cpu_reference) {  // the device's storage-binding size bounds the key frames' size
+      if (!ctx) ctx.emplace(gpu::ContextOptions::from_env());
+      o.max_view_pixels = lift::gsm_max_view_pixels(ctx->info().max_storage_buffer_range);
+    }
     lift::gsm_lift_plan(traj->size(), cp.K.width, cp.K.height, a.path.scene, config.config, o);
     gsm_model.emplace(lift::load_gsm_lift_model(a.gsm));
   }
@@ -411,7 +415,7 @@ GenerateResult GenerateJob::run() {
   const world::VoxelGrid world = world::load_world(pkg->world().string());
   const int t0_index = traj->time_index.empty() ? 0 : std::max(0, traj->time_index[0]);
   static_world.emplace(render::make_static_world(world, *cp.scene, t0_index, mesh));
-  ctx.emplace(gpu::ContextOptions::from_env());
+  if (!ctx) ctx.emplace(gpu::ContextOptions::from_env());
   stage("buffers", [&] { return buffers_stage(); });
   stage("frames", [&] { return frames_stage(); });
   overlay.reset();  // the lift casts against its own copies of the world

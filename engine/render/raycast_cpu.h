@@ -39,7 +39,7 @@ namespace icube::render {
 struct RaycastOptions {
   double eps_sem = 0.01;    // metres
   double eps_depth = 0.1;   // metres
-  double gap_eps = 1e-4;    // metres
+  double gap_eps = 1e-4;    // metres; negative: every empty voxel the walk enters ends a run, even at zero length
   double t_max = std::numeric_limits<double>::infinity();
   PixelConvention pixels = PixelConvention::Integer;
 };

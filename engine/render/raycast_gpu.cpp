@@ -41,8 +41,8 @@ float to_float_t(double t) { return t >= static_cast<double>(FLT_MAX) ? FLT_MAX 
 int32_t clamp_rel(int64_t v) { return static_cast<int32_t>(std::clamp<int64_t>(v, -RAYCAST_MAX_REL, RAYCAST_MAX_REL)); }
 
 shader::RaycastParams base_params(const RaycastWorld& w, const glm::ivec3& ref, const RaycastOptions& opts) {
-  if (!(opts.eps_sem >= 0.0 && opts.eps_depth >= 0.0 && opts.gap_eps >= 0.0 && opts.t_max >= 0.0))
-    throw std::invalid_argument("raycast: eps and t_max must be non-negative");
+  if (!(opts.eps_sem >= 0.0 && opts.eps_depth >= 0.0 && opts.t_max >= 0.0 && std::isfinite(opts.gap_eps)))
+    throw std::invalid_argument("raycast: eps_sem, eps_depth and t_max must be non-negative, gap_eps finite");
   shader::RaycastParams p{};
   p.table_mask = w.gpu.table_mask;
   p.pixel_offset = static_cast<float>(pixel_offset(opts.pixels));
@@ -184,7 +184,7 @@ std::vector<glm::vec2> df_check_gpu(gpu::Context& ctx, const shader::RaycastDfCh
   return res;
 }
 
-gpu::Program& RaycasterGpu::cast_program(bool tiled, bool occupancy, bool exact) const {
+gpu::Program& RaycasterGpu::cast_program(bool tiled, bool occupancy, bool exact, bool mark_ties) const {
   // Created on first use and cached by the context: a world without an occupancy index (or
   // set_occupancy(false)) compiles the hash-table variant only when it is needed.
   gpu::SpecConstants spec;
@@ -192,6 +192,7 @@ gpu::Program& RaycasterGpu::cast_program(bool tiled, bool occupancy, bool exact)
       .set(1, skip_empty_ /* RAYCAST_SKIP_EMPTY */)
       .set(2, tiled ? tile_w_ : 0u /* RAYCAST_TILE_W: 0 = rows */)
       .set(5, occupancy /* RAYCAST_OCCUPANCY */);
+  if (mark_ties) spec.set(6, true /* RAYCAST_MARK_TIES */);
   if (tiled) spec.set(3, ctx_.subgroup_size() /* RAYCAST_SUB_LANES */).set(4, wg_w_ /* RAYCAST_WG_W */);
   return ctx_.program(!exact ? "raycast/cast" : exact_float_only() ? "raycast/exact_df" : "raycast/exact", spec);
 }
@@ -223,7 +224,7 @@ shader::RaycastParams RaycasterGpu::ray_params(const RaycastWorld& w, const GpuR
   return p;
 }
 
-GpuRayBatch RaycasterGpu::upload_rays(const RaycastWorld& w, const std::vector<Ray>& rays) {
+GpuRayBatch RaycasterGpu::upload_rays(const RaycastWorld& w, const std::vector<Ray>& rays, bool normalise) {
   if (rays.size() > UINT32_MAX / 2) throw std::invalid_argument("raycast: too many rays");
   GpuRayBatch b;
   b.count = static_cast<uint32_t>(rays.size());
@@ -235,7 +236,7 @@ GpuRayBatch RaycasterGpu::upload_rays(const RaycastWorld& w, const std::vector<R
     const double len = glm::length(r.dir);
     if (!std::isfinite(q.x + q.y + q.z) || !(len > 0.0) || !std::isfinite(len))
       throw std::invalid_argument("raycast: non-finite ray or zero direction");
-    const glm::dvec3 d = r.dir / len;
+    const glm::dvec3 d = normalise ? r.dir / len : r.dir;
     data.insert(data.end(), {static_cast<float>(q.x), static_cast<float>(q.y), static_cast<float>(q.z), 0.0f,
                              static_cast<float>(d.x), static_cast<float>(d.y), static_cast<float>(d.z), 0.0f});
   }
@@ -320,10 +321,11 @@ void RaycasterGpu::record(gpu::CommandList& cmd, const RaycastWorld& w, const sh
   if (per == 0)
     throw std::invalid_argument("raycast: one storage binding of " + std::to_string(ctx_.info().max_storage_buffer_range) +
                                 " bytes holds no aligned window of ray hits");
-  gpu::Program& prog = cast_program(tiled, occupancy, false);
+  const bool mark_ties = mark_ties_ && p.width == 0;
+  gpu::Program& prog = cast_program(tiled, occupancy, false, mark_ties);
   const gpu::BufferBinding occ_texels = occ_.texel_binding(VK_FORMAT_R32G32_UINT, 0, occ_.size() & ~VkDeviceSize{7});
   const gpu::BufferBinding mask_texels = occ_.texel_binding(VK_FORMAT_R32_UINT, 0, occ_.size() & ~VkDeviceSize{3});
-  p.mark_near = exact ? 1u : 0u;
+  p.mark_near = exact || mark_ties ? 1u : 0u;
   if (exact) {
     const VkDeviceSize list_bytes = (VkDeviceSize{std::min<uint64_t>(per, p.n)} + 1) * 4;
     if (near_.size() < list_bytes) {

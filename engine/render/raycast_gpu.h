@@ -97,12 +97,23 @@ class RaycasterGpu {
   // Whether the exact pass (when on) decides in double-float.
   bool exact_float_only() const;
   uint32_t tile_width() const { return tile_w_; }
+  // Ray-list casts flag (RAYCAST_FLAG_NEAR in RaycastHit.flags) every ray whose walk, semantic chord or
+  // depth run came within float rounding of a decision that a double walk of the same ray could take
+  // the other way: another axis's voxel plane within ~7 ulps of the position where the walk leaves a
+  // cell (or starts), a chord within rounding of eps_sem, a run within rounding of eps_depth
+  // (raycast/traverse.glsl, raycast_tie_eps). A caller that re-casts the flagged rays in double gets
+  // the double walk's results for every ray (engine/nn/gsm/gsm_rays_gpu.h). Off by default (a
+  // pipeline of its own); camera casts ignore it.
+  void set_mark_ties(bool on) { mark_ties_ = on; }
+  bool mark_ties() const { return mark_ties_; }
 
   // Push constants for a camera (camera mode) / for a ray batch (ray-list mode).
   shader::RaycastParams camera_params(const RaycastWorld& w, const Camera& cam, const RaycastOptions& opts) const;
   shader::RaycastParams ray_params(const RaycastWorld& w, const GpuRayBatch& rays, const RaycastOptions& opts) const;
 
-  GpuRayBatch upload_rays(const RaycastWorld& w, const std::vector<Ray>& rays);
+  // Directions are normalised in double before rounding to float; normalise = false uploads them as
+  // given (rounded to float), for callers whose float directions are the reference's bit for bit.
+  GpuRayBatch upload_rays(const RaycastWorld& w, const std::vector<Ray>& rays, bool normalise = true);
 
   // Record one dispatch writing W·H (or rays.count) RaycastHits to `hits`
   // (>= 48 bytes per ray). The caller orders earlier uses of `hits` before
@@ -128,7 +139,7 @@ class RaycasterGpu {
               const gpu::BufferBinding& rays, const gpu::Buffer& hits, const shader::RaycastCameraF64* cam64 = nullptr);
   // The ray-casting pipeline: rows or tiles, occupancy index or hash table, float pass or the
   // exact pass (raycast/exact, needs shaderFloat64, or raycast/exact_df: exact_float_only()).
-  gpu::Program& cast_program(bool tiled, bool occupancy, bool exact) const;
+  gpu::Program& cast_program(bool tiled, bool occupancy, bool exact, bool mark_ties = false) const;
   gpu::Context& ctx_;
   static constexpr uint64_t kExactPassThreads = 4096;  // the exact pass's grid
   gpu::Program& occupancy_program_;
@@ -148,6 +159,7 @@ class RaycasterGpu {
   gpu::Buffer exact_camera_;  // the camera of the last exact camera record (RaycastCameraF64 or RaycastCameraDf)
   bool exact_ = true;
   bool force_df_ = false;
+  bool mark_ties_ = false;
 };
 
 // The camera of the exact pass in double (RaycastCameraF64): its rotation, intrinsics, offset

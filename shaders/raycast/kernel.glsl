@@ -47,6 +47,12 @@ layout(constant_id = 4) const uint RAYCAST_WG_W = 8u;
 // up in the hash table (worlds without an index). A pipeline per path: lavapipe runs both sides of
 // a runtime branch (masked), so the unused path would cost every step.
 layout(constant_id = 5) const bool RAYCAST_OCCUPANCY = true;
+// Spec constant 6: ray-list casts flag (RAYCAST_FLAG_NEAR in the hit, with p.mark_near) the rays whose
+// walk, semantic chord or depth run came within float rounding of a decision a double walk of the same
+// ray could take the other way (raycast/traverse.glsl, raycast_tie_eps); the caller re-casts those in
+// double (the GSM's pixel rays: engine/nn/gsm/gsm_rays_gpu.h). A pipeline of its own, so camera casts
+// pay nothing for it.
+layout(constant_id = 6) const bool RAYCAST_MARK_TIES = false;
 layout(push_constant) uniform Push { RaycastParams p; };
 // The world is read through texel buffers only (the hash table as R32G32B32A32_UINT texels, the
 // brick words as R32_UINT), so it is bounded by maxTexelBufferElements, not by one storage binding.
@@ -120,6 +126,7 @@ void main() {
   }
   const RaycastHit h = raycast_traverse(o, d, uvec2(px, py));
   hits[i - p.first] = h;
-  if ((h.flags & RAYCAST_FLAG_NEAR) != 0u) near_list[1u + atomicAdd(near_list[0], 1u)] = i;
+  // Camera mode lists the flagged rays for the exact pass; ray-list mode leaves them in the hits' flags.
+  if (p.width != 0u && (h.flags & RAYCAST_FLAG_NEAR) != 0u) near_list[1u + atomicAdd(near_list[0], 1u)] = i;
 }
 #endif

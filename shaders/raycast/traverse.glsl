@@ -84,6 +84,17 @@ int raycast_locate(float o, float dd, int st, float t, bool ties_crossed) {
   return v;
 }
 
+// RAYCAST_MARK_TIES: how close (voxel units) the ray's point may come to a voxel plane, or a
+// threshold decision to its threshold (metres, x voxel size), before float rounding could decide it
+// otherwise than a double walk of the same ray: 4e-7 (~7 float ulps) of the largest coordinate
+// magnitude involved, |o| + t / voxel size, plus 2 voxels.
+float raycast_tie_eps(vec3 o, float t) { return 4.0e-7 * (2.0 + max(abs(o.x), max(abs(o.y), abs(o.z))) + t * p.inv_voxel); }
+// Whether the ray's point on one axis at time t lies within eps voxels of a voxel plane.
+bool raycast_near_plane(float o, float dd, float t, float eps) {
+  const float x = o + t * dd;
+  return abs(x - round(x)) <= eps;
+}
+
 int raycast_argmin(vec3 tm) { return tm.x <= tm.y ? (tm.x <= tm.z ? 0 : 2) : (tm.y <= tm.z ? 1 : 2); }
 
 #if RAYCAST_EXACT_F64
@@ -156,9 +167,36 @@ RaycastHit raycast_traverse(vec3 o, vec3 d, uvec2 pix) {
     else v[a] = clamp(raycast_locate(o[a], dd[a], st[a], t0, a < eaxis), lo[a], hi[a] - 1);
   }
 
+  bool near = false;
+  if (RAYCAST_MARK_TIES) {
+    // The start point (the origin or the bounds entry point) within rounding of voxel planes of other
+    // axes: a double walk may start on a plane's other side. Moving off the planes, such walks differ
+    // only by visits of (nearly) zero length to the voxels around the point, the 2^k of them beside
+    // its k near planes, so the ray is marked only when one of those is occupied; and always when it
+    // does not move along a near plane's axis (it stays on the plane).
+    const float eps = raycast_tie_eps(o, t0);
+    uint near_mask = 0u;
+    ivec3 plane = ivec3(0);
+    for (int a = 0; a < 3; ++a) {
+      const float x = o[a] + t0 * dd[a];
+      if (a != eaxis && abs(x - round(x)) <= eps) {
+        near_mask |= 1u << uint(a);
+        plane[a] = int(round(x));
+        if (st[a] == 0) near = true;
+      }
+    }
+    for (uint c = 0u; c < 8u && near_mask != 0u && !near; ++c) {
+      if ((c & ~near_mask) != 0u) continue;  // one corner per subset of the near axes
+      ivec3 w = v;
+      for (int a = 0; a < 3; ++a)
+        if ((near_mask & (1u << uint(a))) != 0u) w[a] = plane[a] - 1 + int((c >> uint(a)) & 1u);
+      near = world_occupied_texel(ref + w, p.table_mask);
+    }
+  }
+
   float t = t0;
   int normal = eaxis >= 0 ? -(eaxis + 1) * st[eaxis] : RAYCAST_NORMAL_NONE;
-  bool sem = false, dep = false, in_run = false, near = false;
+  bool sem = false, dep = false, in_run = false;
   float run_t = 0.0, run_len = 0.0, gap = 0.0;
   uint sem_base = 0u, sem_n = 0u;  // the semantic hit's brick record base and voxel index
   uint steps = 0u;
@@ -250,7 +288,7 @@ RaycastHit raycast_traverse(vec3 o, vec3 d, uvec2 pix) {
       bool sem_pass = chord >= p.eps_sem;
       // Within float rounding of the threshold (|error| << 1e-6 + 1e-6 t m): the exact variant
       // decides in double; the float one flags the ray for it when asked (p.mark_near).
-      if (!sem && p.width != 0u && abs(chord - p.eps_sem) <= 1.0e-6 + 1.0e-6 * t) {
+      if (!sem && (p.width != 0u || RAYCAST_MARK_TIES) && abs(chord - p.eps_sem) <= 1.0e-6 + 1.0e-6 * t) {
 #if RAYCAST_EXACT_F64
         sem_pass = raycast_chord_f64(v, pix, lo, hi) >= cam64.eps_sem;
 #elif RAYCAST_EXACT_DF
@@ -271,14 +309,28 @@ RaycastHit raycast_traverse(vec3 o, vec3 d, uvec2 pix) {
         if (!in_run) { in_run = true; run_t = t; run_len = 0.0; }
         run_len += chord;
         gap = 0.0;
-        if (run_len >= p.eps_depth) { dep = true; h.t_depth = run_t; }
+        if (run_len >= p.eps_depth) {
+          dep = true;
+          h.t_depth = run_t;
+          if (RAYCAST_MARK_TIES && run_len - p.eps_depth <= raycast_tie_eps(o, tb) * 8.0 / p.inv_voxel) near = true;
+        }
       }
       if (sem && dep) break;
     } else if (in_run) {
       gap += chord;
-      if (gap > p.gap_eps) in_run = false;
+      if (gap > p.gap_eps) {
+        in_run = false;
+        if (RAYCAST_MARK_TIES && p.eps_depth - run_len <= raycast_tie_eps(o, t) * 8.0 / p.inv_voxel) near = true;
+      }
     }
     if (tb >= t1) break;
+    if (RAYCAST_MARK_TIES) {
+      // The next cell: another axis's plane crossed within rounding of the exit (voxel steps), or the
+      // point the next voxel is located from near a plane (after a skipped cell).
+      const float eps = raycast_tie_eps(o, tb);
+      for (int a = 0; a < 3; ++a)
+        if (a != e && st[a] != 0 && raycast_near_plane(o[a], dd[a], tb, eps)) near = true;
+    }
     t = max(t, tb);
     // Next voxel: the exit plane's neighbour on the exit axis; on the others (a skipped cell)
     // the voxel containing the ray at t, never behind the current one (a plane at exactly t
@@ -295,6 +347,9 @@ RaycastHit raycast_traverse(vec3 o, vec3 d, uvec2 pix) {
     normal = -(e + 1) * ste;
     if (any(lessThan(v, lo)) || any(greaterThanEqual(v, hi))) break;
   }
+  // A run still open where the walk ended (the bounds or t_max) short of eps_depth by a rounding.
+  if (RAYCAST_MARK_TIES && in_run && !dep && p.eps_depth - run_len <= raycast_tie_eps(o, t1) * 8.0 / p.inv_voxel)
+    near = true;
   if (sem) {
     // Texel fetches are function calls on lavapipe that every iteration of a loop would execute
     // (masked), so the hit's attributes are read once here.

@@ -321,9 +321,12 @@ TEST_CASE("gsm lift: input sizes the model does not take and past the limits are
   o.width = 1920, o.height = 1088;
   CHECK_THROWS_WITH_AS(lift::gsm_lift_plan(8, 208, 120, "m.json", c, o),
                        "m.json: the GSM's input size 1920x1088 is 2088960 pixels per key frame, more than its limit of "
-                       "524288 (one key frame's 64-channel feature maps must fit one storage binding): give a smaller "
-                       "input size (--gsm-size; the official one is 832x480)",
+                       "524288 (one key frame's 64-channel feature maps must fit one storage binding of 128 MiB on this "
+                       "device): give a smaller input size (--gsm-size; the official one is 832x480)",
                        scene::InputError);
+  // A device with 4 GiB bindings (NVIDIA) takes it.
+  o.max_view_pixels = lift::gsm_max_view_pixels(4ull << 30);
+  CHECK(lift::gsm_lift_plan(8, 208, 120, "m.json", c, o).width == 1920);
   o.width = 208, o.height = 112;
   o.max_pixels = 208 * 112;
   CHECK_THROWS_WITH_AS(lift::gsm_lift_plan(8, 208, 120, "m.json", c, o),

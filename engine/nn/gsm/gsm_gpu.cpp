@@ -4,6 +4,7 @@
 #include "gpu/context.h"
 #include "nn/gsm/conv_encoder_gpu.h"
 #include "nn/gsm/gsm_rays.h"
+#include "nn/gsm/gsm_rays_gpu.h"
 #include "nn/gsm/sky_reference.h"
 #include "nn/gsm/pixel_branch_gpu.h"
 #include "nn/gsm/voxel_branch_gpu.h"
@@ -112,10 +113,11 @@ GsmOutputs GsmGpu::forward(const GsmInputs& in, GsmTrace* trace) {
   out.sky_tokens = sky_tokens(config_.sky, weights_, in, images_host, trace);
   finish_stage("sky token (host)", ms_since(t0), false);
 
-  // 3. Pixel rays (host, double).
+  // 3. Pixel rays on the voxel ray caster (rays near a tie re-marched in double on the host).
   t0 = Clock::now();
   std::vector<GsmPixelRays> rays;
-  for (int64_t b = 0; b < B; ++b) rays.push_back(cast_gsm_pixel_rays(in, b));
+  GsmRayCastStats ray_stats;
+  for (int64_t b = 0; b < B; ++b) rays.push_back(cast_gsm_pixel_rays_gpu(ctx_, in, b, &ray_stats));
   trace_gsm_pixel_rays(rays, trace);
   CpuTensor voxel_depth({B * N, 1, H, W}), grid_fg({B * N, 1, H, W});
   for (int64_t b = 0; b < B; ++b) {
@@ -124,7 +126,7 @@ GsmOutputs GsmGpu::forward(const GsmInputs& in, GsmTrace* trace) {
     for (size_t i = 0; i < r.grid_foreground.size(); ++i)
       grid_fg.data[static_cast<size_t>(b * N * H * W) + i] = r.grid_foreground[i] ? 1.0f : 0.0f;
   }
-  finish_stage("pixel rays (host, double)", ms_since(t0), false);
+  finish_stage("pixel rays (ray caster)", ms_since(t0), true);
 
   // 4. The voxel branch, one batch element per command list.
   t0 = Clock::now();

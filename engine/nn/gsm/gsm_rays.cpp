@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <exception>
 #include <limits>
 #include <stdexcept>
 #include <string>
@@ -151,9 +152,69 @@ VoxelRayWalk VoxelRayGrid::march(const std::array<double, 3>& origin, const std:
   return walk;
 }
 
+std::array<float, 3> gsm_optical_axis(const std::array<float, 16>& pose) {
+  std::array<float, 3> axis{pose[2], pose[6], pose[10]};
+  const float norm = std::sqrt(axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2]);
+  for (float& c : axis) c /= norm;
+  return axis;
+}
+
+GsmPixelRay march_gsm_pixel(const VoxelRayGrid& grid, const std::array<float, 16>& pose,
+                            const std::array<float, 6>& intrinsics, int64_t u, int64_t v) {
+  const std::array<double, 3> centre{pose[3], pose[7], pose[11]};
+  const std::array<float, 3> dir = gsm_pixel_ray_direction(pose, intrinsics, u, v);
+  const VoxelRayWalk walk = grid.march(centre, {dir[0], dir[1], dir[2]});
+  GsmPixelRay r;
+  r.first_voxel = walk.first_voxel;
+  r.grid_foreground = walk.first_segment_start(kGsmGridMaskMinSegment) >= 0.0 ? 1 : 0;
+  const double start = walk.first_segment_start(kGsmDepthMinSegment);
+  if (start >= 0.0) {
+    // The optical axis in float32 as the official code computes it.
+    const std::array<float, 3> axis = gsm_optical_axis(pose);
+    const float cosine = axis[0] * dir[0] + axis[1] * dir[1] + axis[2] * dir[2];
+    r.voxel_depth = static_cast<float>(start) * cosine;
+  }
+  return r;
+}
+
+void check_gsm_ray_intrinsics(const GsmInputs& in, int64_t b) {
+  const int64_t N = in.views, H = in.height, W = in.width;
+  for (int64_t view = 0; view < N; ++view) {
+    const std::array<float, 6>& k = in.intrinsics[static_cast<size_t>(b * N + view)];
+    if (static_cast<int64_t>(k[4]) != W || static_cast<int64_t>(k[5]) != H)
+      throw std::invalid_argument("gsm pixel rays: intrinsics of view " + std::to_string(b * N + view) + " are for " +
+                                  std::to_string(k[4]) + " x " + std::to_string(k[5]) + " pixels, the images have " +
+                                  std::to_string(W) + " x " + std::to_string(H));
+  }
+}
+
+void gsm_parallel_for(int64_t n, int64_t grain, const std::function<void(int64_t)>& fn) {
+  if (n <= 0) return;
+  grain = std::max<int64_t>(grain, 1);
+  const int64_t tasks = (n + grain - 1) / grain;
+  const size_t threads = std::min<size_t>(static_cast<size_t>(tasks), std::max(1u, std::thread::hardware_concurrency()));
+  std::atomic<int64_t> next{0};
+  std::vector<std::exception_ptr> errors(threads);
+  auto work = [&](size_t tid) {
+    try {
+      for (int64_t task = next++; task < tasks; task = next++)
+        for (int64_t i = task * grain; i < std::min(n, (task + 1) * grain); ++i) fn(i);
+    } catch (...) {
+      errors[tid] = std::current_exception();  // rethrown on the calling thread
+    }
+  };
+  std::vector<std::thread> pool;
+  for (size_t t = 1; t < threads; ++t) pool.emplace_back(work, t);
+  work(0);
+  for (std::thread& t : pool) t.join();
+  for (const std::exception_ptr& e : errors)
+    if (e) std::rethrow_exception(e);
+}
+
 GsmPixelRays cast_gsm_pixel_rays(const GsmInputs& in, int64_t batch_element) {
   const int64_t b = batch_element, N = in.views, H = in.height, W = in.width;
   const VoxelRayGrid grid(gsm_input_grid(in, b));
+  check_gsm_ray_intrinsics(in, b);
   GsmPixelRays out;
   out.views = N;
   out.height = H;
@@ -162,48 +223,19 @@ GsmPixelRays cast_gsm_pixel_rays(const GsmInputs& in, int64_t batch_element) {
   out.first_voxel.assign(n, -1);
   out.grid_foreground.assign(n, 0);
   out.voxel_depth.assign(n, 0.0f);
-  for (int64_t view = 0; view < N; ++view) {
-    const std::array<float, 6>& k = in.intrinsics[static_cast<size_t>(b * N + view)];
-    if (static_cast<int64_t>(k[4]) != W || static_cast<int64_t>(k[5]) != H)
-      throw std::invalid_argument("gsm pixel rays: intrinsics of view " + std::to_string(b * N + view) + " are for " +
-                                  std::to_string(k[4]) + " x " + std::to_string(k[5]) + " pixels, the images have " +
-                                  std::to_string(W) + " x " + std::to_string(H));
-  }
-  // One image row per task on up to hardware_concurrency threads; every pixel is independent, so the result
-  // does not depend on the count.
-  auto cast_row = [&](int64_t row) {
+  // One image row per task; every pixel is independent, so the result does not depend on the threads.
+  gsm_parallel_for(N * H, 1, [&](int64_t row) {
     const int64_t view = row / H, v = row % H;
     const std::array<float, 16>& pose = in.poses[static_cast<size_t>(b * N + view)];
     const std::array<float, 6>& k = in.intrinsics[static_cast<size_t>(b * N + view)];
-    const std::array<double, 3> centre{pose[3], pose[7], pose[11]};
-    // The optical axis: the pose's third column, normalised (float32 as the official code).
-    std::array<float, 3> axis{pose[2], pose[6], pose[10]};
-    const float axis_norm = std::sqrt(axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2]);
-    for (float& c : axis) c /= axis_norm;
     for (int64_t u = 0; u < W; ++u) {
-      const std::array<float, 3> dir = gsm_pixel_ray_direction(pose, k, u, v);
-      const VoxelRayWalk walk = grid.march(centre, {dir[0], dir[1], dir[2]});
+      const GsmPixelRay r = march_gsm_pixel(grid, pose, k, u, v);
       const size_t p = static_cast<size_t>((view * H + v) * W + u);
-      out.first_voxel[p] = walk.first_voxel;
-      out.grid_foreground[p] = walk.first_segment_start(kGsmGridMaskMinSegment) >= 0.0 ? 1 : 0;
-      const double start = walk.first_segment_start(kGsmDepthMinSegment);
-      if (start >= 0.0) {
-        const float cosine = axis[0] * dir[0] + axis[1] * dir[1] + axis[2] * dir[2];
-        out.voxel_depth[p] = static_cast<float>(start) * cosine;
-      }
+      out.first_voxel[p] = r.first_voxel;
+      out.grid_foreground[p] = r.grid_foreground;
+      out.voxel_depth[p] = r.voxel_depth;
     }
-  };
-  const int64_t rows = N * H;
-  const size_t threads = std::min<size_t>(static_cast<size_t>(std::max<int64_t>(rows, 1)),
-                                          std::max(1u, std::thread::hardware_concurrency()));
-  std::atomic<int64_t> next{0};
-  auto work = [&] {
-    for (int64_t row = next++; row < rows; row = next++) cast_row(row);
-  };
-  std::vector<std::thread> pool;
-  for (size_t t = 1; t < threads; ++t) pool.emplace_back(work);
-  work();
-  for (std::thread& t : pool) t.join();
+  });
   return out;
 }
 

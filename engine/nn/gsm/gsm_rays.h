@@ -22,6 +22,7 @@
 
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <unordered_map>
 #include <vector>
 
@@ -55,9 +56,10 @@ class VoxelRayGrid {
   explicit VoxelRayGrid(const SparseGrid& grid);
   // origin and unit direction in world (grid-frame) coordinates.
   VoxelRayWalk march(const std::array<double, 3>& origin, const std::array<double, 3>& direction) const;
+  // The grid row of voxel (i, j, k), -1 if it is not in the grid.
+  int32_t row_of(int64_t i, int64_t j, int64_t k) const;
 
  private:
-  int32_t row_of(int64_t i, int64_t j, int64_t k) const;
   std::unordered_map<uint64_t, int32_t> rows_;
   std::array<double, 3> voxel_size_{}, origin_{};
   std::array<int64_t, 3> lo_{}, hi_{};  // bounding box of the voxels, [lo, hi] inclusive
@@ -71,7 +73,24 @@ struct GsmPixelRays {
   std::vector<float> voxel_depth;        // metres along the optical axis, 0 = none
 };
 
+// One pixel's results.
+struct GsmPixelRay {
+  int32_t first_voxel = -1;
+  uint8_t grid_foreground = 0;
+  float voxel_depth = 0.0f;
+};
+// The optical axis of a camera-to-grid pose: its third column, normalised in float32.
+std::array<float, 3> gsm_optical_axis(const std::array<float, 16>& pose);
+// Pixel (u, v)'s ray marched through `grid` in double (the reference for every pixel).
+GsmPixelRay march_gsm_pixel(const VoxelRayGrid& grid, const std::array<float, 16>& pose,
+                            const std::array<float, 6>& intrinsics, int64_t u, int64_t v);
+// Throws unless every view's intrinsics are for the images' width x height.
+void check_gsm_ray_intrinsics(const GsmInputs& in, int64_t batch_element);
+// fn(i) for i in [0, n) on up to hardware_concurrency threads, `grain` indices a task.
+void gsm_parallel_for(int64_t n, int64_t grain, const std::function<void(int64_t)>& fn);
+
 // Image rows in parallel on up to hardware_concurrency threads (the result does not depend on the count).
+// The GPU route: engine/nn/gsm/gsm_rays_gpu.h (the same results).
 GsmPixelRays cast_gsm_pixel_rays(const GsmInputs& in, int64_t batch_element);
 
 // Records vox.lifter.pixel_first_voxel.b<i> [N, H, W] per element and the batch-wide pre.grid_fg_mask and
