@@ -15,7 +15,8 @@
 // infinicube-gsm (the released model). The weights are checked against the
 // configuration's state dict (every tensor, shape, dtype; finite) before any
 // work. The forward runs on the GPU (engine/nn/gsm/gsm_gpu.h: the network
-// stages, the sky colours and the pixel rays on the device, the sky token on the host)
+// stages, the sky token, the sky colours and the pixel rays on the device; the sky token's patch
+// gather and the rays near a tie on the host)
 // or, with --backend cpu, on the plain CPU reference (gsm_reference.h); both
 // equal the official model within 1e-4 of each tensor's std. Per-stage times
 // are printed. Outputs are written atomically and only after the whole forward

@@ -54,6 +54,7 @@ class LayerRecorder {
   void begin(gpu::CommandList& cmd) { cmd_ = &cmd; }
   void end() { cmd_ = nullptr; }
   gpu::CommandList& cmd() const;
+  gpu::Context& context() const { return ctx_; }
   void barrier() const;
 
   DeviceTensor alloc(std::vector<int64_t> shape);

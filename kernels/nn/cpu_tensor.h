@@ -49,7 +49,9 @@ namespace cpu {
 
 // [a | b] along the channel axis (axis 1); the other axes equal.
 CpuTensor concat_channels(const CpuTensor& a, const CpuTensor& b);
-// The project's agreement metric for networks: max |got - ref| / std(ref) (population std, in double).
+// The project's agreement metric for networks: max |got - ref| / std(ref) (population std, in double);
+// +infinity where a NaN or infinity on either side is not matched exactly by the other (so no tolerance
+// passes it). Test: tests/nn/test_agreement_metric.cpp.
 double max_abs_over_std(const std::vector<float>& got, const std::vector<float>& ref);
 
 // Small helpers of the CPU references (kernels/nn/*_cpu.cpp).

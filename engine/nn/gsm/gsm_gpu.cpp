@@ -6,6 +6,7 @@
 #include "nn/gsm/gsm_rays.h"
 #include "nn/gsm/gsm_rays_gpu.h"
 #include "nn/gsm/sky_reference.h"
+#include "nn/gsm/sky_token_gpu.h"
 #include "nn/gsm/pixel_branch_gpu.h"
 #include "nn/gsm/voxel_branch_gpu.h"
 #include "nn/layer_recorder.h"
@@ -108,10 +109,10 @@ GsmOutputs GsmGpu::forward(const GsmInputs& in, GsmTrace* trace) {
     merge(trace, download_dav2_trace(ctx_, dav2_trace, B));
   }
 
-  // 2. The sky token (host).
+  // 2. The sky token (patch embedding and encoder on the device, the used patches' gather on the host).
   t0 = Clock::now();
-  out.sky_tokens = sky_tokens(config_.sky, weights_, in, images_host, trace);
-  finish_stage("sky token (host)", ms_since(t0), false);
+  out.sky_tokens = sky_tokens_gpu(L, config_.sky, weights_, in, images, trace);
+  finish_stage("sky token", ms_since(t0), true);
 
   // 3. Pixel rays on the voxel ray caster (rays near a tie re-marched in double on the host).
   t0 = Clock::now();

@@ -4,9 +4,11 @@
 // the sky colours (the modulator MLP for every input pixel and the 256 x 512
 // panorama: kernels/nn/gsm_sky_colors.h), the pixel rays on the engine's voxel ray caster (first hits,
 // grid mask, voxel depth: gsm_rays_gpu.h; the rays it marks near a tie, ~1-2 %, re-marched in double on
-// the host, so every pixel is the double reference's) — with what stays on the host named here:
-//   the sky token     a post-norm transformer over a batch element's sky patches (a few hundred tokens;
-//                     the reference's sky_tokens, exact), and from it the modulator's adaLN vectors
+// the host, so every pixel is the double reference's), the sky token's patch embedding and transformer
+// (sky_token_gpu.h) — with what stays on the host named here:
+//   the sky token's inputs  the used-patch mask, the patch rays' embedding and the gather of the used
+//                     patches behind the query (sky_token_inputs), and from the token the modulator's
+//                     adaLN vectors
 // and the structure of the voxel branch (grids, row tables: integer bookkeeping, voxel_branch_gpu.h).
 // Outputs, and with a trace every intermediate, come back under the reference's names and layouts, so
 // the GPU forward is checked against gsm_small and the CPU reference alike. Test:

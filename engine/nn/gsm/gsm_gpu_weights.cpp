@@ -1,4 +1,5 @@
 // The GSM's GPU-side weights; see gsm_gpu_weights.h.
+#include "nn/gsm/sky_token_gpu.h"
 #include "nn/gsm/gsm_gpu_weights.h"
 
 #include "kernels/nn/batch_norm.h"
@@ -40,6 +41,8 @@ GsmGpuWeights gsm_gpu_weights(const GsmWeights& w) {
   // their names, Upsample weights packed for conv_transpose2d, Downsample 1x1s as 2x2 stride-2 kernels,
   // RMSNorm / LayerNorm gammas as vectors (and the LayerNorm's zero bias).
   add_xunet_gpu_tensors(w, g.tensors);
+  // The sky token's encoder (nn/gsm/sky_token_gpu.h): in_proj as <layer>.self_attn.in_proj.{weight,bias}.
+  add_sky_gpu_tensors(w, g.tensors);
   // What no device kernel reads in its given form stays on the host (ParameterStore's host_only): tables
   // of rank 3 (the sky query) and 5-D kernels that are not cubes of 1 or 3.
   for (const auto& [name, t] : g.tensors) {

@@ -11,6 +11,8 @@
 //   x-unet                         frame-kernel-1 convs squeezed to 2-D (replacing the 5-D originals),
 //                                  Upsample weights packed for conv_transpose2d, Downsample 1x1s as
 //                                  2x2 stride-2 kernels, norm gammas as vectors (xunet_gpu.h)
+//   sky token encoder              in_proj_weight / in_proj_bias as <layer>.self_attn.in_proj.{weight,bias}
+//                                  (sky_token_gpu.h)
 // BatchNorm's num_batches_tracked counters are left out; tensors no kernel reads in their given form
 // (rank-3 tables, non-cubic 5-D kernels) are listed in host_only. Tests: through the GPU stages
 // (tests/nn/test_gsm_*gpu.cpp).

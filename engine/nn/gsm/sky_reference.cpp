@@ -108,19 +108,20 @@ std::array<double, 3> sky_pixel_direction(const std::array<float, 16>& pose, con
                                      (row - static_cast<double>(k[3])) / static_cast<double>(k[1])));
 }
 
-CpuTensor sky_tokens(const SkyConfig& c, const GsmWeights& w, const GsmInputs& in, const CpuTensor& images, GsmTrace* trace) {
+SkyTokenInputs sky_token_inputs(const SkyConfig& c, const GsmWeights& w, const GsmInputs& in, const CpuTensor& patches,
+                                GsmTrace* trace) {
   const int64_t B = in.batch, N = in.views, P = c.patch_size, E = c.embed_dim;
-  const CpuTensor patches = cpu::conv2d(images, w.at(kSky + "patch_embedder.weight", {E, 3, P, P}), &w.at(kSky + "patch_embedder.bias"), c.patch_size, 0);
   trace_put(trace, "sky.patch_embed", patches);
   const int64_t HP = patches.dim(2), WP = patches.dim(3), per_view = HP * WP;
+  SkyTokenInputs r;
   // Used patches: more than 75 % sky pixels (the official ratio > 0.75 of an average over the patch).
   CpuTensor valid({B * N, 1, HP, WP});
   for (int64_t v = 0; v < B * N; ++v)
     for (int64_t i = 0; i < HP; ++i)
       for (int64_t j = 0; j < WP; ++j) {
         int64_t sky = 0;
-        for (int64_t r = i * P; r < (i + 1) * P; ++r)
-          for (int64_t col = j * P; col < (j + 1) * P; ++col) sky += in.mask(v / N, v % N, r, col, 0) == 0;
+        for (int64_t row = i * P; row < (i + 1) * P; ++row)
+          for (int64_t col = j * P; col < (j + 1) * P; ++col) sky += in.mask(v / N, v % N, row, col, 0) == 0;
         valid.data[static_cast<size_t>((v * HP + i) * WP + j)] = 4 * sky > 3 * P * P ? 1.0f : 0.0f;
       }
   trace_put(trace, "sky.valid_patch_mask", valid);
@@ -140,7 +141,6 @@ CpuTensor sky_tokens(const SkyConfig& c, const GsmWeights& w, const GsmInputs& i
   trace_put(trace, "sky.pos_embed.in", dirs);
   const CpuTensor pos = linear_of(w, kSky + "pos_embedder.", dirs);
   trace_put(trace, "sky.pos_embed", pos);
-  CpuTensor tokens({B, E});
   const CpuTensor& query = w.at(kSky + "sky_query", {1, 1, E});
   for (int64_t b = 0; b < B; ++b) {
     std::vector<float> rows(query.data);
@@ -153,9 +153,24 @@ CpuTensor sky_tokens(const SkyConfig& c, const GsmWeights& w, const GsmInputs& i
                          pos.data[static_cast<size_t>((b * N * per_view + t) * E + e)]);
       }
     const int64_t count = static_cast<int64_t>(rows.size()) / E;
-    CpuTensor x({count, E}, std::move(rows));
-    trace_put(trace, "sky.tokens_in.b" + std::to_string(b), x);
-    for (int l = 0; l < c.layers; ++l) x = encoder_layer(c, w, kSky + "transformer.layers." + std::to_string(l) + ".", x);
+    r.tokens_in.emplace_back(std::vector<int64_t>{count, E}, std::move(rows));
+    trace_put(trace, "sky.tokens_in.b" + std::to_string(b), r.tokens_in.back());
+  }
+  return r;
+}
+
+CpuTensor sky_encoder(const SkyConfig& c, const GsmWeights& w, CpuTensor x) {
+  for (int l = 0; l < c.layers; ++l) x = encoder_layer(c, w, kSky + "transformer.layers." + std::to_string(l) + ".", x);
+  return x;
+}
+
+CpuTensor sky_tokens(const SkyConfig& c, const GsmWeights& w, const GsmInputs& in, const CpuTensor& images, GsmTrace* trace) {
+  const int64_t P = c.patch_size, E = c.embed_dim;
+  const CpuTensor patches = cpu::conv2d(images, w.at(kSky + "patch_embedder.weight", {E, 3, P, P}), &w.at(kSky + "patch_embedder.bias"), c.patch_size, 0);
+  const SkyTokenInputs ti = sky_token_inputs(c, w, in, patches, trace);
+  CpuTensor tokens({in.batch, E});
+  for (int64_t b = 0; b < in.batch; ++b) {
+    const CpuTensor x = sky_encoder(c, w, ti.tokens_in[static_cast<size_t>(b)]);
     trace_put(trace, "sky.tokens_out.b" + std::to_string(b), x);
     for (int64_t e = 0; e < E; ++e) tokens.data[static_cast<size_t>(b * E + e)] = x.data[static_cast<size_t>(e)];
   }

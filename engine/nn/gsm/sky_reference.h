@@ -22,6 +22,7 @@
 
 #include <array>
 #include <cstdint>
+#include <vector>
 
 namespace icube::nn {
 
@@ -36,8 +37,21 @@ struct SkyConfig {
 // feature source "original_rgb", GELU; anything else is refused with its key named).
 SkyConfig sky_config_from_json(const nlohmann::json& hparams);
 
-// The sky token [B, embed_dim] of every batch element (images [B * N, 3, H, W]).
+// The sky token [B, embed_dim] of every batch element (images [B * N, 3, H, W]): the patch embedding,
+// sky_token_inputs, sky_encoder, the first token. The GPU route: sky_token_gpu.h.
 CpuTensor sky_tokens(const SkyConfig& c, const GsmWeights& w, const GsmInputs& in, const CpuTensor& images, GsmTrace* trace);
+
+// From the patch embedding [B * N, embed_dim, H / patch, W / patch]: each element's encoder input
+// [1 + used patches, embed_dim] (the query, then every used patch's embedding plus its ray embedding,
+// views then patches in order). Traces sky.patch_embed, sky.valid_patch_mask, sky.pos_embed.in,
+// sky.pos_embed and sky.tokens_in.b<i>.
+struct SkyTokenInputs {
+  std::vector<CpuTensor> tokens_in;  // [B] of [count_b, embed_dim]
+};
+SkyTokenInputs sky_token_inputs(const SkyConfig& c, const GsmWeights& w, const GsmInputs& in, const CpuTensor& patches,
+                                GsmTrace* trace);
+// The post-norm transformer encoder on tokens [n, embed_dim].
+CpuTensor sky_encoder(const SkyConfig& c, const GsmWeights& w, CpuTensor x);
 
 // The modulator's adaLN vectors under one sky token [embed_dim]: [2 hidden_channels], shift then scale
 // (adaLN_modulation(silu(condition_mapping(token)))).
