@@ -100,9 +100,11 @@ class RaycasterGpu {
   // Ray-list casts flag (RAYCAST_FLAG_NEAR in RaycastHit.flags) every ray whose walk, semantic chord or
   // depth run came within float rounding of a decision that a double walk of the same ray could take
   // the other way: another axis's voxel plane within ~7 ulps of the position where the walk leaves a
-  // cell (or starts), a chord within rounding of eps_sem, a run within rounding of eps_depth
+  // cell; a start point that near planes with an occupied voxel among the 2^k around it (or on a plane
+  // it moves along); a chord within rounding of eps_sem; a run within rounding of eps_depth
   // (raycast/traverse.glsl, raycast_tie_eps). A caller that re-casts the flagged rays in double gets
-  // the double walk's results for every ray (engine/nn/gsm/gsm_rays_gpu.h). Off by default (a
+  // the double walk's results for every ray (engine/nn/gsm/gsm_rays_gpu.h; tested there, with rays
+  // through voxel edges and corners the float walk alone decides otherwise). Off by default (a
   // pipeline of its own); camera casts ignore it.
   void set_mark_ties(bool on) { mark_ties_ = on; }
   bool mark_ties() const { return mark_ties_; }
