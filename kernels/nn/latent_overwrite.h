@@ -4,7 +4,8 @@
 // With sqrt_beta 0 and z = known the cells get the known latents exactly. No
 // barrier inside: the caller orders the overwrite before the next denoiser
 // call. A latent over one storage binding runs in windows of elements (the
-// mask, one channel's voxels, is bound whole).
+// mask, one channel's voxels, bound whole where it fits one binding, else in
+// windows inside each channel).
 // CPU reference (below, latent_overwrite_cpu.cpp): nn::cpu::latent_overwrite.
 // Tests: tests/nn/test_latent_overwrite.cpp.
 #pragma once

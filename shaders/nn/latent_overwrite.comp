@@ -18,7 +18,7 @@ layout(std430, binding = 3) readonly buffer Noise { float z_in[]; };
 
 void main() {
   const uint t = ICUBE_THREAD_LINEAR();
-  if (t >= p.count || mask[(p.first + t) % p.spatial] == 0u) return;
+  if (t >= p.count || mask[(p.first + t) % p.spatial - p.mask_base] == 0u) return;
   const uint i = p.offset + t;  // one window of the latent (the same offset in x, known and z)
   precise const float y = p.sqrt_alpha * known[i] + p.sqrt_beta * z_in[i];
   x[i] = y;

@@ -202,6 +202,8 @@ struct LatentOverwriteParams {
   float sqrt_beta;
   uint first;    // the window's first element of the latent (its voxel: (first + i) % spatial)
   uint offset;   // its element offset inside the x, known and noise bindings (element_window)
+  uint mask_base;  // the voxel the mask binding starts at (0: the whole mask; a mask window otherwise)
+  uint pad0;
 };
 
 struct ResampleParams {
@@ -419,7 +421,8 @@ ICUBE_CHECK_LAYOUT(ElementwiseParams, y_offset, 24);
 ICUBE_CHECK_SIZE(ResampleParams, 32);
 ICUBE_CHECK_SIZE(DdimStepParams, 36);
 ICUBE_CHECK_LAYOUT(DdimStepParams, sigma, 28);
-ICUBE_CHECK_SIZE(LatentOverwriteParams, 24);
+ICUBE_CHECK_SIZE(LatentOverwriteParams, 32);
+ICUBE_CHECK_LAYOUT(LatentOverwriteParams, mask_base, 24);
 ICUBE_CHECK_SIZE(DpmSolverStepParams, 36);
 ICUBE_CHECK_LAYOUT(DpmSolverStepParams, c_1, 28);
 ICUBE_CHECK_LAYOUT(ResampleParams, x_offset, 20);
