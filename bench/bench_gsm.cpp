@@ -3,6 +3,8 @@
 //   check     the GPU forward (nn::GsmGpu) against the CPU reference (gsm_forward_reference) on the same
 //             synthetic street at reduced widths (gsm_small's: the released structure with narrow layers),
 //             every output tensor (integers exactly, floats within 1e-4 of their std)
+//   rays      the pixel rays at the released input size: the double reference on every core against the
+//             ray caster with its marked rays re-marched in double, the same answer required
 //   released  one forward of the released widths (the infinicube-gsm preset, seeded random weights) at the
 //             released input size (480 x 832 front images) for each --views count: time per stage
 //             (GsmGpu::last_stages), GFLOP and GFLOP/s per stage (gsm_flops.h), host peak RSS per stage
@@ -10,164 +12,43 @@
 //   dav2      Depth-Anything-V2-Large on one image: the engine's GPU stage, optionally its CPU reference,
 //             and PyTorch's CPU run of the same module (bench/dav2_torch.py, Debian python3-torch) on the
 //             same weights (written as .safetensors) and input, with torch threads = LP_NUM_THREADS;
-//             max |diff| / std between the outputs
-// The scene is bench/gsm_street_scene.h. See bench/README.md, "The GSM (issue 39)".
+//             max |diff| / std between the outputs (bench/bench_gsm_dav2.cpp)
+// The options and the run's state: bench/gsm_bench.h. The scene is bench/gsm_street_scene.h. See
+// bench/README.md, "icube-bench-gsm".
 #include "bench_host.h"
+#include "gsm_bench.h"
 #include "gsm_flops.h"
 #include "gsm_street_scene.h"
-#include "torch_side.h"
 
 #include "gpu/context.h"
-#include "nn/gsm/dav2_gpu.h"
 #include "nn/gsm/gsm_gpu.h"
-#include "nn/gsm/gsm_gpu_weights.h"
 #include "nn/gsm/gsm_params.h"
 #include "nn/gsm/gsm_preset.h"
 #include "nn/gsm/gsm_random_weights.h"
 #include "nn/gsm/gsm_rays.h"
 #include "nn/gsm/gsm_rays_gpu.h"
-#include "nn/layer_recorder.h"
-#include "nn/parameter_store.h"
 #include "nn/safetensors.h"
-#include "world/npy.h"
 
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
-#include <sys/resource.h>
-#include <unistd.h>
-
 #include <algorithm>
-#include <atomic>
 #include <cinttypes>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
-#include <filesystem>
-#include <fstream>
-#include <limits>
-#include <mutex>
 #include <string>
-#include <thread>
 #include <vector>
 
 using namespace icube;
-using Clock = std::chrono::steady_clock;
+using namespace icube::bench;
 
 namespace {
 
-double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-double mib(double bytes) { return bytes / (1024.0 * 1024.0); }
 
-struct MinMedian {
-  double min = kNaN, median = kNaN;
-};
-MinMedian min_median(std::vector<double> v) {
-  if (v.empty()) return {};
-  std::sort(v.begin(), v.end());
-  const size_t n = v.size();
-  return {v.front(), n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2])};
-}
 
-// ---- memory ----------------------------------------------------------------------------------------
-
-long page_kib() { return sysconf(_SC_PAGESIZE) / 1024; }
-
-// Resident set (KiB) from /proc/self/statm.
-long rss_kib() {
-  std::ifstream in("/proc/self/statm");
-  long size = 0, resident = 0;
-  in >> size >> resident;
-  return resident * page_kib();
-}
-
-// A /proc/self/status field in KiB (VmHWM: peak resident set), 0 when absent.
-long status_kib(const char* field) {
-  std::ifstream in("/proc/self/status");
-  std::string line;
-  const std::string key = std::string(field) + ":";
-  while (std::getline(in, line))
-    if (line.rfind(key, 0) == 0) return std::atol(line.c_str() + key.size());
-  return 0;
-}
-
-// Resets VmHWM to the current RSS (Linux >= 4.0); false when not allowed.
-bool reset_peak_rss() {
-  std::ofstream out("/proc/self/clear_refs");
-  out << "5";
-  return static_cast<bool>(out.flush());
-}
-
-// Samples the resident set every 5 ms on a thread of its own, for the peak inside each stage's interval.
-class RssSampler {
- public:
-  RssSampler() : thread_([this] { loop(); }) {}
-  ~RssSampler() {
-    stop_ = true;
-    thread_.join();
-  }
-  // The largest sample in [t0, t1] (and the RSS now, in case the interval is shorter than a period).
-  long peak_kib(Clock::time_point t0, Clock::time_point t1) const {
-    std::lock_guard<std::mutex> lock(mutex_);
-    long peak = 0;
-    for (const auto& [t, kib] : samples_)
-      if (t >= t0 && t <= t1) peak = std::max(peak, kib);
-    return peak;
-  }
-  void clear() {
-    std::lock_guard<std::mutex> lock(mutex_);
-    samples_.clear();
-  }
-
- private:
-  void loop() {
-    while (!stop_) {
-      const long kib = rss_kib();
-      {
-        std::lock_guard<std::mutex> lock(mutex_);
-        samples_.emplace_back(Clock::now(), kib);
-      }
-      std::this_thread::sleep_for(std::chrono::milliseconds(5));
-    }
-  }
-  std::atomic<bool> stop_{false};
-  mutable std::mutex mutex_;
-  std::vector<std::pair<Clock::time_point, long>> samples_;
-  std::thread thread_;
-};
-
-// CPU share other processes took while a measurement ran (bench_host.h), children's CPU counted as ours.
-class DisturbanceMeter {
- public:
-  void start() {
-    before_ = bench::cpu_times_now();
-    children_before_ = children_cpu_s();
-  }
-  void stop() {
-    const bench::CpuTimes after = bench::cpu_times_now();
-    const double children = children_cpu_s() - children_before_;
-    wall_ += after.wall_s - before_.wall_s;
-    other_ += std::max(0.0, bench::other_cpu_seconds(before_, after) - children);
-  }
-  // Percent of all CPUs.
-  double percent() const { return wall_ > 0 ? 100.0 * other_ / (wall_ * std::max(1u, bench::online_cpus())) : 0.0; }
-
- private:
-  static double children_cpu_s() {
-    rusage u{};
-    getrusage(RUSAGE_CHILDREN, &u);
-    return static_cast<double>(u.ru_utime.tv_sec + u.ru_stime.tv_sec) + 1e-6 * static_cast<double>(u.ru_utime.tv_usec + u.ru_stime.tv_usec);
-  }
-  bench::CpuTimes before_;
-  double children_before_ = 0, wall_ = 0, other_ = 0;
-};
-
-struct Dav2Part {
-  double seconds = 0, flops = 0;
-};
 
 // ---- configurations --------------------------------------------------------------------------------
 
@@ -283,47 +164,22 @@ double stage_flops(const bench::GsmFlops& f, const std::string& label) {
   return 0.0;  // the pixel rays: a DDA, no multiply-adds counted
 }
 
+}  // namespace
+
 // ---- the benchmark ---------------------------------------------------------------------------------
 
-struct Options {
-  std::vector<int64_t> views{1, 4};
-  int runs = 5, warmup = 1;
-  int64_t height = 480, width = 832;
-  int64_t check_height = 0, check_width = 0;  // 0: half of height x width
-  uint32_t seed = 39;
-  bool check = true, rays = true, released = true, dav2 = true, dav2_cpu = false, dav2_parts = false, torch = true, flops_only = false;
-  std::vector<std::string> torch_matmul{"onednn"};
-  int torch_runs = 5, torch_warmup = 1, torch_blas_runs = 1;
-  int dav2_runs = 5, dav2_warmup = 1;
-  std::string keep_dir;
-};
+namespace icube::bench {
 
-struct GsmBench {
-  Options o;
-  gpu::Context* ctx = nullptr;
-  nn::GsmInputs scene;        // the most views asked for
-  nn::GsmInputs check_scene;  // the same street at the check's size
-  RssSampler* rss = nullptr;
-  bool failed = false;
-  int lp_threads = 0;  // LP_NUM_THREADS, 0 when unset
-
-  void check_table();
-  void rays_table();
-  void released_table(const nn::GsmModelConfig& model, const nn::GsmWeights& w);
-  void dav2_table(const nn::GsmModelConfig& model, const nn::GsmWeights& w);
-  void flops_table(const nn::GsmModelConfig& model, const nn::GsmWeights& w) const;
-};
 
 // The FLOP model (gsm_flops.h) of the released widths at each view count, without running the network.
 void GsmBench::flops_table(const nn::GsmModelConfig& model, const nn::GsmWeights& w) const {
   std::printf("\nFLOP model of the released widths (gsm_flops.h; GFLOP):\n");
-  std::printf("%-6s %12s %12s %12s %12s %12s %12s %12s\n", "views", "conv enc", "DAV2", "voxel br", "pixel br", "sky (host)",
-              "device", "total");
+  std::printf("%-6s %12s %12s %12s %12s %12s %12s\n", "views", "conv enc", "DAV2", "voxel br", "pixel br", "sky", "total");
   for (int64_t v : o.views) {
     const bench::GsmFlops f = bench::gsm_flops(model.config, w, bench::first_views(scene, v));
-    std::printf("%-6lld %12.1f %12.1f %12.1f %12.1f %12.1f %12.1f %12.1f\n", static_cast<long long>(v), f.conv_encoder * 1e-9,
+    std::printf("%-6lld %12.1f %12.1f %12.1f %12.1f %12.1f %12.1f\n", static_cast<long long>(v), f.conv_encoder * 1e-9,
                 f.dav2 * 1e-9, f.voxel_branch * 1e-9, f.pixel_branch * 1e-9, (f.sky_token + f.sky_colours) * 1e-9,
-                f.device() * 1e-9, f.total() * 1e-9);
+                f.total() * 1e-9);
   }
   std::fflush(stdout);
 }
@@ -507,218 +363,7 @@ void GsmBench::released_table(const nn::GsmModelConfig& model, const nn::GsmWeig
   }
 }
 
-// The Depth-Anything-V2 tensors as a .safetensors file for bench/dav2_torch.py (state-dict names, F32; the
-// BatchNorm counters left out) and the settings the script needs.
-void write_dav2_for_torch(const std::filesystem::path& dir, const nn::Dav2Config& c, const nn::GsmWeights& w,
-                          const nn::CpuTensor& image) {
-  std::vector<nn::TensorToWrite> tensors;
-  for (const auto& [name, t] : w.tensors)
-    if (name.rfind("img_encoder.encoders.dav2.", 0) == 0 && name.find("num_batches_tracked") == std::string::npos)
-      tensors.push_back(nn::f32_tensor(name, t.shape, t.data));
-  nn::write_safetensors((dir / "dav2.safetensors").string(), tensors);
-  nlohmann::json j;
-  j["hidden_size"] = c.hidden_size;
-  j["num_layers"] = c.num_layers;
-  j["num_heads"] = c.num_heads;
-  j["patch_size"] = c.patch_size;
-  j["position_grid"] = c.position_grid;
-  j["layer_norm_eps"] = c.layer_norm_eps;
-  j["out_indices"] = c.out_indices;
-  j["reassemble_factors"] = c.reassemble_factors;
-  j["input_size"] = {c.input_height, c.input_width};
-  nlohmann::json up = nlohmann::json::array();
-  for (const nn::Dav2UpsamplerBlock& b : c.upsampler) up.push_back({{"out_dim", b.out_dim}, {"up", b.up}});
-  j["upsampler"] = up;
-  std::ofstream(dir / "dav2.json") << j.dump(1);
-  bench::save_npy((dir / "image.npy").string(), image);
-}
-
-void GsmBench::dav2_table(const nn::GsmModelConfig& model, const nn::GsmWeights& w) {
-  const nn::Dav2Config& cfg = model.config.dav2;
-  nn::check_dav2_gpu(cfg, model.config.source);
-  const nn::CpuTensor image = nn::gsm_images_nchw(bench::first_views(scene, 1));  // [1, 3, H, W]
-  const double gflop = bench::dav2_flops_per_view(cfg, w) * 1e-9;
-  const int64_t gh = cfg.input_height / cfg.patch_size, gw = cfg.input_width / cfg.patch_size;
-  std::printf("\nDepth-Anything-V2-Large on one image: %lld x %lld resized to %lld x %lld, %lld x %lld patches (%lld tokens), "
-              "%d layers run; %.1f GFLOP\n",
-              static_cast<long long>(o.height), static_cast<long long>(o.width), static_cast<long long>(cfg.input_height),
-              static_cast<long long>(cfg.input_width), static_cast<long long>(gh), static_cast<long long>(gw),
-              static_cast<long long>(1 + gh * gw), static_cast<int>(*std::max_element(cfg.out_indices.begin(), cfg.out_indices.end())),
-              gflop);
-
-  // The engine on the device: a store of the stage's own tensors.
-  std::unique_ptr<nn::ParameterStore> store;
-  {
-    const nn::GsmGpuWeights all = nn::gsm_gpu_weights(w);
-    std::vector<nn::ParamSpec> specs;
-    for (const nn::ParamSpec& p : all.specs)
-      if (p.name.rfind("img_encoder.encoders.dav2.", 0) == 0) specs.push_back(p);
-    store = std::make_unique<nn::ParameterStore>(*ctx, specs, all.tensors,
-                                                 nn::ParameterStoreOptions{.network = "Depth-Anything-V2", .source = "random weights"});
-  }
-  std::vector<double> gpu_s;
-  nn::CpuTensor gpu_out;
-  DisturbanceMeter gpu_meter;
-  std::vector<std::pair<std::string, Dav2Part>> parts;
-  {
-    nn::LayerRecorder L(*ctx, *store, "dav2-bench");
-    nn::Dav2PositionEmbeddings positions;
-    const nn::DeviceTensor x{std::make_shared<gpu::Buffer>(gpu::upload_vector(*ctx, image.data, "dav2-image")), image.shape};
-    nn::DeviceTensor y;
-    auto run = [&](const nn::Dav2Config& c) {
-      y = {};
-      const Clock::time_point t0 = Clock::now();
-      ctx->submit_and_wait([&](gpu::CommandList& cmd) {
-        L.begin(cmd);
-        y = nn::dav2_gpu(L, c, x, nullptr, &positions);
-        L.end();
-      });
-      return seconds_since(t0);
-    };
-    for (int r = 0; r < o.dav2_warmup + o.dav2_runs; ++r) {
-      std::fprintf(stderr, "  Depth-Anything-V2 GPU: %s %d ...\n", r < o.dav2_warmup ? "warm-up" : "run",
-                   r < o.dav2_warmup ? r + 1 : r - o.dav2_warmup + 1);
-      if (r == o.dav2_warmup) gpu_meter.start();
-      const double s = run(cfg);
-      if (r >= o.dav2_warmup) gpu_s.push_back(s);
-    }
-    gpu_meter.stop();
-    gpu_out = nn::CpuTensor(y.shape, gpu::download_vector<float>(*ctx, *y.buf, y.numel()));
-    std::printf("engine output %s, activation pool %.0f MiB, weights %.0f MiB on the device\n", gpu_out.shape_text().c_str(),
-                mib(static_cast<double>(L.pool().bytes())), mib(static_cast<double>(store->device_bytes())));
-    if (o.dav2_parts) {
-      // The same stage cut short, one run each: without the upsampler, then with only 4 and 0 transformer layers.
-      nn::Dav2Config no_up = cfg;
-      no_up.upsampler.clear();
-      nn::Dav2Config four = no_up, none = no_up;
-      four.out_indices = {1, 2, 3, 4};
-      none.out_indices = {0, 0, 0, 0};
-      for (const auto& [label, c] : {std::make_pair("backbone + neck, no upsampler", no_up),
-                                     std::make_pair("4 layers + neck", four), std::make_pair("embeddings + neck", none)}) {
-        std::fprintf(stderr, "  Depth-Anything-V2 GPU part: %s ...\n", label);
-        parts.emplace_back(label, Dav2Part{run(c), bench::dav2_flops_per_view(c, w)});
-      }
-    }
-  }
-  store.reset();
-
-  nn::CpuTensor cpu_out;
-  double cpu_s = kNaN;
-  DisturbanceMeter cpu_meter;
-  if (o.dav2_cpu) {
-    std::fprintf(stderr, "  Depth-Anything-V2 CPU reference ...\n");
-    cpu_meter.start();
-    const Clock::time_point t0 = Clock::now();
-    cpu_out = nn::dav2_features(cfg, w, image);
-    cpu_s = seconds_since(t0);
-    cpu_meter.stop();
-  }
-
-  // PyTorch, once per matmul route (bench/dav2_torch.py --matmul).
-  struct TorchRow {
-    std::string matmul, note;
-    int runs = 0;
-    bench::TorchSide::Result r;
-    DisturbanceMeter meter;
-  };
-  std::vector<TorchRow> torch_rows;
-  const int torch_threads = lp_threads > 0 ? lp_threads : static_cast<int>(std::max(1u, bench::online_cpus()));
-  const std::string python = o.torch ? bench::python_with_torch() : "";
-  std::string torch_skipped;
-  if (!o.torch) {
-    torch_skipped = "skipped (--no-torch)";
-  } else if (python.empty()) {
-    torch_skipped = "skipped: no python3 with torch and numpy (Debian python3-torch)";
-  } else {
-    const std::filesystem::path dir = o.keep_dir.empty()
-                                          ? std::filesystem::temp_directory_path() / ("icube-bench-gsm-" + std::to_string(getpid()))
-                                          : std::filesystem::path(o.keep_dir);
-    std::filesystem::create_directories(dir);
-    std::fprintf(stderr, "  PyTorch: writing the weights to %s ...\n", dir.c_str());
-    write_dav2_for_torch(dir, cfg, w, image);
-    for (const std::string& matmul : o.torch_matmul) {
-      TorchRow row;
-      row.matmul = matmul;
-      row.runs = matmul == "blas" ? o.torch_blas_runs : o.torch_runs;
-      const int warmup = matmul == "blas" ? 0 : o.torch_warmup;
-      const std::string cmd = python + " " + ICUBE_SOURCE_DIR + "/bench/dav2_torch.py --dir '" + dir.string() + "' --threads " +
-                              std::to_string(torch_threads) + " --runs " + std::to_string(row.runs) + " --warmup " +
-                              std::to_string(warmup) + " --matmul " + matmul;
-      std::fprintf(stderr, "  PyTorch: %s\n", cmd.c_str());
-      row.meter.start();
-      const auto [status, text] = bench::capture(cmd);
-      row.meter.stop();
-      if (status != 0 || text.find('{') == std::string::npos) {
-        row.note = "FAILED (see stderr)";
-        std::fprintf(stderr, "dav2_torch.py failed:\n%s\n", text.c_str());
-        failed = true;
-      } else {
-        const nlohmann::json j = nlohmann::json::parse(text.substr(text.rfind('{')));
-        row.r.min_ms = j.at("min_ms").get<double>();
-        row.r.median_ms = j.at("median_ms").get<double>();
-        row.r.y = world::read_npy((dir / "y.npy").string()).values<float>();
-        row.r.ok = true;
-        row.note = "PyTorch " + j.value("torch", std::string("?")) + " CPU, " + (matmul == "blas" ? "BLAS matmuls" : "oneDNN matmuls");
-      }
-      torch_rows.push_back(std::move(row));
-    }
-    if (o.keep_dir.empty()) std::filesystem::remove_all(dir);
-  }
-
-  auto diff = [](const std::vector<float>& a, const std::vector<float>& b) {
-    return a.size() == b.size() && !a.empty() ? nn::cpu::max_abs_over_std(a, b) : kNaN;
-  };
-  const std::vector<float>* reference = nullptr;  // the first PyTorch output
-  for (const TorchRow& t : torch_rows)
-    if (t.r.ok && !reference) reference = &t.r.y;
-  std::printf("%-44s %8s %10s %10s %9s %5s %7s  %s\n", "implementation", "threads", "min s", "median s", "GFLOP/s", "runs",
-              "other%", "max |diff| / std(torch)");
-  const MinMedian g = min_median(gpu_s);
-  const std::string device = "engine GPU (" + ctx->info().name + ")";
-  std::printf("%-44.44s %8s %10.2f %10.2f %9.1f %5d %7.0f  %.2e\n", device.c_str(),
-              lp_threads > 0 ? std::to_string(lp_threads).c_str() : "-", g.min, g.median, gflop / g.min, o.dav2_runs,
-              gpu_meter.percent(), reference ? diff(gpu_out.data, *reference) : kNaN);
-  if (o.dav2_cpu)
-    std::printf("%-44s %8d %10.2f %10.2f %9.1f %5d %7.0f  %.2e (GPU against it: %.2e)\n", "engine CPU reference (dav2_features)", 1,
-                cpu_s, cpu_s, gflop / cpu_s, 1, cpu_meter.percent(), reference ? diff(cpu_out.data, *reference) : kNaN,
-                diff(gpu_out.data, cpu_out.data));
-  for (const TorchRow& t : torch_rows) {
-    if (!t.r.ok) {
-      std::printf("%-44s %s\n", ("PyTorch (--matmul " + t.matmul + ")").c_str(), t.note.c_str());
-      continue;
-    }
-    char against[32] = "-";  // the first PyTorch row is the reference
-    if (&t.r.y != reference) std::snprintf(against, sizeof against, "%.2e", diff(t.r.y, *reference));
-    std::printf("%-44.44s %8d %10.2f %10.2f %9.1f %5d %7.0f  %s\n", t.note.c_str(), torch_threads, t.r.min_ms * 1e-3,
-                t.r.median_ms * 1e-3, gflop / (t.r.min_ms * 1e-3), t.runs, t.meter.percent(), against);
-  }
-  if (!torch_skipped.empty()) std::printf("%-44s %s\n", "PyTorch CPU (bench/dav2_torch.py)", torch_skipped.c_str());
-  if (!parts.empty()) {
-    std::printf("\nwhere the engine's time goes (one run each, the same device and input):\n");
-    std::printf("%-44s %10s %9s %9s\n", "part", "s", "GFLOP", "GFLOP/s");
-    const double full = g.min, full_flops = gflop * 1e9;
-    const Dav2Part& a24 = parts[0].second;
-    const Dav2Part& a4 = parts[1].second;
-    const Dav2Part& a0 = parts[2].second;
-    const int64_t layers = std::min(cfg.num_layers, *std::max_element(cfg.out_indices.begin(), cfg.out_indices.end()));
-    auto row = [](const char* label, double sec, double flops) {
-      std::printf("%-44s %10.2f %9.1f %9.1f\n", label, sec, flops * 1e-9, sec > 0 ? flops * 1e-9 / sec : 0.0);
-    };
-    for (const auto& [label, p] : parts) row(label.c_str(), p.seconds, p.flops);
-    row("= upsampler (full - no upsampler)", full - a24.seconds, full_flops - a24.flops);
-    row("= one transformer layer ((4 - 0 layers) / 4)", (a4.seconds - a0.seconds) / 4, (a4.flops - a0.flops) / 4);
-    const std::string all = "= all " + std::to_string(layers) + " transformer layers (" + std::to_string(layers) + " - 0 layers)";
-    row(all.c_str(), a24.seconds - a0.seconds, a24.flops - a0.flops);
-  }
-  const double tolerance = 1e-4;
-  if (reference && !(diff(gpu_out.data, *reference) <= tolerance)) {
-    std::fprintf(stderr, "Depth-Anything-V2: the engine's output differs from PyTorch's by more than %.0e of its std\n", tolerance);
-    failed = true;
-  }
-  std::fflush(stdout);
-}
-
-}  // namespace
+}  // namespace icube::bench
 
 int main(int argc, char** argv) {
   Options o;

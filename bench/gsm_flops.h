@@ -17,7 +17,7 @@
 //                       and consolidator convs at full size; downs.s at s, its space-to-depth conv at s + 1;
 //                       mid at the coarsest; ups.u at stages - 1 - u; transposed convs per input pixel), mid
 //                       attention over the coarsest map, linear_out per pixel
-//   sky (host)          patch embedding, the transformer over the sky patches (> 75 % sky pixels) plus the
+//   sky                 patch embedding, the transformer over the sky patches (> 75 % sky pixels) plus the
 //                       query, the modulator per input pixel and panorama pixel
 // Used by bench/bench_gsm.cpp only.
 #pragma once
@@ -29,10 +29,9 @@ namespace icube::bench {
 struct GsmFlops {
   double conv_encoder = 0, dav2 = 0;  // all views
   double voxel_branch = 0, pixel_branch = 0;
-  double sky_token = 0, sky_colours = 0;  // host stages
+  double sky_token = 0, sky_colours = 0;
   double dav2_per_view = 0;
-  double device() const { return conv_encoder + dav2 + voxel_branch + pixel_branch; }
-  double total() const { return device() + sky_token + sky_colours; }
+  double total() const { return conv_encoder + dav2 + voxel_branch + pixel_branch + sky_token + sky_colours; }
 };
 
 // Casts the pixel rays of every batch element (seconds on the host at the released size).
