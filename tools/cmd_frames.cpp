@@ -76,13 +76,6 @@ void report_prompt(const render::AppearancePrompt& p, scene::Diagnostics& diag) 
   for (const std::string& n : p.notes) diag.warn("--prompt", "", n);
 }
 
-// Replaces `final_dir` by the finished staging folder.
-void move_into_place(StagingDir& staging, const fs::path& final_dir) {
-  if (fs::exists(final_dir)) fs::remove_all(final_dir);
-  fs::rename(staging.path, final_dir);
-  staging.keep = true;
-}
-
 // The world with the scene's vehicles replaced by its cars (as the guidance buffers).
 world::VoxelGrid static_world_of(const world::VoxelGrid& world, const pipeline::CameraPath& cp, const world::TriangleMesh& mesh) {
   if (!cp.scene) return world;
@@ -136,7 +129,7 @@ void cmd_frames_render(const FramesRenderArgs& a) {
       sum.lamps = st.lamps;
       sum.max_lights = std::max(sum.max_lights, st.max_lights);
     }
-    move_into_place(staging, final_dir);
+    staging.move_into_place(final_dir);
     const double total_s = std::chrono::duration<double>(Clock::now() - t_start).count();
     std::printf("frames: %zu frames %ux%u (%s), %.2f s, %.2f frames/s rendering [render %.2f s, cars %.2f s, "
                 "waiting on PNG writes %.2f s], %zu street lamps, up to %zu lights -> %s\n",
@@ -201,7 +194,7 @@ void cmd_frames_import(const FramesImportArgs& a) {
     o.sky_label = a.sky_label;
     const render::FramesImportReport rep = render::import_frames(a.input, a.buffers, staging.path.string(), o);
     for (const std::string& n : rep.notes) diag.warn(a.input, "", n);
-    move_into_place(staging, final_dir);
+    staging.move_into_place(final_dir);
     std::printf("import: %zu frames %ux%u%s -> %s\n", rep.frames, rep.width, rep.height,
                 rep.rescaled ? " (rescaled)" : "", final_dir.string().c_str());
     if (!a.sky_masks.empty())

@@ -115,19 +115,15 @@ void cmd_lift_gsm(const LiftArgs& a, const lift::GsmModelPaths& paths, scene::Di
   const fs::path final_dir = fs::absolute(a.output);
   StagingDir staging(final_dir.parent_path(), final_dir.filename().string());
   lift::write_gsm_lift_outputs(staging.path.string(), meta, r, o);
-  if (fs::exists(final_dir)) fs::remove_all(final_dir);
-  fs::rename(staging.path, final_dir);
-  staging.keep = true;
+  staging.move_into_place(final_dir);
   const double total_s = std::chrono::duration<double>(Clock::now() - t_start).count();
-  size_t object_gaussians = 0;
-  for (const auto& obj : r.lift.objects) object_gaussians += obj.gaussians.size();
   const lift::GsmLiftStats& g = r.gsm;
   for (const auto& [label, ms] : g.stages_ms) std::fprintf(stderr, "lift: gsm %-60s %9.1f ms\n", label.c_str(), ms);
   std::printf("lift (gsm): %zu key frames of %zu at %ux%u, %zu input voxels (%zu first hits) -> %zu Gaussians (%zu voxel, "
               "%zu pixel), %zu dynamic objects (%zu Gaussians, %zu key frames); held-out PSNR %.2f dB over %zu frames; "
               "%.2f s [inputs %.2f, forward %.2f, dynamic %.2f, eval %.2f] -> %s\n",
               r.lift.key_frames.size(), meta.poses.size(), g.width, g.height, g.input_voxels, g.front_voxels,
-              r.lift.cloud.size(), g.voxel_gaussians, g.pixel_gaussians, r.lift.objects.size(), object_gaussians,
+              r.lift.cloud.size(), g.voxel_gaussians, g.pixel_gaussians, r.lift.objects.size(), r.lift.object_gaussians(),
               g.dynamic_views, r.lift.mean_psnr(), r.lift.eval.size(), total_s, g.inputs_s, g.forward_s, g.dynamic_s,
               r.lift.eval_s, final_dir.string().c_str());
 }
@@ -165,18 +161,14 @@ void cmd_lift(const LiftArgs& a) {
     const fs::path final_dir = fs::absolute(a.output);
     StagingDir staging(final_dir.parent_path(), final_dir.filename().string());
     lift::write_lift_outputs(staging.path.string(), meta, r, o);
-    if (fs::exists(final_dir)) fs::remove_all(final_dir);
-    fs::rename(staging.path, final_dir);
-    staging.keep = true;
+    staging.move_into_place(final_dir);
     const double total_s = std::chrono::duration<double>(Clock::now() - t_start).count();
-    size_t object_gaussians = 0;
-    for (const auto& obj : r.objects) object_gaussians += obj.gaussians.size();
     std::printf("lift: %zu key frames of %zu, %zu samples -> %zu Gaussians (%zu surface, %zu hidden), %zu dynamic "
                 "objects (%zu Gaussians from %zu samples), sky from %zu pixels, %zu mid-ground pixels (%zu on the road "
                 "plane, %zu at the world's bounds); held-out PSNR %.2f dB over %zu frames; %.2f s [cast %.2f, "
                 "accumulate %.2f, emit %.2f, eval %.2f] -> %s\n",
                 r.key_frames.size(), meta.poses.size(), r.samples, r.cloud.size(), r.stats.surface_gaussians,
-                r.stats.hidden_gaussians, r.objects.size(), object_gaussians, r.dynamic_samples, r.sky_samples,
+                r.stats.hidden_gaussians, r.objects.size(), r.object_gaussians(), r.dynamic_samples, r.sky_samples,
                 r.pixel.pixels, r.pixel.ground, r.pixel.backdrop, r.mean_psnr(), r.eval.size(), total_s, r.cast_s,
                 r.accumulate_s, r.emit_s, r.eval_s, final_dir.string().c_str());
   });

@@ -1,7 +1,8 @@
 // A command's output staging folder: PARENT/.NAME.partial-PID, created empty (an
 // earlier one of the same name removed, and those of processes that no longer
 // run: left by a run killed from outside) and removed again when the command
-// fails, unless `keep` is set once its contents have been renamed into place.
+// fails, unless `keep` is set once its contents have been renamed into place
+// (move_into_place does both).
 #pragma once
 
 #include <signal.h>
@@ -31,6 +32,12 @@ struct StagingDir {
     }
     std::filesystem::remove_all(path);
     std::filesystem::create_directories(path);
+  }
+  // Replaces `final_dir` by the finished folder (and keeps it from the destructor).
+  void move_into_place(const std::filesystem::path& final_dir) {
+    if (std::filesystem::exists(final_dir)) std::filesystem::remove_all(final_dir);
+    std::filesystem::rename(path, final_dir);
+    keep = true;
   }
   StagingDir(const StagingDir&) = delete;
   StagingDir& operator=(const StagingDir&) = delete;

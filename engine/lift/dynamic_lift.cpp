@@ -72,16 +72,20 @@ std::map<uint16_t, splat::GaussianCloud> DynamicLiftAccumulator::emit() const {
   return out;
 }
 
-std::map<uint16_t, glm::dmat4> dynamic_object_poses(const scene::Scene& s, int time_index) {
-  std::map<uint16_t, glm::dmat4> out;
+std::map<uint16_t, const scene::BoxState*> dynamic_vehicle_states(const scene::Scene& s, int time_index) {
+  std::map<uint16_t, const scene::BoxState*> out;
   for (size_t i = 0; i < s.tracks.size(); ++i) {
     const scene::Track& t = s.tracks[i];
     if (t.type != scene::ObjectType::Vehicle || !t.dynamic || scene::is_ego_track(s, i)) continue;
     if (t.instance_id < kDynamicInstanceMin || t.instance_id > 0xFFFFu) continue;
-    const scene::BoxState* b = scene::state_filled(t, time_index);
-    if (!b) continue;
-    out[static_cast<uint16_t>(t.instance_id)] = scene::box_to_world(*b);
+    if (const scene::BoxState* b = scene::state_filled(t, time_index)) out[static_cast<uint16_t>(t.instance_id)] = b;
   }
+  return out;
+}
+
+std::map<uint16_t, glm::dmat4> dynamic_object_poses(const scene::Scene& s, int time_index) {
+  std::map<uint16_t, glm::dmat4> out;
+  for (const auto& [id, b] : dynamic_vehicle_states(s, time_index)) out[id] = scene::box_to_world(*b);
   return out;
 }
 

@@ -71,8 +71,11 @@ class DynamicLiftAccumulator {
   std::map<uint16_t, std::unordered_map<glm::ivec3, ObjectCell, CellHash>> objects_;
 };
 
-// object_to_world of each dynamic vehicle track (not the ego) at `time_index`, by instance id
-// (scene::state_filled: a track not valid there is placed at its nearest valid state).
+// The box of each dynamic vehicle track (not the ego, instance ids from kDynamicInstanceMin) at
+// `time_index`, by instance id (scene::state_filled: a track not valid there is placed at its nearest
+// valid state); the states point into `s`.
+std::map<uint16_t, const scene::BoxState*> dynamic_vehicle_states(const scene::Scene& s, int time_index);
+// object_to_world of each of them.
 std::map<uint16_t, glm::dmat4> dynamic_object_poses(const scene::Scene& s, int time_index);
 
 }  // namespace icube::lift

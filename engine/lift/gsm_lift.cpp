@@ -37,21 +37,13 @@ int time_index_of(const render::FramesMeta& meta, size_t f) {
   return f < meta.source_time_indices.size() ? std::max(0, meta.source_time_indices[f]) : 0;
 }
 
-// The dynamic vehicles of scene state `t` (dynamic_object_poses' set: the official dynamic_object_info),
-// boxes in the grid frame.
+// The dynamic vehicles of scene state `t` (dynamic_vehicle_states: the official dynamic_object_info),
+// boxes in the grid frame, by instance id.
 std::vector<GsmObjectBox> object_boxes(const scene::Scene& s, int t, const GsmGridFrame& g) {
   const glm::dmat4 world_to_grid = glm::inverse(g.grid_to_world());
   std::vector<GsmObjectBox> out;
-  for (size_t i = 0; i < s.tracks.size(); ++i) {
-    const scene::Track& tr = s.tracks[i];
-    if (tr.type != scene::ObjectType::Vehicle || !tr.dynamic || scene::is_ego_track(s, i)) continue;
-    if (tr.instance_id < kDynamicInstanceMin || tr.instance_id > 0xFFFFu) continue;
-    const scene::BoxState* b = scene::state_filled(tr, t);
-    if (!b) continue;
-    out.push_back({static_cast<uint16_t>(tr.instance_id), world_to_grid * scene::box_to_world(*b),
-                   glm::dvec3(b->length, b->width, b->height)});
-  }
-  std::sort(out.begin(), out.end(), [](const GsmObjectBox& a, const GsmObjectBox& b) { return a.id < b.id; });
+  for (const auto& [id, b] : dynamic_vehicle_states(s, t))
+    out.push_back({id, world_to_grid * scene::box_to_world(*b), glm::dvec3(b->length, b->width, b->height)});
   return out;
 }
 

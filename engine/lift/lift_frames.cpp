@@ -37,6 +37,12 @@ double LiftFramesResult::mean_psnr() const {
   return s / double(eval.size());
 }
 
+size_t LiftFramesResult::object_gaussians() const {
+  size_t n = 0;
+  for (const splat::SplatObject& o : objects) n += o.gaussians.size();
+  return n;
+}
+
 render::Camera frame_camera(const render::FramesMeta& meta, size_t frame) {
   render::Camera cam;
   cam.K = meta.K;

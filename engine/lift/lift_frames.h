@@ -54,6 +54,7 @@ struct LiftFramesResult {
   double cast_s = 0.0, accumulate_s = 0.0, emit_s = 0.0, eval_s = 0.0;
   std::vector<EvalFrame> eval;
   double mean_psnr() const;
+  size_t object_gaussians() const;  // over every dynamic object
 };
 
 // The frames' images as the lifting reads them.

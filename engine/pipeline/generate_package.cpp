@@ -317,13 +317,11 @@ std::string GenerateJob::lift_stage() {
   };
   const lift::LiftFramesResult lr = lift::lift_frames(*ctx, *static_world, pkg->frames().string(), meta, lo);
   lift::write_lift_outputs(pkg->gaussians().string(), meta, lr, lo);
-  size_t object_gaussians = 0;
-  for (const auto& obj : lr.objects) object_gaussians += obj.gaussians.size();
   char detail[256];
   std::snprintf(detail, sizeof detail,
                 "%zu static Gaussians (%zu of %zu mid-ground pixels), %zu dynamic objects (%zu Gaussians), "
                 "held-out PSNR %.2f dB over %zu frames",
-                lr.cloud.size(), lr.pixel.gaussians, lr.pixel.pixels, lr.objects.size(), object_gaussians, lr.mean_psnr(),
+                lr.cloud.size(), lr.pixel.gaussians, lr.pixel.pixels, lr.objects.size(), lr.object_gaussians(), lr.mean_psnr(),
                 lr.eval.size());
   return detail;
 }
@@ -342,14 +340,12 @@ std::string GenerateJob::gsm_lift_stage(const render::FramesMeta& meta) {
   const lift::GsmLiftResult r =
       lift::gsm_lift_frames(*ctx, *static_world, pkg->world().string(), pkg->frames().string(), meta, *gsm_model, o);
   lift::write_gsm_lift_outputs(pkg->gaussians().string(), meta, r, o);
-  size_t object_gaussians = 0;
-  for (const auto& obj : r.lift.objects) object_gaussians += obj.gaussians.size();
   char detail[256];
   std::snprintf(detail, sizeof detail,
                 "GSM: %zu static Gaussians (%zu voxel, %zu pixel) from %zu key frames at %ux%u and %zu voxels, %zu dynamic "
                 "objects (%zu Gaussians), held-out PSNR %.2f dB over %zu frames",
                 r.lift.cloud.size(), r.gsm.voxel_gaussians, r.gsm.pixel_gaussians, r.gsm.views, r.gsm.width, r.gsm.height,
-                r.gsm.input_voxels, r.lift.objects.size(), object_gaussians, r.lift.mean_psnr(), r.lift.eval.size());
+                r.gsm.input_voxels, r.lift.objects.size(), r.lift.object_gaussians(), r.lift.mean_psnr(), r.lift.eval.size());
   return detail;
 }
 
