@@ -19,6 +19,7 @@
 #include "kernels/nn/elementwise.h"
 #include "kernels/nn/attention.h"
 #include "world/npy.h"
+#include "conv_variants.h"
 #include "torch_side.h"
 
 #include <nlohmann/json.hpp>
@@ -118,29 +119,13 @@ int NnBench::conv3d_table() {
     cases.push_back({"released L0 C192->192, 64^3", {1, 192, 192, 64, 64, 64, 3}});
   }
   // The kernel variants side by side: path x weight precision (Conv3dPath; fp16 = packed fp16 weights).
-  struct Variant {
-    std::string name;
-    kernels::nn::Conv3dPath path;
-    bool f16 = false;
-  };
+  using Variant = bench::ConvVariant;
   std::vector<Variant> variants;
-  for (const std::string& v : conv_variants) {
-    const bool f16 = v.size() > 5 && v.compare(v.size() - 5, 5, "-fp16") == 0;
-    const std::string base = f16 ? v.substr(0, v.size() - 5) : v;
-    kernels::nn::Conv3dPath path;
-    if (base == "register") path = kernels::nn::Conv3dPath::kRegisterTile;
-    else if (base == "tiled") path = kernels::nn::Conv3dPath::kSharedTile;
-    else if (base == "coopmat") path = kernels::nn::Conv3dPath::kCoopMatrix;
-    else if (base == "emulated") path = kernels::nn::Conv3dPath::kCoopMatrixEmulated;
-    else {
-      std::fprintf(stderr, "icube-bench-nn: --conv-paths: unknown variant %s\n", v.c_str());
-      return 2;
-    }
-    if (path == kernels::nn::Conv3dPath::kCoopMatrix && !ctx.info().cooperative_matrix_nv) {
-      std::printf("(conv3d %s skipped: the device has no VK_NV_cooperative_matrix)\n", v.c_str());
-      continue;
-    }
-    variants.push_back({v, path, f16});
+  try {
+    variants = bench::conv_variants(conv_variants, ctx.info(), "--conv-paths");
+  } catch (const std::invalid_argument& e) {
+    std::fprintf(stderr, "icube-bench-nn: %s\n", e.what());
+    return 2;
   }
   // "vs first": max |y - y_first| / max |y_first| against the first variant's output in the same run (the
   // check at shapes too large for the CPU reference).

@@ -10,6 +10,7 @@
 // dense rows, the GFLOP/s of the whole box; checks the sparse output against the
 // dense GPU conv at the active sites in the same run. See bench/README.md.
 #include "bench_stats.h"
+#include "conv_variants.h"
 #include "gpu/context.h"
 #include "kernels/nn/conv3d.h"
 #include "kernels/nn/sparse_conv.h"
@@ -89,10 +90,16 @@ double max_rel_diff(const std::vector<float>& got, const std::vector<float>& wan
   return got.size() == want.size() ? worst / std::max(peak, 1e-30) : 1e30;
 }
 
+// Whether a kernel variant rounds weights or operands to fp16.
+bool has_f16(const bench::ConvVariant& v) {
+  return v.f16 || v.path == kernels::nn::Conv3dPath::kCoopMatrix || v.path == kernels::nn::Conv3dPath::kCoopMatrixEmulated;
+}
+
 struct Options {
   int runs = 5, warmup = 1, dense_runs = 5;
   nn::Ijk box{128, 128, 64};
   std::vector<int> channels{64, 128};
+  std::vector<bench::ConvVariant> sparse_paths;
   bench::TorchSide torch;
 };
 
@@ -140,26 +147,35 @@ bool run_case(gpu::Context& ctx, const std::string& name, const nn::SparseGrid& 
     for (float& v : b) v = u(rng);
     const std::vector<float> packed = kernels::nn::pack_conv3d_weights(w, c, c, 3);
     gpu::Buffer xb = gpu::upload_vector(ctx, xs, "bench-x"), wb = gpu::upload_vector(ctx, packed, "bench-w"),
+                wb16 = gpu::upload_vector(ctx, kernels::nn::pack_conv3d_weights_f16(w, c, c, 3), "bench-w16"),
                 bb = gpu::upload_vector(ctx, b, "bench-b");
     gpu::Buffer yb(ctx, uint64_t{c} * N * 4, gpu::MemoryUsage::DeviceLocal, "bench-y");
-    const kernels::nn::SparseConvShape s{N, c, c};
-    // Both sparse kernels side by side: lavapipe's register tile, then the GPUs' shared-memory gathered GEMM
-    // (max rel against the first).
-    sconv.force_path(kernels::nn::Conv3dPath::kRegisterTile);
-    const bench::Summary ts_sparse =
-        time_runs(o.runs, o.warmup, [&] { ctx.submit_and_wait([&](gpu::CommandList& cmd) { sconv.record(cmd, s, xb, kmap, wb, &bb, yb); }); });
-    const std::vector<float> ys = gpu::download_vector<float>(ctx, yb, uint64_t{c} * N);
     const double useful = 2.0 * c * c * static_cast<double>(pairs) * 1e-9;
     const double sparse_mb = (2.0 * c * N * 4 + N * 27.0 * 4) / 1e6;
-    std::printf("%-26s %8d %10.1f %10.1f %9.2f %11.2f %10.1f %9s\n", "sparse (gather, kmap)", C, ts_sparse.min_ms,
-                ts_sparse.median_ms, useful / (ts_sparse.min_ms * 1e-3), useful / (ts_sparse.min_ms * 1e-3), sparse_mb, "-");
-    sconv.force_path(kernels::nn::Conv3dPath::kSharedTile);
-    const bench::Summary ts_tiled =
-        time_runs(o.runs, o.warmup, [&] { ctx.submit_and_wait([&](gpu::CommandList& cmd) { sconv.record(cmd, s, xb, kmap, wb, &bb, yb); }); });
-    const double tiled_rel = max_rel_diff(gpu::download_vector<float>(ctx, yb, uint64_t{c} * N), ys);
-    ok = ok && tiled_rel <= 1e-5;
-    std::printf("%-26s %8d %10.1f %10.1f %9.2f %11.2f %10.1f %9.1e\n", "sparse tiled (gather GEMM)", C, ts_tiled.min_ms,
-                ts_tiled.median_ms, useful / (ts_tiled.min_ms * 1e-3), useful / (ts_tiled.min_ms * 1e-3), sparse_mb, tiled_rel);
+    // The sparse kernels side by side (--sparse-paths; max rel against the first, which the dense rows check).
+    std::vector<float> ys;
+    double first_ms = 0.0;
+    for (const bench::ConvVariant& var : o.sparse_paths) {
+      const kernels::nn::SparseConvShape s{N, c, c, false, var.f16};
+      sconv.force_path(var.path);
+      const bench::Summary t = time_runs(o.runs, o.warmup, [&] {
+        ctx.submit_and_wait([&](gpu::CommandList& cmd) { sconv.record(cmd, s, xb, kmap, var.f16 ? wb16 : wb, &bb, yb); });
+      });
+      std::vector<float> got = gpu::download_vector<float>(ctx, yb, uint64_t{c} * N);
+      char rel[32] = "-";
+      if (ys.empty()) {
+        ys = std::move(got);
+        first_ms = t.min_ms;
+      } else {
+        const double r = max_rel_diff(got, ys);
+        // fp16 weights or operands round each term by up to 2^-11: a bound of 1e-2 of the largest output.
+        ok = ok && r <= (has_f16(var) || has_f16(o.sparse_paths.front()) ? 1e-2 : 1e-5);
+        std::snprintf(rel, sizeof rel, "%.1e", r);
+      }
+      const std::string label = "sparse " + var.name;
+      std::printf("%-26s %8d %10.1f %10.1f %9.2f %11.2f %10.1f %9s\n", label.c_str(), C, t.min_ms, t.median_ms,
+                  useful / (t.min_ms * 1e-3), useful / (t.min_ms * 1e-3), sparse_mb, rel);
+    }
     sconv.force_path(std::nullopt);
     if (o.dense_runs < 1) continue;  // sparse only
     // Dense conv3d over the zero-filled box (NCDHW), the same weights (grid order = the dense kernel's).
@@ -187,7 +203,7 @@ bool run_case(gpu::Context& ctx, const std::string& name, const nn::SparseGrid& 
       }
     }
     const double rel = worst / std::max(peak, 1e-30);
-    ok = ok && rel < 1e-5;
+    ok = ok && rel < (has_f16(o.sparse_paths.front()) ? 1e-2 : 1e-5);
     char relbuf[32];
     std::snprintf(relbuf, sizeof relbuf, "%.1e", rel);
     const double dense_gf = ds.flops() * 1e-9;
@@ -211,18 +227,19 @@ bool run_case(gpu::Context& ctx, const std::string& name, const nn::SparseGrid& 
                     dense_gf / (tr.min_ms * 1e-3), useful / (tr.min_ms * 1e-3), 2.0 * c * V * 4 / 1e6, relbuf);
       }
     }
-    std::printf("%-26s %8d %9.1fx faster than the dense GPU conv over the box\n", "sparse speed-up", C, td.min_ms / ts_sparse.min_ms);
+    std::printf("%-26s %8d %9.1fx faster than the dense GPU conv over the box\n", "sparse speed-up", C, td.min_ms / first_ms);
   }
   return ok;
 }
 
 // One structure-VAE decode of a random latent on a dense box (random weights of `model`'s shapes): each
 // stage's wall time and rows, the activation pool's peak and the weights' device memory.
-bool run_vae_decode(gpu::Context& ctx, const std::string& model, const nn::Ijk& box, int runs) {
+bool run_vae_decode(gpu::Context& ctx, const std::string& model, const nn::Ijk& box, int runs, nn::WeightPrecision precision) {
   const nn::VaeConfig cfg = nn::load_vae_config(model);
-  std::printf("\nVAE decode (%s, random weights), latent box %d x %d x %d x %d channels\n", model.c_str(), box[0], box[1], box[2],
-              cfg.latent_channels());
-  nn::VaeGpu vae(ctx, cfg, nn::random_weights(nn::vae_param_specs(cfg, nn::VaePart::Decoder), 9));
+  const bool f16 = precision == nn::WeightPrecision::F16Weights;
+  std::printf("\nVAE decode (%s, random weights, %s), latent box %d x %d x %d x %d channels\n", model.c_str(),
+              f16 ? "fp16 weights" : "fp32", box[0], box[1], box[2], cfg.latent_channels());
+  nn::VaeGpu vae(ctx, cfg, nn::random_weights(nn::vae_param_specs(cfg, nn::VaePart::Decoder), 9), precision);
   nn::SparseTensor latent;
   std::array<double, 3> vs{0.2, 0.2, 0.2}, origin{};
   for (int l = 1; l < cfg.num_blocks; ++l)
@@ -266,12 +283,23 @@ int main(int argc, char** argv) {
   app.add_option("--dense-runs", o.dense_runs, "Timed runs of the dense convolutions (seconds to minutes each; 0: sparse only)");
   app.add_option("--box", box, "Box around the ego in voxels (X Y Z); 256 256 128 = a whole chunk")->expected(3);
   app.add_option("--channels", o.channels, "Channel counts (in = out)");
+  std::vector<std::string> sparse_paths{"register", "tiled"};
+  app.add_option("--sparse-paths", sparse_paths,
+                 "Sparse kernels side by side: register, tiled, coopmat, emulated, each optionally -fp16 (fp16 weights; "
+                 "coopmat's operands are fp16 either way); the first is checked against the dense conv, the others "
+                 "against the first; coopmat is skipped on devices without it")
+      ->delimiter(',')
+      ->capture_default_str();
   app.add_option("--case", which, "all, demo or waymo")->check(CLI::IsMember({"all", "demo", "waymo"}));
   std::vector<int> vae_box;
   std::string vae_model = "infinicube-vae";
   app.add_option("--vae-decode", vae_box, "Only a structure-VAE decode of a random latent on this box (X Y Z latent voxels; 64 64 64 = a chunk)")
       ->expected(3);
   app.add_option("--vae-model", vae_model, "VAE config or preset for --vae-decode")->capture_default_str();
+  std::string vae_precision = "fp32";
+  app.add_option("--vae-precision", vae_precision, "--vae-decode's convolution weights: fp32 or fp16")
+      ->check(CLI::IsMember({"fp32", "fp16"}))
+      ->capture_default_str();
   app.add_flag("--torch", with_torch, "Also PyTorch's CPU conv3d on the box (Debian python3-torch), threads = LP_NUM_THREADS");
   CLI11_PARSE(app, argc, argv);
   o.box = {box[0], box[1], box[2]};
@@ -289,7 +317,21 @@ int main(int argc, char** argv) {
   }
   gpu::Context ctx;
   std::printf("device: %s; LP_NUM_THREADS=%s\n", ctx.info().name.c_str(), std::getenv("LP_NUM_THREADS") ? std::getenv("LP_NUM_THREADS") : "unset");
-  if (!vae_box.empty()) return run_vae_decode(ctx, vae_model, {vae_box[0], vae_box[1], vae_box[2]}, o.runs) ? 0 : 1;
+  if (!vae_box.empty())
+    return run_vae_decode(ctx, vae_model, {vae_box[0], vae_box[1], vae_box[2]}, o.runs,
+                          vae_precision == "fp16" ? nn::WeightPrecision::F16Weights : nn::WeightPrecision::F32)
+               ? 0
+               : 1;
+  try {
+    o.sparse_paths = bench::conv_variants(sparse_paths, ctx.info(), "--sparse-paths");
+  } catch (const std::invalid_argument& e) {
+    std::fprintf(stderr, "icube-bench-sparse: %s\n", e.what());
+    return 2;
+  }
+  if (o.sparse_paths.empty()) {
+    std::fprintf(stderr, "icube-bench-sparse: --sparse-paths: no kernel this device runs\n");
+    return 2;
+  }
   bool ok = true;
   const char* data_env = std::getenv("ICUBE_TEST_DATA");
   const std::string data = data_env ? data_env : "../shared/data";

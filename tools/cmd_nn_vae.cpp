@@ -1,8 +1,8 @@
 // `icube nn vae` : InfiniCube's sparse structure VAE.
 //
 //   icube nn vae decode LATENT.npy --model CONFIG|infinicube-vae --weights VAE.safetensors
-//                       [--latent-origin I,J,K] [--scale-factor S] [--backend gpu|cpu] [--check-finite]
-//                       [--scene SCENE [--mode M] --chunk K | --at X,Y,Z[,YAW_DEG]] [--dump-layers DIR] -o CHUNK.icw
+//                       [--latent-origin I,J,K] [--scale-factor S] [--backend gpu|cpu] [--precision fp32|fp16]
+//                       [--check-finite] [--scene SCENE [--mode M] --chunk K | --at X,Y,Z[,YAW_DEG]] [--dump-layers DIR] -o CHUNK.icw
 //
 // decode turns a dense latent [1, C, X, Y, Z] float32 (the box of latent
 // voxels whose element [0,0,0] sits at --latent-origin, default the box
@@ -20,11 +20,13 @@
 // level's grid before pruning and its structure logits (struct<d>.ijk.npy /
 // .logits.npy, d = 0 finest), the final ijk.npy and semantic.npy, so a user can
 // compare with PyTorch level by level (rows in brick order; compare as sets).
+// --precision fp16 stores the convolution weights as fp16 (the GPU backend:
+// tensor cores on NVIDIA GPUs; activations and sums stay fp32).
 // Outputs are written atomically; a failure leaves none.
 //
 //   icube nn vae encode WORLD.icw (--scene SCENE [--mode trajectory|blocks] --chunk K | --at X,Y,Z[,YAW_DEG])
 //                       --model CONFIG|infinicube-vae --weights VAE.safetensors [--scale-factor S]
-//                       [--backend gpu|cpu] [--check-finite] -o LATENT.npy
+//                       [--backend gpu|cpu] [--precision fp32|fp16] [--check-finite] -o LATENT.npy
 //
 // encode re-voxelises the world's voxels into one chunk's frame (engine/world/
 // chunk_voxels.h: the chunk K of the scene's Stage-1 plan, or a chunk centred
@@ -76,7 +78,7 @@ struct ChunkPlacement {
 };
 
 struct VaeDecodeArgs {
-  std::string latent, model, weights, origin, dump, output, backend = "gpu";
+  std::string latent, model, weights, origin, dump, output, backend = "gpu", precision = "fp32";
   ChunkPlacement place;
   double scale_factor = 1.0;
   bool scale_given = false;  // else from the weights' metadata, else 1
@@ -84,6 +86,13 @@ struct VaeDecodeArgs {
 };
 
 world::ChunkPose parse_chunk_at(const std::string& text);
+
+// --precision: fp16 weights exist on the GPU backend only (the CPU reference is exact).
+nn::VaeGpu::Precision vae_precision(const std::string& precision, const std::string& backend) {
+  if (precision == "fp16" && backend != "gpu")
+    throw std::invalid_argument("--precision fp16 runs on the GPU backend only (the CPU reference is exact)");
+  return precision == "fp16" ? nn::VaeGpu::Precision::F16Weights : nn::VaeGpu::Precision::F32;
+}
 
 world::ChunkPose chunk_pose(const ChunkPlacement& p, scene::Diagnostics& diag) {
   const bool from_plan = p.chunk >= 0 || !p.scene.empty();
@@ -136,6 +145,7 @@ void write_levels(const fs::path& dir, const nn::VaeDecoded& d) {
 void cmd_vae_decode(const VaeDecodeArgs& a) {
   run_command([&](scene::Diagnostics& diag) {
     using Clock = std::chrono::steady_clock;
+    const nn::VaeGpu::Precision precision = vae_precision(a.precision, a.backend);
     const nn::VaeConfig cfg = nn::load_vae_config(a.model);
     const nn::SafetensorsFile file(a.weights);
     const nn::LatentScale scale = nn::resolve_latent_scale(a.scale_given ? std::optional<double>(a.scale_factor) : std::nullopt, file);
@@ -176,7 +186,7 @@ void cmd_vae_decode(const VaeDecodeArgs& a) {
     uint64_t activation_bytes = 0, weight_bytes = 0;
     if (a.backend == "gpu") {
       ctx.emplace(gpu::ContextOptions::from_env());
-      nn::VaeGpu vae(*ctx, cfg, w);
+      nn::VaeGpu vae(*ctx, cfg, w, precision);
       d = vae.decode(latent);
       activation_bytes = vae.last_activation_bytes();
       weight_bytes = vae.weight_bytes();
@@ -226,7 +236,7 @@ void cmd_vae_decode(const VaeDecodeArgs& a) {
 }
 
 struct VaeEncodeArgs {
-  std::string world, model, weights, output, backend = "gpu";
+  std::string world, model, weights, output, backend = "gpu", precision = "fp32";
   ChunkPlacement place;
   double scale_factor = 1.0;
   bool scale_given = false;  // else from the weights' metadata, else 1
@@ -259,6 +269,7 @@ world::ChunkPose parse_chunk_at(const std::string& text) {
 void cmd_vae_encode(const VaeEncodeArgs& a) {
   run_command([&](scene::Diagnostics& diag) {
     using Clock = std::chrono::steady_clock;
+    const nn::VaeGpu::Precision precision = vae_precision(a.precision, a.backend);
     refuse_overwriting_input(a.world, a.output);
     const nn::VaeConfig cfg = nn::load_vae_config(a.model);
     const world::ChunkPose pose = chunk_pose(a.place, diag);
@@ -286,7 +297,7 @@ void cmd_vae_encode(const VaeEncodeArgs& a) {
     std::optional<gpu::Context> ctx;
     if (a.backend == "gpu") {
       ctx.emplace(gpu::ContextOptions::from_env());
-      nn::VaeGpu vae(*ctx, cfg, wts);
+      nn::VaeGpu vae(*ctx, cfg, wts, precision);
       mu = vae.encode(fine, classes);
       activation_bytes = vae.last_activation_bytes();
       for (const nn::VaeGpu::Stage& st : vae.last_stages())
@@ -334,6 +345,10 @@ void add_vae_commands(CLI::App& app) {
   dec->add_option("--backend", a->backend, "gpu (Vulkan kernels) or cpu (the exact double-accumulation reference)")
       ->check(CLI::IsMember({"gpu", "cpu"}))
       ->capture_default_str();
+  dec->add_option("--precision", a->precision,
+                  "GPU backend: convolution weights in fp32 or fp16 (activations and accumulation fp32)")
+      ->check(CLI::IsMember({"fp32", "fp16"}))
+      ->capture_default_str();
   dec->add_flag("--check-finite", a->check_finite, "Fail on a NaN or infinity in the weights");
   add_placement_options(dec, a->place, ": the chunk is written in the world's frame");
   dec->add_option("--dump-layers", a->dump, "Write each level's grid, structure logits and the final class logits here (.npy)")
@@ -357,6 +372,10 @@ void add_vae_commands(CLI::App& app) {
       ->each([e](const std::string&) { e->scale_given = true; });
   enc->add_option("--backend", e->backend, "gpu (Vulkan kernels) or cpu (the exact double-accumulation reference)")
       ->check(CLI::IsMember({"gpu", "cpu"}))
+      ->capture_default_str();
+  enc->add_option("--precision", e->precision,
+                  "GPU backend: convolution weights in fp32 or fp16 (activations and accumulation fp32)")
+      ->check(CLI::IsMember({"fp32", "fp16"}))
       ->capture_default_str();
   enc->add_flag("--check-finite", e->check_finite, "Fail on a NaN or infinity in the weights");
   enc->add_option("-o,--output", e->output, "mu on the dense neck box: float32 [1, C, X, Y, Z]")->required()->type_name("LATENT.npy");

@@ -141,7 +141,7 @@ std::unique_ptr<diffusion::DiffusionGenerator> make_diffusion_generator(const Bu
   o.sampler.cfg_scale = a.cfg;
   o.sampler.seed = a.seed;
   o.scale_factor = scale.value;
-  o.precision = a.precision == "fp16" ? nn::UNetGpu::Precision::F16Weights : nn::UNetGpu::Precision::F32;
+  o.precision = a.precision == "fp16" ? nn::WeightPrecision::F16Weights : nn::WeightPrecision::F32;
   o.keep_latents = a.keep_latents;
   // One bar per chunk over its denoising steps (elapsed time and ETA).
   o.progress = [&bar, current = std::make_shared<size_t>(SIZE_MAX)](size_t chunk, size_t done, size_t total) {
@@ -295,7 +295,8 @@ void add_world_build_commands(CLI::App& app) {
   build->add_option("--cfg", a->cfg, "diffusion: guidance scale s, v = cond + s (cond - uncond); 1 = one pass (the official "
                                      "CLI's default), 2 = the official full pipeline's")
       ->capture_default_str();
-  build->add_option("--precision", a->precision, "diffusion: UNet weights in fp32 or fp16 (activations fp32)")
+  build->add_option("--precision", a->precision,
+                    "diffusion: UNet and VAE convolution and linear weights in fp32 or fp16 (activations fp32)")
       ->check(CLI::IsMember({"fp32", "fp16"}))
       ->capture_default_str();
   build->add_option("--scale-factor", a->scale_factor,

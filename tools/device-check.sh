@@ -92,6 +92,11 @@ if want perf; then
   step perf_unet_fp16 60 "$bin/icube-bench-nn" --only none --unet infinicube-diffusion --unet-grid 64 64 64 \
     --unet-batch 2 --unet-no-cpu --unet-precision fp16 --runs 5 --warmup 1
   step perf_vae 60 "$bin/icube-bench-sparse" --vae-decode 64 64 64 --vae-model infinicube-vae --runs 3 --warmup 1
+  step perf_vae_fp16 45 "$bin/icube-bench-sparse" --vae-decode 64 64 64 --vae-model infinicube-vae --vae-precision fp16 \
+    --runs 3 --warmup 1
+  # The sparse kernels side by side on a whole chunk of the demo world (the first row checked against the dense conv).
+  step perf_sparse 60 "$bin/icube-bench-sparse" --case demo --box 256 256 128 --channels 64 128 \
+    --sparse-paths register,tiled,tiled-fp16,coopmat,coopmat-fp16 --runs 5 --warmup 1 --dense-runs 1
   step perf_splat 45 "$bin/icube-bench-splat" --gaussians 1000000 --sizes 1920x1080 --runs 5 --no-cpu
   {
     echo "| measurement | result |"
@@ -101,7 +106,10 @@ if want perf; then
     for f in perf_unet_fp32_old perf_unet_fp32 perf_unet_fp16_old perf_unet_fp16; do
       grep -E "^UNet forward" "$out/$f.txt" | sed -E "s/^/| $f | /; s/$/ |/"
     done
-    grep -iE "decode" "$out/perf_vae.txt" | tail -n 3 | sed -E 's/^/| perf_vae | /; s/$/ |/'
+    for f in perf_vae perf_vae_fp16; do
+      grep -iE "decode" "$out/$f.txt" | tail -n 3 | sed -E "s/^/| $f | /; s/$/ |/"
+    done
+    grep -E "^(sparse |dense conv3d)" "$out/perf_sparse.txt" | sed -E 's/^/| perf_sparse | /; s/$/ |/'
     grep -E "1920x1080" "$out/perf_splat.txt" | tail -n 3 | sed -E 's/^/| perf_splat | /; s/$/ |/'
   } > "$out/perf_table.md"
   cat "$out/perf_table.md"

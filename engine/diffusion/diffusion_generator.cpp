@@ -49,7 +49,7 @@ struct DiffusionGenerator::Impl {
         latent_channels(vae_cfg.latent_channels()),
         surface(world::build_road_surface(s.map, world::RoadSurfaceOptions{})),
         unet(c, unet_cfg, unet_w, o.precision),
-        vae(c, vae_cfg, vae_w),
+        vae(c, vae_cfg, vae_w, o.precision),
         conditions(c),
         store(mode, vae_cfg.latent_channels()) {}
 };

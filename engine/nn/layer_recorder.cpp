@@ -164,12 +164,10 @@ DeviceTensor LayerRecorder::relu(const DeviceTensor& x) {
 
 DeviceTensor LayerRecorder::sparse_conv(const DeviceTensor& x, const std::string& prefix, const gpu::Buffer& kernel_map,
                                         bool silu) {
-  if (params_.f16_matrices())
-    throw std::logic_error("LayerRecorder: the sparse convolution has no fp16-weight path (" + prefix + ")");
   if (x.batch() != 1) throw std::logic_error("LayerRecorder: sparse features are [1, C, rows] (" + prefix + ")");
   const std::vector<int64_t>& ws = params_.shape(prefix + ".weight");
   DeviceTensor y = alloc({1, ws[0], x.spatial()});
-  const kernels::nn::SparseConvShape s{u32(x.spatial()), u32(x.channels()), u32(ws[0]), silu};
+  const kernels::nn::SparseConvShape s{u32(x.spatial()), u32(x.channels()), u32(ws[0]), silu, params_.f16_matrices()};
   const std::string bias = prefix + ".bias";
   sparse_conv_->record(cmd(), s, *x.buf, kernel_map, params_.buffer(prefix + ".weight"),
                        params_.has(bias) ? &params_.buffer(bias) : nullptr, *y.buf);

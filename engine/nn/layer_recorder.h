@@ -5,8 +5,8 @@
 // compute-to-compute barrier (so a pooled buffer can be reused by the next
 // layer). A network is its module tree walked over these calls (UNetGpu,
 // VaeGpu); a new one declares its layers and their order. Weights stored as
-// fp16 (ParameterStoreOptions::f16_matrices) go to the dense convolutions'
-// fp16-weight path; the sparse convolution has none and refuses them.
+// fp16 (ParameterStoreOptions::f16_matrices) go to the dense and sparse
+// convolutions' fp16-weight paths (tensor cores where the device has them).
 // Tests: through the networks (tests/nn/test_unet_gpu.cpp, test_vae_gpu.cpp,
 // against the official cases and the CPU references).
 #pragma once

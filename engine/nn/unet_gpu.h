@@ -24,6 +24,7 @@
 #include "gpu/context.h"
 #include "kernels/nn/cpu_tensor.h"
 #include "nn/unet_reference.h"
+#include "nn/weight_precision.h"
 
 #include <map>
 #include <memory>
@@ -34,7 +35,7 @@ namespace icube::nn {
 
 class UNetGpu {
  public:
-  enum class Precision { F32, F16Weights };
+  using Precision = WeightPrecision;
   // `weights` by official name, as UNetReference::set_weights takes them.
   UNetGpu(gpu::Context& ctx, const UNetConfig& config, const std::map<std::string, CpuTensor>& weights,
           Precision precision = Precision::F32);

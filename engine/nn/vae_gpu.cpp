@@ -25,8 +25,9 @@ struct Level {
   std::unique_ptr<gpu::Buffer> ijk, kmap, table;
 };
 
-ParameterStoreOptions store_options() {
+ParameterStoreOptions store_options(VaeGpu::Precision precision) {
   ParameterStoreOptions o;
+  o.f16_matrices = precision == VaeGpu::Precision::F16Weights;
   o.network = "the VAE";
   o.partial = true;  // the encoder's or the decoder's weights alone
   o.missing_hint = "encoding needs the encoder's weights, decoding the decoder's";
@@ -46,10 +47,10 @@ struct VaeGpu::Impl {
   const Level* level = nullptr;
   std::vector<VaeGpu::Stage> stages;  // the last run's
 
-  Impl(gpu::Context& c, const VaeConfig& cfg, const std::map<std::string, CpuTensor>& weights)
+  Impl(gpu::Context& c, const VaeConfig& cfg, const std::map<std::string, CpuTensor>& weights, VaeGpu::Precision precision)
       : ctx(c),
         config(cfg),
-        params(c, vae_param_specs(cfg, VaePart::All), weights, store_options()),
+        params(c, vae_param_specs(cfg, VaePart::All), weights, store_options(precision)),
         L(c, params, "vae-activation"),
         kmap(c),
         grid_ops(c) {}
@@ -132,8 +133,9 @@ struct VaeGpu::Impl {
   }
 };
 
-VaeGpu::VaeGpu(gpu::Context& ctx, const VaeConfig& config, const std::map<std::string, CpuTensor>& weights)
-    : impl_(std::make_unique<Impl>(ctx, config, weights)) {}
+VaeGpu::VaeGpu(gpu::Context& ctx, const VaeConfig& config, const std::map<std::string, CpuTensor>& weights,
+               Precision precision)
+    : impl_(std::make_unique<Impl>(ctx, config, weights, precision)) {}
 
 VaeGpu::~VaeGpu() = default;
 

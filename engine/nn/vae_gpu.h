@@ -9,8 +9,9 @@
 // Activations are pooled as in UNetGpu (a buffer is reused once the tensor in
 // it is dead), so the peak is near the largest live set of a level.
 // Weights as VaeReference takes them (official names, 3^3 kernels already in
-// grid order: vae_weights.h), in one nn::ParameterStore (fp32: the sparse
-// convolution has no fp16-weight path yet), packed and uploaded once.
+// grid order: vae_weights.h), in one nn::ParameterStore, packed and uploaded
+// once, in fp32 or (Precision::F16Weights) fp16: the sparse and 1x1
+// convolutions' fp16-weight paths, tensor cores on NVIDIA GPUs.
 // Tensors beyond one storage binding (lavapipe: 128 MiB; a full chunk's finest
 // level is ~2.7 M rows) run in windows: sparse_conv by row and channel
 // windows, GroupNorm by groups or, for one group beyond a binding, in spans.
@@ -22,6 +23,7 @@
 #include "kernels/nn/cpu_tensor.h"
 #include "nn/vae_config.h"
 #include "nn/vae_reference.h"
+#include "nn/weight_precision.h"
 
 #include <map>
 #include <memory>
@@ -32,7 +34,9 @@ namespace icube::nn {
 
 class VaeGpu {
  public:
-  VaeGpu(gpu::Context& ctx, const VaeConfig& config, const std::map<std::string, CpuTensor>& weights);
+  using Precision = WeightPrecision;
+  VaeGpu(gpu::Context& ctx, const VaeConfig& config, const std::map<std::string, CpuTensor>& weights,
+         Precision precision = Precision::F32);
   ~VaeGpu();
   VaeGpu(const VaeGpu&) = delete;
   VaeGpu& operator=(const VaeGpu&) = delete;

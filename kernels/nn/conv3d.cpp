@@ -47,10 +47,7 @@ const char* conv3d_path_name(Conv3dPath path) {
   return "?";
 }
 
-namespace {
-
-// Why `path` cannot run on `device` ("" when it can).
-std::string path_unavailable(Conv3dPath path, const gpu::DeviceInfo& device) {
+std::string conv3d_path_unavailable(Conv3dPath path, const gpu::DeviceInfo& device) {
   if (path == Conv3dPath::kCoopMatrix && !(device.cooperative_matrix_nv && device.subgroup_size == 32))
     return "the device has no VK_NV_cooperative_matrix with fp16 16x16x16 fragments and subgroups of 32";
   if (path == Conv3dPath::kCoopMatrixEmulated && !device.shader_float16)
@@ -58,11 +55,9 @@ std::string path_unavailable(Conv3dPath path, const gpu::DeviceInfo& device) {
   return "";
 }
 
-}  // namespace
-
 Conv3dPath default_conv3d_path(const gpu::DeviceInfo& device, bool f16_weights) {
   if (kernel_family(device) == KernelFamily::kLavapipe) return Conv3dPath::kRegisterTile;
-  if (f16_weights && path_unavailable(Conv3dPath::kCoopMatrix, device).empty()) return Conv3dPath::kCoopMatrix;
+  if (f16_weights && conv3d_path_unavailable(Conv3dPath::kCoopMatrix, device).empty()) return Conv3dPath::kCoopMatrix;
   return Conv3dPath::kSharedTile;
 }
 
@@ -85,7 +80,7 @@ const char* Conv3d::shader_name(Conv3dPath path, bool f16_weights) {
 }
 
 gpu::Program& Conv3d::program(Conv3dPath path, uint32_t kernel, bool f16_weights) {
-  if (const std::string why = path_unavailable(path, ctx_.info()); !why.empty())
+  if (const std::string why = conv3d_path_unavailable(path, ctx_.info()); !why.empty())
     throw std::invalid_argument(std::string("conv3d: the ") + conv3d_path_name(path) + " path: " + why);
   return ctx_.program(shader_name(path, f16_weights), gpu::SpecConstants{}.set(0, kernel /* NN_K */));
 }

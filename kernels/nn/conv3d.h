@@ -26,6 +26,7 @@
 
 #include <cstdint>
 #include <optional>
+#include <string>
 #include <vector>
 
 namespace icube::gpu {
@@ -43,6 +44,9 @@ enum class Conv3dPath {
   kCoopMatrixEmulated,  // nn/conv3d_coopmat_emulated*.comp: the same tiling written out per lane (tests)
 };
 const char* conv3d_path_name(Conv3dPath path);
+// Why `path` cannot run on `device` ("" when it can): the cooperative-matrix kernels need
+// VK_NV_cooperative_matrix and subgroups of 32, their emulation shaderFloat16. Conv3d and SparseConv3d.
+std::string conv3d_path_unavailable(Conv3dPath path, const gpu::DeviceInfo& device);
 
 // lavapipe's kernel family (CPU devices, or ICUBE_NN_KERNELS=lavapipe: kernels/nn/kernel_family.h): the
 // register tile. The GPUs' family: with fp16 weights the cooperative-matrix kernel where the device has it

@@ -3,7 +3,6 @@
 
 #include "gpu/context.h"
 #include "kernels/nn/buffer_checks.h"
-#include "kernels/nn/kernel_family.h"
 #include "shared/nn_params.h"
 
 #include <algorithm>
@@ -73,22 +72,21 @@ void SparseKernelMap::record_map(gpu::CommandList& cmd, uint32_t rows, const gpu
   }
 }
 
-const char* SparseConv3d::shader_name(Conv3dPath path) {
-  return path == Conv3dPath::kSharedTile ? "nn/sparse_conv_tiled" : "nn/sparse_conv";
+const char* SparseConv3d::shader_name(Conv3dPath path, bool f16_weights) {
+  static const char* const kNames[4][2] = {{"nn/sparse_conv", "nn/sparse_conv_f16w"},
+                                           {"nn/sparse_conv_tiled", "nn/sparse_conv_tiled_f16w"},
+                                           {"nn/sparse_conv_coopmat", "nn/sparse_conv_coopmat_f16w"},
+                                           {"nn/sparse_conv_coopmat_emulated", "nn/sparse_conv_coopmat_emulated_f16w"}};
+  return kNames[static_cast<int>(path)][f16_weights ? 1 : 0];
 }
 
-SparseConv3d::SparseConv3d(gpu::Context& ctx) : ctx_(ctx) { ctx.program(shader_name(path())); }
-
-void SparseConv3d::force_path(std::optional<Conv3dPath> path) {
-  if (path && *path != Conv3dPath::kRegisterTile && *path != Conv3dPath::kSharedTile)
-    throw std::invalid_argument(std::string("sparse conv: no ") + conv3d_path_name(*path) +
-                                " kernel (register or tiled; the cooperative-matrix form needs fp16 weights)");
-  forced_path_ = path;
+SparseConv3d::SparseConv3d(gpu::Context& ctx) : ctx_(ctx) {
+  // Create the default paths' programs now, so pipeline creation does not land inside a timed forward.
+  for (const bool f16 : {false, true}) ctx.program(shader_name(path(f16), f16));
 }
 
-Conv3dPath SparseConv3d::path() const {
-  if (forced_path_) return *forced_path_;
-  return kernel_family(ctx_.info()) == KernelFamily::kLavapipe ? Conv3dPath::kRegisterTile : Conv3dPath::kSharedTile;
+Conv3dPath SparseConv3d::path(bool f16_weights) const {
+  return forced_path_ ? *forced_path_ : default_conv3d_path(ctx_.info(), f16_weights);
 }
 
 void SparseConv3d::record(gpu::CommandList& cmd, const SparseConvShape& s, const gpu::Buffer& x, const gpu::Buffer& kmap,
@@ -96,34 +94,40 @@ void SparseConv3d::record(gpu::CommandList& cmd, const SparseConvShape& s, const
   if (s.rows == 0 || s.in_channels == 0 || s.out_channels == 0) return;
   const uint64_t N = s.rows;
   const uint64_t co_vec4s = gpu::div_up(s.out_channels, NN_CONV_CO_TILE) * (NN_CONV_CO_TILE / 4);
-  const uint64_t w_bytes = uint64_t{s.in_channels} * NN_SPARSE_TAPS * co_vec4s * 16;
+  const uint64_t w_bytes = uint64_t{s.in_channels} * NN_SPARSE_TAPS * co_vec4s * (s.f16_weights ? 8 : 16);
   require_buffer("sparse conv", "input", uint64_t{s.in_channels} * N * 4, x);
   require_buffer("sparse conv", "output", uint64_t{s.out_channels} * N * 4, y);
   require_buffer("sparse conv", "kernel map", N * NN_SPARSE_TAPS * 4, kmap);
   require_buffer("sparse conv", "packed weights", w_bytes, w);
   if (bias) require_buffer("sparse conv", "bias", uint64_t{s.out_channels} * 4, *bias);
 
-  const Conv3dPath sparse_path = path();
-  const bool tiled = sparse_path == Conv3dPath::kSharedTile;
-  gpu::Program& program = ctx_.program(shader_name(sparse_path));
+  const Conv3dPath sparse_path = path(s.f16_weights);
+  if (const std::string why = conv3d_path_unavailable(sparse_path, ctx_.info()); !why.empty())
+    throw std::invalid_argument(std::string("sparse conv: the ") + conv3d_path_name(sparse_path) + " path: " + why);
+  gpu::Program& program = ctx_.program(shader_name(sparse_path, s.f16_weights));
   // Rows and output channels per workgroup: the register tile's NN_SPARSE_ROWS x NN_SPARSE_GROUP rows and
-  // 8 channels, the tiled kernel's 64 x 64 block.
-  const uint64_t rows_per_group = tiled ? NN_CONV_TILED_BM : uint64_t{NN_SPARSE_ROWS} * NN_SPARSE_GROUP;
-  const uint32_t co_per_group = tiled ? NN_CONV_TILED_BN : NN_CONV_CO_TILE;
-  const uint32_t group_size = tiled ? NN_CONV_TILED_GROUP : NN_SPARSE_GROUP;
+  // 8 channels, the tiled and cooperative-matrix kernels' 64 x 64 blocks.
+  const bool register_tile = sparse_path == Conv3dPath::kRegisterTile;
+  const bool coop = sparse_path == Conv3dPath::kCoopMatrix || sparse_path == Conv3dPath::kCoopMatrixEmulated;
+  const uint64_t rows_per_group = register_tile ? uint64_t{NN_SPARSE_ROWS} * NN_SPARSE_GROUP
+                                  : coop        ? NN_CONV_COOP_BM
+                                                : NN_CONV_TILED_BM;
+  const uint32_t co_per_group = register_tile ? NN_CONV_CO_TILE : coop ? NN_CONV_COOP_BN : NN_CONV_TILED_BN;
+  const uint32_t group_size = register_tile ? NN_SPARSE_GROUP : coop ? NN_CONV_COOP_GROUP : NN_CONV_TILED_GROUP;
   shader::SparseConvParams pc{};
   pc.rows = s.rows;
   pc.co_vec4s = static_cast<uint32_t>(co_vec4s);
   pc.has_bias = bias ? 1u : 0u;
   const gpu::BufferBinding bb = bias ? bias->binding(0, uint64_t{s.out_channels} * 4) : gpu::null_binding();
-  // Input channels per dispatch: lavapipe stops an invocation after 65,535 loop iterations; this kernel
-  // makes about 27 * (ci_count + 1).
-  constexpr uint64_t kMaxChannelsPerDispatch = 2048;
+  // Input channels per dispatch: lavapipe stops an invocation after 65,535 loop iterations; the register
+  // tile makes about 27 * (ci_count + 1), the emulated fragments ~1,100 per K step of 32 (27 / 32 steps
+  // per channel).
+  const uint64_t kMaxChannelsPerDispatch = sparse_path == Conv3dPath::kCoopMatrixEmulated ? 48 : 2048;
   const uint64_t usable = window_elements(ctx_, max_binding_bytes_);
   uint64_t ci_window = std::min(usable / N, kMaxChannelsPerDispatch);
   // Weights over one binding: windows of whole input channels (27 taps x all output columns each),
   // a multiple of the channels whose rows meet the binding-offset alignment; the input windows follow.
-  const uint64_t w_row = uint64_t{NN_SPARSE_TAPS} * co_vec4s * 16;
+  const uint64_t w_row = w_bytes / s.in_channels;  // one input channel: 27 taps x all output columns
   const uint64_t w_limit = ctx_.info().max_storage_buffer_range;
   const bool w_windows = w_bytes > w_limit;
   if (w_windows) {
@@ -136,9 +140,10 @@ void SparseConv3d::record(gpu::CommandList& cmd, const SparseConvShape& s, const
     // Input windows start where weight windows may: at multiples of `unit` channels.
     ci_window = std::min(ci_window, w_channels) / unit * unit;
   }
-  // Output windows of whole vec4 weight columns (co_begin a multiple of 4; the kernel stores only
-  // co_count channels of its 8-channel tile), so the largest grid one binding allows has 4 output
-  // channel planes in it: 8.4 M rows on lavapipe, a whole 256 x 256 x 128 chunk.
+  // Output windows of 4 channels at a time (the kernel stores only co_count channels of its tile), so the
+  // largest grid one binding allows has 4 output channel planes in it: 8.4 M rows on lavapipe, a whole
+  // 256 x 256 x 128 chunk. fp16 weights come in vectors of 8 channels: a window starting at 4 mod 8
+  // computes from the vector's start and stores from its co_lead = 4.
   constexpr uint64_t kCoStep = 4;
   const uint64_t co_window = usable / N / kCoStep * kCoStep;
   if (ci_window == 0 || co_window == 0)
@@ -154,9 +159,10 @@ void SparseConv3d::record(gpu::CommandList& cmd, const SparseConvShape& s, const
     pc.row_tiles = static_cast<uint32_t>(gpu::div_up(pc.row_count, rows_per_group));
     const gpu::BufferBinding kb = kmap.binding(r0 * NN_SPARSE_TAPS * 4, uint64_t{pc.row_count} * NN_SPARSE_TAPS * 4);
     for (uint64_t co0 = 0; co0 < s.out_channels; co0 += co_window) {
-      pc.co_begin = static_cast<uint32_t>(co0);
+      pc.co_lead = s.f16_weights ? static_cast<uint32_t>(co0 % 8) : 0u;
+      pc.co_begin = static_cast<uint32_t>(co0) - pc.co_lead;
       pc.co_count = static_cast<uint32_t>(std::min<uint64_t>(co_window, s.out_channels - co0));
-      pc.co_blocks = static_cast<uint32_t>(gpu::div_up(pc.co_count, co_per_group));
+      pc.co_blocks = static_cast<uint32_t>(gpu::div_up(pc.co_lead + pc.co_count, co_per_group));
       const ElementWindow yw = element_window(ctx_, y, co0 * N, uint64_t{pc.co_count} * N);
       pc.y_offset = yw.offset;
       for (uint64_t ci0 = 0; ci0 < s.in_channels; ci0 += ci_window) {

@@ -1,8 +1,9 @@
 // Sparse voxel convolution on the GPU: the neighbour ("kernel") map of a
 // submanifold 3^3 convolution, built from a hash of the grid's coordinates
 // (shaders/nn/sparse_hash_insert.comp, nn/sparse_kernel_map.comp), and the
-// convolution itself as an output-stationary gather over it
-// (nn/sparse_conv.comp). GPU sparse tensors: coordinates int32 [N][3] in brick
+// convolution itself: an output-stationary gather over it on lavapipe
+// (nn/sparse_conv.comp), a gathered implicit GEMM on GPUs (sparse_conv_tiled,
+// sparse_conv_coopmat), fp32 or fp16 weights. GPU sparse tensors: coordinates int32 [N][3] in brick
 // order, features channel-major [C][N] (see shaders/shared/nn_params.h), so
 // GroupNorm, SiLU, add and 1x1 convolutions are the dense kernels on a
 // [1, C, N, 1, 1] view (a 1x1 sparse convolution is Conv3d with kernel 1 over
@@ -49,7 +50,8 @@ class SparseKernelMap {
 
 struct SparseConvShape {
   uint32_t rows = 0, in_channels = 1, out_channels = 1;
-  bool silu = false;  // y = silu(conv + bias), fused into the store
+  bool silu = false;         // y = silu(conv + bias), fused into the store
+  bool f16_weights = false;  // packed weights as fp16 (pack_conv3d_weights_f16; nn/sparse_conv*_f16w.comp)
   uint64_t flops(uint64_t pairs) const { return 2ull * in_channels * out_channels * pairs; }  // pairs: kmap entries >= 0
 };
 
@@ -57,18 +59,20 @@ class SparseConv3d {
  public:
   explicit SparseConv3d(gpu::Context& ctx);
   // y [Co][N] = conv(x [Ci][N]) + bias over kmap [N][27]; packed_weights from pack_conv3d_weights (kernel 3) of
-  // the grid-order weight; `bias` may be nullptr. The only barriers inside are between input-channel windows.
+  // the grid-order weight, or pack_conv3d_weights_f16 with s.f16_weights; `bias` may be nullptr. The only barriers inside are between input-channel windows.
   void record(gpu::CommandList& cmd, const SparseConvShape& s, const gpu::Buffer& x, const gpu::Buffer& kmap,
               const gpu::Buffer& packed_weights, const gpu::Buffer* bias, const gpu::Buffer& y);
   // Tests: the feature windows as if one binding held `bytes` (0: the device's); kernel-map and weight
   // windows follow the context's limit (ContextOptions::max_storage_binding).
   void set_max_binding_bytes(uint64_t bytes) { max_binding_bytes_ = bytes; }
-  // The kernel: the register tile (nn/sparse_conv.comp) in lavapipe's kernel family, the shared-memory
-  // gathered implicit GEMM (nn/sparse_conv_tiled.comp) in the GPUs' (kernels/nn/kernel_family.h); tests and benchmarks may force either (nullopt: that default).
-  // The cooperative-matrix form waits for fp16 VAE weights (the VAE runs fp32).
-  void force_path(std::optional<Conv3dPath> path);
-  Conv3dPath path() const;
-  static const char* shader_name(Conv3dPath path);  // "nn/sparse_conv" or "nn/sparse_conv_tiled"
+  // The kernel, as Conv3d's (default_conv3d_path): the register tile (nn/sparse_conv.comp) in lavapipe's
+  // kernel family; in the GPUs' (kernels/nn/kernel_family.h) the gathered implicit GEMM on tensor cores
+  // (nn/sparse_conv_coopmat.comp) with fp16 weights where the device has cooperative matrices, else on
+  // the shared-memory tile (nn/sparse_conv_tiled.comp). Tests and benchmarks may force any path
+  // (nullopt: that default); a path the device cannot run is refused when recorded.
+  void force_path(std::optional<Conv3dPath> path) { forced_path_ = path; }
+  Conv3dPath path(bool f16_weights) const;
+  static const char* shader_name(Conv3dPath path, bool f16_weights);  // "nn/sparse_conv_tiled_f16w", ...
 
  private:
   gpu::Context& ctx_;

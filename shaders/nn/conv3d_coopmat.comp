@@ -10,6 +10,7 @@
 // every thread writes consecutive voxels of one channel. Inputs are rounded to
 // fp16 (|x| > 65504 overflows, as in PyTorch's half precision): the network
 // uses this kernel when it runs with fp16 weights.
+// The GEMM core is nn/gemm_coopmat.glsl (shared with sparse_conv_coopmat).
 // Host module: kernels/nn/conv3d.{h,cpp} (Conv3dPath::kCoopMatrix, requires
 // DeviceInfo::cooperative_matrix_nv and subgroups of 32). The tiling is tested on
 // lavapipe through nn/conv3d_coopmat_emulated.comp (same body, fragments

@@ -285,7 +285,9 @@ struct SparseHashParams {
 // ([ci * 27 + tap][co padded to 8], grid-order taps). Windows as conv3d:
 // output channels [co_begin, co_begin + co_count), input channels
 // [ci_begin, ci_begin + ci_count) bound at x_offset / y_offset; accumulate = 1
-// adds to y. Rows [row_begin, row_begin + row_count) per dispatch, their
+// adds to y; with fp16 weights co_begin is a multiple of 8 and the window's
+// channels start co_lead after it (windows of 4 channels when 8 channel planes
+// exceed one binding). Rows [row_begin, row_begin + row_count) per dispatch, their
 // kernel-map rows bound from row_begin (kernel maps beyond one binding run in
 // row windows). Workgroup g: row tile g % row_tiles, channel block g / row_tiles.
 #define NN_SPARSE_ROWS 16
@@ -307,6 +309,9 @@ struct SparseConvParams {
   uint row_count;
   uint silu;  // 1: y = silu(result) on store (the last input-channel window; the VAE's conv -> SiLU)
   uint w_ci_base;  // the first input channel of the bound weight window (0: all weights bound)
+  uint co_lead;    // computed channels before the window's first: co_begin is rounded down to a whole fp16
+                   // weight vector (8 channels) and the window starts co_lead (0 or 4) channels later
+  uint pad0, pad1, pad2;
 };
 
 // Sparse grid construction (kernels/nn/sparse_grid.h):
@@ -394,7 +399,8 @@ ICUBE_SHADER_NAMESPACE_END
 
 ICUBE_CHECK_SIZE(SparseGridParams, 32);
 ICUBE_CHECK_SIZE(SparseHashParams, 16);
-ICUBE_CHECK_SIZE(SparseConvParams, 64);
+ICUBE_CHECK_SIZE(SparseConvParams, 80);
+ICUBE_CHECK_LAYOUT(SparseConvParams, co_lead, 64);
 ICUBE_CHECK_LAYOUT(SparseConvParams, row_begin, 48);
 ICUBE_CHECK_LAYOUT(SparseConvParams, row_tiles, 28);
 ICUBE_CHECK_LAYOUT(SparseConvParams, y_offset, 44);

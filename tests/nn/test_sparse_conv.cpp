@@ -4,13 +4,18 @@
 // nn::cpu::conv3d within float32 accumulation's bound) on random grids: fully
 // dense boxes, a single voxel, voxels across brick boundaries, negative and
 // far-from-origin (100 km at 0.2 m) coordinates, channel counts that are not
-// multiples of the 8-channel tile, windows of channels, extreme values.
-// Runs under the validation layer.
+// multiples of the 8-channel tile, windows of channels, extreme values; every
+// path (the register tile, sparse_conv_tiled, sparse_conv_coopmat and, on
+// lavapipe, its emulated fragments) in fp32 and fp16 weights, against the
+// reference on the operands the kernel reads (fp16-rounded weights; inputs too
+// on the cooperative-matrix paths). Runs under the validation layer.
 #include <doctest/doctest.h>
 
 #include "capped_context.h"
 #include "gpu_test_context.h"
 #include "kernels/nn/conv3d.h"
+#include "gpu/device_info.h"
+#include "kernels/nn/float16.h"
 #include "kernels/nn/sparse_conv.h"
 #include "kernels/nn/sparse_cpu.h"
 #include "sparse_test_util.h"
@@ -52,13 +57,18 @@ std::vector<int32_t> gpu_kernel_map(const nn::SparseGrid& g, gpu::Context& ctx =
   return rows ? gpu::download_vector<int32_t>(ctx, kmap, uint64_t{rows} * 27) : std::vector<int32_t>{};
 }
 
-// GPU conv of x (CPU layout [N, C]) vs the CPU reference; bound 1e-6 + n * 2^-23 * sum |w x|.
+float round_to_half(float v) { return nn::half_to_float(nn::float_to_half(v)); }
+
+// GPU conv of x (CPU layout [N, C]) vs the CPU reference; bound 1e-6 + n * 2^-23 * sum |w x|. With
+// f16_weights the weights are packed as fp16; the reference then convolves the fp16-rounded weights, and
+// on the cooperative-matrix paths (fp16 operands) the fp16-rounded inputs too.
 void check_conv(const nn::SparseGrid& g, int64_t ci, int64_t co, bool with_bias, float scale, uint32_t seed,
                 uint64_t max_binding_bytes = 0, bool silu = false, gpu::Context& ctx = test::gpu_context(),
-                std::optional<kernels::nn::Conv3dPath> path = std::nullopt) {
+                std::optional<kernels::nn::Conv3dPath> path = std::nullopt, bool f16_weights = false) {
   CAPTURE(g.size());
   CAPTURE(ci);
   CAPTURE(co);
+  CAPTURE(f16_weights);
   CAPTURE(ctx.info().max_storage_buffer_range);
   std::mt19937 rng(seed);
   std::uniform_real_distribution<float> u(-1.0f, 1.0f);
@@ -67,6 +77,12 @@ void check_conv(const nn::SparseGrid& g, int64_t ci, int64_t co, bool with_bias,
   nn::CpuTensor w({co, ci, 3, 3, 3}), b({co});
   for (float& v : w.data) v = 0.5f * u(rng);
   for (float& v : b.data) v = u(rng);
+  const bool f16_operands =
+      path && (*path == kernels::nn::Conv3dPath::kCoopMatrix || *path == kernels::nn::Conv3dPath::kCoopMatrixEmulated);
+  if (f16_operands)
+    for (float& v : x.data) v = round_to_half(v);
+  if (f16_weights || f16_operands)
+    for (float& v : w.data) v = round_to_half(v);
   const nn::SparseTensor want =
       silu ? nn::cpu::silu(nn::cpu::conv3d(x, w, with_bias ? &b : nullptr)) : nn::cpu::conv3d(x, w, with_bias ? &b : nullptr);
   nn::SparseTensor ax = x;
@@ -82,14 +98,15 @@ void check_conv(const nn::SparseGrid& g, int64_t ci, int64_t co, bool with_bias,
   const std::vector<int32_t> kmap_host = nn::cpu::kernel_map(g, 3);
   gpu::Buffer xb = gpu::upload_vector(ctx, x_cm, "sparse-x");
   gpu::Buffer kb = gpu::upload_vector(ctx, kmap_host, "sparse-kmap");
-  gpu::Buffer wb = gpu::upload_vector(ctx, kernels::nn::pack_conv3d_weights(w.data, static_cast<uint32_t>(co), static_cast<uint32_t>(ci), 3),
-                                      "sparse-w");
+  const uint32_t co32 = static_cast<uint32_t>(co), ci32 = static_cast<uint32_t>(ci);
+  gpu::Buffer wb = f16_weights ? gpu::upload_vector(ctx, kernels::nn::pack_conv3d_weights_f16(w.data, co32, ci32, 3), "sparse-w")
+                               : gpu::upload_vector(ctx, kernels::nn::pack_conv3d_weights(w.data, co32, ci32, 3), "sparse-w");
   gpu::Buffer bb = gpu::upload_vector(ctx, b.data, "sparse-b");
   gpu::Buffer yb(ctx, uint64_t{rows} * static_cast<uint64_t>(co) * 4, gpu::MemoryUsage::DeviceLocal, "sparse-y");
   kernels::nn::SparseConv3d conv(ctx);
   conv.set_max_binding_bytes(max_binding_bytes);
   conv.force_path(path);
-  const kernels::nn::SparseConvShape s{rows, static_cast<uint32_t>(ci), static_cast<uint32_t>(co), silu};
+  const kernels::nn::SparseConvShape s{rows, ci32, co32, silu, f16_weights};
   ctx.submit_and_wait([&](gpu::CommandList& cmd) { conv.record(cmd, s, xb, kb, wb, with_bias ? &bb : nullptr, yb); });
   const std::vector<float> got = gpu::download_vector<float>(ctx, yb, uint64_t{rows} * static_cast<uint64_t>(co));
   const double n = static_cast<double>(ci) * 27.0;
@@ -159,28 +176,101 @@ TEST_CASE("sparse conv gpu: channel windows when the features exceed one binding
                        doctest::Contains("sparse conv: input buffer holds 64 bytes"), std::invalid_argument);
 }
 
-TEST_CASE("sparse conv gpu: sparse_conv_tiled (the shared-memory gathered implicit GEMM) against the CPU reference") {
-  CHECK(std::string(kernels::nn::SparseConv3d::shader_name(kernels::nn::Conv3dPath::kSharedTile)) ==
-        "nn/sparse_conv_tiled");
-  // Forced on the test device: odd channel counts across the 64 x 64 blocks, a single voxel, 100 km from
-  // the origin, large activations, the VAE's widths, fused SiLU, channel windows and a capped binding.
-  const auto tiled = kernels::nn::Conv3dPath::kSharedTile;
+// A GPU path forced on the test device, fp32 and fp16 weights: odd channel counts across the 64 x 64
+// blocks, a single voxel, 100 km from the origin, large activations, the VAE's widths, fused SiLU, channel
+// windows (of 4 output channels: with fp16 weights every other one starts inside a vector of 8 halves)
+// and a capped binding.
+void check_sparse_gpu_path(kernels::nn::Conv3dPath path, const char* shader, const char* shader_f16w) {
+  CHECK(std::string(kernels::nn::SparseConv3d::shader_name(path, false)) == shader);
+  CHECK(std::string(kernels::nn::SparseConv3d::shader_name(path, true)) == shader_f16w);
   gpu::Context& ctx = test::gpu_context();
-  check_conv(test::random_sparse_grid(11, {-9, -5, -7}, {19, 13, 11}, 900), 13, 19, true, 1.0f, 51, 0, false, ctx, tiled);
-  check_conv(test::random_sparse_grid(12, {3, 3, 3}, {1, 1, 1}, 1), 4, 3, true, 1.0f, 52, 0, false, ctx, tiled);
-  check_conv(test::random_sparse_grid(13, {500'000, -500'003, 499'990}, {9, 8, 7}, 200), 6, 70, true, 1.0f, 53, 0, false,
-             ctx, tiled);
-  check_conv(test::random_sparse_grid(14, {-4, -4, -4}, {8, 8, 8}, 300), 5, 9, true, 1e4f, 54, 0, false, ctx, tiled);
-  check_conv(test::random_sparse_grid(15, {-30, -30, -10}, {60, 60, 20}, 2000), 32, 64, true, 1.0f, 55, 0, false, ctx, tiled);
-  check_conv(test::random_sparse_grid(16, {-9, -5, -7}, {19, 13, 11}, 700), 12, 9, true, 3.0f, 56, 0, true, ctx, tiled);
-  check_conv(test::random_sparse_grid(31, {-5, -5, -5}, {10, 10, 10}, 40), 30, 20, true, 1.0f, 57, 2048, true, ctx, tiled);
-  check_conv(test::random_sparse_grid(36, {-5, -5, -5}, {10, 10, 10}, 40), 9, 13, true, 1.0f, 58, 4 * 40 * 4 + 64, false,
-             ctx, tiled);
-  gpu::Context& capped = test::capped_gpu_context(8u << 10);
-  check_conv(test::random_sparse_grid(41, {-9, -9, -9}, {18, 18, 18}, 500), 13, 20, true, 1.0f, 59, 0, false, capped, tiled);
+  for (const bool f16 : {false, true}) {
+    const uint32_t o = f16 ? 100 : 0;  // other seeds for the fp16 weights
+    check_conv(test::random_sparse_grid(11, {-9, -5, -7}, {19, 13, 11}, 900), 13, 19, true, 1.0f, 51 + o, 0, false, ctx, path, f16);
+    check_conv(test::random_sparse_grid(12, {3, 3, 3}, {1, 1, 1}, 1), 4, 3, true, 1.0f, 52 + o, 0, false, ctx, path, f16);
+    check_conv(test::random_sparse_grid(13, {500'000, -500'003, 499'990}, {9, 8, 7}, 200), 6, 70, true, 1.0f, 53 + o, 0, false,
+               ctx, path, f16);
+    check_conv(test::random_sparse_grid(14, {-4, -4, -4}, {8, 8, 8}, 300), 5, 9, true, 1e4f, 54 + o, 0, false, ctx, path, f16);
+    check_conv(test::random_sparse_grid(15, {-30, -30, -10}, {60, 60, 20}, 2000), 32, 64, true, 1.0f, 55 + o, 0, false, ctx,
+               path, f16);
+    check_conv(test::random_sparse_grid(16, {-9, -5, -7}, {19, 13, 11}, 700), 12, 9, true, 3.0f, 56 + o, 0, true, ctx, path, f16);
+    check_conv(test::random_sparse_grid(31, {-5, -5, -5}, {10, 10, 10}, 40), 30, 20, true, 1.0f, 57 + o, 2048, true, ctx, path,
+               f16);
+    check_conv(test::random_sparse_grid(36, {-5, -5, -5}, {10, 10, 10}, 40), 9, 13, true, 1.0f, 58 + o, 4 * 40 * 4 + 64, false,
+               ctx, path, f16);
+    gpu::Context& capped = test::capped_gpu_context(8u << 10);
+    check_conv(test::random_sparse_grid(41, {-9, -9, -9}, {18, 18, 18}, 500), 13, 20, true, 1.0f, 59 + o, 0, false, capped, path,
+               f16);
+  }
+  // More input channels than one dispatch of the emulated fragments takes (48): windows that accumulate.
+  if (path == kernels::nn::Conv3dPath::kCoopMatrixEmulated)
+    check_conv(test::random_sparse_grid(17, {-4, -4, -4}, {8, 8, 8}, 120), 100, 12, true, 1.0f, 60, 0, true, ctx, path);
+}
+
+TEST_CASE("sparse conv gpu: fp16 weight storage (sparse_conv_f16w) equals the fp32 kernel on fp16-rounded weights") {
+  CHECK(std::string(kernels::nn::SparseConv3d::shader_name(kernels::nn::Conv3dPath::kRegisterTile, true)) ==
+        "nn/sparse_conv_f16w");
+  const auto reg = kernels::nn::Conv3dPath::kRegisterTile;
+  gpu::Context& ctx = test::gpu_context();
+  check_conv(test::random_sparse_grid(11, {-9, -5, -7}, {19, 13, 11}, 900), 13, 19, true, 1.0f, 71, 0, false, ctx, reg, true);
+  check_conv(test::random_sparse_grid(15, {-30, -30, -10}, {60, 60, 20}, 2000), 32, 64, true, 1.0f, 72, 0, true, ctx, reg, true);
+  // Output windows of 4 channels: every other one starts in the middle of a vector of 8 halves (co_lead 4).
+  check_conv(test::random_sparse_grid(36, {-5, -5, -5}, {10, 10, 10}, 40), 9, 13, true, 1.0f, 73, 4 * 40 * 4 + 64, false, ctx,
+             reg, true);
+  check_conv(test::random_sparse_grid(38, {-5, -5, -5}, {10, 10, 10}, 40), 6, 5, true, 1.0f, 75, 4 * 40 * 4 + 64, true, ctx,
+             reg, true);
+  check_conv(test::random_sparse_grid(41, {-9, -9, -9}, {18, 18, 18}, 500), 13, 20, true, 1.0f, 74, 0, false,
+             test::capped_gpu_context(8u << 10), reg, true);
+}
+
+TEST_CASE("sparse conv gpu: sparse_conv_tiled (the shared-memory gathered implicit GEMM) against the CPU reference") {
+  check_sparse_gpu_path(kernels::nn::Conv3dPath::kSharedTile, "nn/sparse_conv_tiled", "nn/sparse_conv_tiled_f16w");
+}
+
+TEST_CASE("sparse conv gpu: sparse_conv_coopmat_emulated (the cooperative-matrix tiling, emulated fragments) against the CPU reference") {
+  if (!test::gpu_context().info().shader_float16) {
+    MESSAGE("skipped: the test device has no shaderFloat16");
+    return;
+  }
+  check_sparse_gpu_path(kernels::nn::Conv3dPath::kCoopMatrixEmulated, "nn/sparse_conv_coopmat_emulated",
+                        "nn/sparse_conv_coopmat_emulated_f16w");
+}
+
+TEST_CASE("sparse conv gpu: sparse_conv_coopmat (the cooperative-matrix kernel) on a device that has it") {
+  // lavapipe has no cooperative matrices: this runs on tools/device-check.sh's lease, where a wrong
+  // result fails the check; elsewhere asking for the path is refused with the reason.
+  gpu::Context& ctx = test::gpu_context();
+  if (!ctx.info().cooperative_matrix_nv) {
+    kernels::nn::SparseConv3d conv(ctx);
+    conv.force_path(kernels::nn::Conv3dPath::kCoopMatrix);
+    gpu::Buffer any(ctx, 4096, gpu::MemoryUsage::DeviceLocal, "any");
+    ctx.submit_and_wait([&](gpu::CommandList& cmd) {
+      CHECK_THROWS_WITH_AS(conv.record(cmd, {4, 2, 2, false, true}, any, any, any, nullptr, any),
+                           doctest::Contains("no VK_NV_cooperative_matrix"), std::invalid_argument);
+    });
+    MESSAGE("the real fragments are checked on a device with VK_NV_cooperative_matrix (tools/device-check.sh)");
+    return;
+  }
+  check_sparse_gpu_path(kernels::nn::Conv3dPath::kCoopMatrix, "nn/sparse_conv_coopmat", "nn/sparse_conv_coopmat_f16w");
+  // The VAE's widest level at a real size: 128 -> 128 channels over 60,000 rows.
+  check_conv(test::random_sparse_grid(18, {-60, -60, -20}, {120, 120, 40}, 60'000), 128, 128, true, 1.0f, 61, 0, true, ctx,
+             kernels::nn::Conv3dPath::kCoopMatrix, true);
+}
+
+TEST_CASE("sparse conv gpu: the default path per device and precision, as conv3d's") {
+  gpu::DeviceInfo cpu, gpu_nv;
+  cpu.type = VK_PHYSICAL_DEVICE_TYPE_CPU;
+  gpu_nv.type = VK_PHYSICAL_DEVICE_TYPE_DISCRETE_GPU;
+  gpu_nv.cooperative_matrix_nv = true;
+  gpu_nv.subgroup_size = 32;
+  using P = kernels::nn::Conv3dPath;
+  gpu::Context& ctx = test::gpu_context();
   kernels::nn::SparseConv3d conv(ctx);
-  CHECK_THROWS_WITH_AS(conv.force_path(kernels::nn::Conv3dPath::kCoopMatrix), doctest::Contains("sparse conv: no coopmat kernel"),
-                       std::invalid_argument);
+  for (const bool f16 : {false, true}) CHECK(conv.path(f16) == kernels::nn::default_conv3d_path(ctx.info(), f16));
+  conv.force_path(P::kSharedTile);
+  CHECK(conv.path(true) == P::kSharedTile);
+  CHECK(kernels::nn::default_conv3d_path(cpu, true) == P::kRegisterTile);
+  CHECK(kernels::nn::default_conv3d_path(gpu_nv, true) == P::kCoopMatrix);
 }
 
 TEST_CASE("sparse conv gpu: kernel-map rows, features and weights over a forced 8 KiB binding") {

@@ -5,6 +5,8 @@
 // an all-empty decision. Runs under the validation layer.
 #include "nn/scoped_kernel_family.h"
 #include "gpu_test_context.h"
+#include "kernels/nn/conv3d.h"
+#include "kernels/nn/float16.h"
 #include "nn/random_weights.h"
 #include "nn/safetensors.h"
 #include "nn/vae_gpu.h"
@@ -86,6 +88,43 @@ TEST_CASE("vae gpu: a random-weight model agrees with the CPU reference level by
     CHECK(got.semantic.grid.ijk == want.semantic.grid.ijk);
     if (!want.semantic.data.empty()) CHECK(nn::cpu::max_abs_over_std(got.semantic.data, want.semantic.data) <= 1e-4);
     CHECK(got.warning == want.warning);
+  }
+}
+
+TEST_CASE("vae gpu: fp16 weight storage (exact on fp16-rounded weights; its error against fp32)") {
+  const nn::VaeConfig cfg = tiny_config();
+  const std::map<std::string, nn::CpuTensor> w = nn::random_weights(nn::vae_param_specs(cfg, nn::VaePart::Decoder), 5);
+  std::map<std::string, nn::CpuTensor> rounded = w;  // the weights the kernels read: conv weights rounded to fp16
+  for (auto& [name, t] : rounded)
+    if (t.rank() >= 2)
+      for (float& v : t.data) v = nn::half_to_float(nn::float_to_half(v));
+  const nn::VaeReference ref16(cfg, rounded), ref32(cfg, w);
+  nn::VaeGpu gpu(test::gpu_context(), cfg, w, nn::VaeGpu::Precision::F16Weights);
+  nn::VaeGpu gpu32(test::gpu_context(), cfg, w);
+  CHECK(gpu.weight_bytes() < gpu32.weight_bytes());
+  // With cooperative matrices the sparse convolutions round their activations to fp16 too: only fp16's bound.
+  const bool f16_operands = kernels::nn::default_conv3d_path(test::gpu_context().info(), true) ==
+                            kernels::nn::Conv3dPath::kCoopMatrix;
+  const nn::SparseTensor latent = random_latent(cfg, 1);
+  const nn::VaeDecoded got = gpu.decode(latent), want = ref16.decode(latent), fp32 = ref32.decode(latent);
+  REQUIRE(got.levels.size() == want.levels.size());
+  for (size_t d = 0; d < want.levels.size(); ++d) {
+    CAPTURE(d);
+    CHECK(got.levels[d].grid.ijk == want.levels[d].grid.ijk);
+    if (got.levels[d].logits.size() == want.levels[d].logits.size() && !want.levels[d].logits.empty())
+      CHECK(nn::cpu::max_abs_over_std(got.levels[d].logits, want.levels[d].logits) <= (f16_operands ? 1e-2 : 1e-4));
+  }
+  REQUIRE(got.semantic.grid.ijk == want.semantic.grid.ijk);
+  CHECK(nn::cpu::max_abs_over_std(got.semantic.data, want.semantic.data) <= (f16_operands ? 1e-2 : 1e-4));
+  // Against the fp32 model: the rounding's own error (the same voxels here; a voxel near a structure
+  // threshold may flip in general).
+  if (got.semantic.grid.ijk == fp32.semantic.grid.ijk) {
+    const double vs_fp32 = nn::cpu::max_abs_over_std(got.semantic.data, fp32.semantic.data);
+    MESSAGE("tiny VAE, fp16 weights: semantic logits vs the fp32 reference " << vs_fp32 << " of std; weights "
+                                                                             << gpu.weight_bytes() << " B against "
+                                                                             << gpu32.weight_bytes() << " B");
+    CHECK(vs_fp32 <= 1e-2);
+    CHECK(vs_fp32 > 1e-7);  // the weights really are rounded
   }
 }
 
