@@ -201,7 +201,7 @@ void add_buffers_commands(CLI::App& app) {
   cmd->callback([a] { cmd_buffers(*a); });
 }
 
-const CommandRegistrar kRegistrar(add_buffers_commands, 45);
+const CommandRegistrar kBuffersRegistrar(add_buffers_commands, 45);
 
 }  // namespace
 

@@ -155,6 +155,6 @@ void add_conditions_commands(CLI::App& app) {
 
 }  // namespace
 
-static const CommandRegistrar kRegistrar(add_conditions_commands, 40);
+static const CommandRegistrar kConditionsRegistrar(add_conditions_commands, 40);
 
 }  // namespace icube::tools

@@ -173,7 +173,7 @@ void add_eval_command(CLI::App& app) {
   cmd->callback([a] { cmd_eval(*a); });
 }
 
-const CommandRegistrar kRegistrar(add_eval_command, 7);
+const CommandRegistrar kEvalRegistrar(add_eval_command, 7);
 
 }  // namespace
 }  // namespace icube::tools

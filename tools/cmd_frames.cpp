@@ -267,7 +267,7 @@ void add_frames_commands(CLI::App& app) {
   imp->callback([i] { cmd_frames_import(*i); });
 }
 
-const CommandRegistrar kRegistrar(add_frames_commands, 47);
+const CommandRegistrar kFramesRegistrar(add_frames_commands, 47);
 
 }  // namespace
 

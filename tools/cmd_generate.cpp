@@ -117,7 +117,7 @@ void add_generate_command(CLI::App& app) {
   cmd->callback([c] { cmd_generate(*c); });
 }
 
-const CommandRegistrar kRegistrar(add_generate_command, 5);
+const CommandRegistrar kGenerateRegistrar(add_generate_command, 5);
 
 }  // namespace
 

@@ -340,7 +340,7 @@ void add_lidar_commands(CLI::App& app) {
   cmd->callback([a] { cmd_lidar(*a); });
 }
 
-const CommandRegistrar kRegistrar(add_lidar_commands, 46);
+const CommandRegistrar kLidarRegistrar(add_lidar_commands, 46);
 
 }  // namespace
 

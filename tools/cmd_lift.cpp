@@ -223,7 +223,7 @@ void add_lift_command(CLI::App& app) {
   cmd->callback([a] { cmd_lift(*a); });
 }
 
-const CommandRegistrar kRegistrar(add_lift_command, 48);
+const CommandRegistrar kLiftRegistrar(add_lift_command, 48);
 
 }  // namespace
 

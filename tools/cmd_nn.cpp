@@ -293,7 +293,7 @@ void add_nn_commands(CLI::App& app) {
   fwd->callback([f] { cmd_nn_forward(*f); });
 }
 
-const CommandRegistrar kRegistrar(add_nn_commands, 50);
+const CommandRegistrar kNnRegistrar(add_nn_commands, 50);
 
 void add_random_weights_command(CLI::App& app) {
   CLI::App& group = subcommand_group(app, "nn", "Networks: weight files (safetensors), the diffusion UNet");

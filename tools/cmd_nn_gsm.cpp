@@ -112,7 +112,7 @@ void add_gsm_commands(CLI::App& app) {
   fwd->callback([a] { cmd_gsm_forward(*a); });
 }
 
-const CommandRegistrar kRegistrar(add_gsm_commands, 52);
+const CommandRegistrar kNnGsmRegistrar(add_gsm_commands, 52);
 
 }  // namespace
 }  // namespace icube::tools

@@ -382,7 +382,7 @@ void add_vae_commands(CLI::App& app) {
   enc->callback([e] { cmd_vae_encode(*e); });
 }
 
-const CommandRegistrar kRegistrar(add_vae_commands, 51);
+const CommandRegistrar kNnVaeRegistrar(add_vae_commands, 51);
 
 }  // namespace
 }  // namespace icube::tools

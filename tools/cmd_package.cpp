@@ -49,7 +49,7 @@ void add_package_commands(CLI::App& app) {
   verify->callback([a] { cmd_package_verify(*a); });
 }
 
-const CommandRegistrar kRegistrar(add_package_commands, 6);
+const CommandRegistrar kPackageRegistrar(add_package_commands, 6);
 
 }  // namespace
 }  // namespace icube::tools

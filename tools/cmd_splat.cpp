@@ -249,7 +249,7 @@ void add_splat_commands(CLI::App& app) {
   c->callback([conv] { cmd_convert(conv->first, conv->second); });
 }
 
-const CommandRegistrar kRegistrar(add_splat_commands, 47);
+const CommandRegistrar kSplatRegistrar(add_splat_commands, 47);
 
 }  // namespace
 

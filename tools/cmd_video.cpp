@@ -72,7 +72,7 @@ void add_video_commands(CLI::App& app) {
   cmd->callback([a] { cmd_video_frames(*a); });
 }
 
-const CommandRegistrar kRegistrar(add_video_commands, 48);
+const CommandRegistrar kVideoRegistrar(add_video_commands, 48);
 
 }  // namespace
 }  // namespace icube::tools

@@ -323,7 +323,7 @@ void add_world_build_commands(CLI::App& app) {
   plot->callback([in, out, max_px] { cmd_plot(*in, *out, *max_px); });
 }
 
-const CommandRegistrar kRegistrar(add_world_build_commands, 32);
+const CommandRegistrar kWorldBuildRegistrar(add_world_build_commands, 32);
 
 }  // namespace
 

@@ -123,7 +123,7 @@ void add_world_insert_command(CLI::App& app) {
   ins->callback([a] { cmd_insert(*a); });
 }
 
-const CommandRegistrar kRegistrar(add_world_insert_command, 33);
+const CommandRegistrar kWorldInsertRegistrar(add_world_insert_command, 33);
 
 }  // namespace
 

@@ -136,7 +136,7 @@ void add_world_io_commands(CLI::App& app) {
   exp->callback([exp_args] { cmd_export(*exp_args); });
 }
 
-const CommandRegistrar kRegistrar(add_world_io_commands, 30);
+const CommandRegistrar kWorldIoRegistrar(add_world_io_commands, 30);
 
 }  // namespace
 

@@ -127,7 +127,7 @@ void add_world_plan_commands(CLI::App& app) {
   demo->callback([out] { cmd_demo_scene(*out); });
 }
 
-const CommandRegistrar kRegistrar(add_world_plan_commands, 35);
+const CommandRegistrar kWorldPlanRegistrar(add_world_plan_commands, 35);
 
 }  // namespace
 

@@ -1,7 +1,8 @@
 // Self-registering subcommand groups for the icube CLI.
 //
 // A tools/cmd_<topic>.cpp file registers its subcommands with
-//   static const icube::tools::CommandRegistrar kRegistrar(add_my_commands, /*order=*/40);
+//   static const icube::tools::CommandRegistrar kMyTopicRegistrar(add_my_commands, /*order=*/40);
+// (a name of its own: the CLI builds as one unity translation unit, CMake UNITY_BUILD)
 // and icube_main.cpp calls register_all_commands(app) once, so adding a
 // command group needs no edit elsewhere. `order` fixes the --help order.
 // subcommand_group(app, "world", "...") returns the shared parent of a group
