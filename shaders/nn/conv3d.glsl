@@ -16,15 +16,8 @@ void row_taps(const int K, uint x_row, bool row_valid, int z0, int Z, uint w_row
     row[j] = row_valid && z >= 0 && z < Z ? texelFetch(x_tex, int(x_row + uint(z))).x : 0.0;
   }
   for (int kz = 0; kz < K; ++kz) {
-#ifdef NN_CONV_F16_WEIGHTS
-    const uvec4 wh = w_packed[w_row + uint(kz) * (p.co_vec4s / 2u)];
-    const vec4 w_lo = vec4(unpackHalf2x16(wh.x), unpackHalf2x16(wh.y));
-    const vec4 w_hi = vec4(unpackHalf2x16(wh.z), unpackHalf2x16(wh.w));
-#else
-    const uint wi = w_row + uint(kz) * p.co_vec4s;
-    const vec4 w_lo = w_packed[wi];
-    const vec4 w_hi = w_packed[wi + 1u];
-#endif
+    vec4 w_lo, w_hi;
+    conv_weights8(w_row + uint(kz) * conv_weight_row_len(), w_lo, w_hi);
     for (int v = 0; v < NN_CONV_ZRUN; ++v) {
       acc_lo[v] = fma(w_lo, vec4(row[v + kz]), acc_lo[v]);
       acc_hi[v] = fma(w_hi, vec4(row[v + kz]), acc_hi[v]);
@@ -52,13 +45,8 @@ void main() {
     acc_lo[v] = vec4(0.0);
     acc_hi[v] = vec4(0.0);
   }
-#ifdef NN_CONV_F16_WEIGHTS
-  const uint co_vec = p.co_begin / 8u + cob;  // uvec4 blocks of 8 halves
-  const uint row_len = p.co_vec4s / 2u;
-#else
-  const uint co_vec = p.co_begin / 4u + cob * (NN_CONV_CO_TILE / 4);
-  const uint row_len = p.co_vec4s;
-#endif
+  const uint co_vec = conv_weight_column(cob);  // NN_CONV_CO_TILE = 8 channels per block
+  const uint row_len = conv_weight_row_len();
   for (uint cl = 0u; cl < p.ci_count; ++cl) {
     const uint ci = p.ci_begin + cl;
     const uint x_base = p.x_offset + b * p.x_batch_stride + cl * S;

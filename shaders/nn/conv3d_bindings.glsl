@@ -1,8 +1,7 @@
 // The bindings, push constants and workgroup decomposition every conv3d kernel
 // shares (conv3d.glsl, conv3d_tiled.glsl, conv3d_coopmat.glsl: the host module
 // kernels/nn/conv3d.cpp binds them alike for every path). NN_CONV_F16_WEIGHTS:
-// the packed weights as uvec4s of 8 halves (unpacked in the shader: no 16-bit
-// storage feature needed).
+// fp16 packed weights (nn/conv_weights.glsl).
 #include "shared/nn_params.h"
 #include "common/dispatch.glsl"
 
@@ -12,11 +11,8 @@
 layout(constant_id = 0) const int NN_K = 3;
 layout(push_constant) uniform Push { Conv3dParams p; };
 layout(binding = 0) uniform samplerBuffer x_tex;  // R32_SFLOAT
-#ifdef NN_CONV_F16_WEIGHTS
-layout(std430, binding = 1) readonly buffer Weights { uvec4 w_packed[]; };
-#else
-layout(std430, binding = 1) readonly buffer Weights { vec4 w_packed[]; };
-#endif
+#define NN_CONV_WEIGHTS_BINDING 1
+#include "conv_weights.glsl"
 layout(std430, binding = 2) readonly buffer Bias { float bias[]; };
 layout(std430, binding = 3) buffer Out { float y_out[]; };
 

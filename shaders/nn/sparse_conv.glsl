@@ -26,13 +26,8 @@ void main() {
   if (cob >= p.co_blocks) return;
   const uint r0 = (tile * NN_SPARSE_GROUP + gl_LocalInvocationID.x) * NN_SPARSE_ROWS;  // within the row window
   const uint last = p.row_count - 1u;
-#ifdef NN_CONV_F16_WEIGHTS
-  const uint co_vec = p.co_begin / 8u + cob;  // uvec4 blocks of 8 halves
-  const uint row_len = p.co_vec4s / 2u;
-#else
-  const uint co_vec = p.co_begin / 4u + cob * (NN_CONV_CO_TILE / 4);
-  const uint row_len = p.co_vec4s;
-#endif
+  const uint co_vec = conv_weight_column(cob);  // NN_CONV_CO_TILE = 8 channels per block
+  const uint row_len = conv_weight_row_len();
 
   vec4 acc_lo[NN_SPARSE_ROWS], acc_hi[NN_SPARSE_ROWS];
   for (int v = 0; v < NN_SPARSE_ROWS; ++v) {
@@ -44,14 +39,8 @@ void main() {
     for (int v = 0; v < NN_SPARSE_ROWS; ++v) nbr[v] = kmap[min(r0 + uint(v), last) * NN_SPARSE_TAPS + tap];
     for (uint cl = 0u; cl < p.ci_count; ++cl) {
       const uint wi = ((p.ci_begin - p.w_ci_base + cl) * NN_SPARSE_TAPS + tap) * row_len + co_vec;
-#ifdef NN_CONV_F16_WEIGHTS
-      const uvec4 wh = w_packed[wi];
-      const vec4 w_lo = vec4(unpackHalf2x16(wh.x), unpackHalf2x16(wh.y));
-      const vec4 w_hi = vec4(unpackHalf2x16(wh.z), unpackHalf2x16(wh.w));
-#else
-      const vec4 w_lo = w_packed[wi];
-      const vec4 w_hi = w_packed[wi + 1u];
-#endif
+      vec4 w_lo, w_hi;
+      conv_weights8(wi, w_lo, w_hi);
       const uint base = p.x_offset + cl * p.rows;
       for (int v = 0; v < NN_SPARSE_ROWS; ++v) {
         const float xr = texelFetch(x_tex, int(base + uint(max(nbr[v], 0)))).x;

@@ -2,19 +2,15 @@
 // operands and output store every sparse_conv kernel shares (sparse_conv.glsl,
 // sparse_conv_tiled.glsl, sparse_conv_coopmat.glsl: the host module
 // kernels/nn/sparse_conv.cpp binds them alike for every path).
-// NN_CONV_F16_WEIGHTS: the packed weights as uvec4s of 8 halves (unpacked in
-// the shader: no 16-bit storage feature needed).
+// NN_CONV_F16_WEIGHTS: fp16 packed weights (nn/conv_weights.glsl).
 #include "shared/nn_params.h"
 #include "common/dispatch.glsl"
 
 layout(push_constant) uniform Push { SparseConvParams p; };
 layout(binding = 0) uniform samplerBuffer x_tex;  // R32_SFLOAT: a gather on lavapipe
 layout(std430, binding = 1) readonly buffer Map { int kmap[]; };
-#ifdef NN_CONV_F16_WEIGHTS
-layout(std430, binding = 2) readonly buffer Weights { uvec4 w_packed[]; };
-#else
-layout(std430, binding = 2) readonly buffer Weights { vec4 w_packed[]; };
-#endif
+#define NN_CONV_WEIGHTS_BINDING 2
+#include "conv_weights.glsl"
 layout(std430, binding = 3) readonly buffer Bias { float bias[]; };
 layout(std430, binding = 4) buffer Out { float y_out[]; };
 
