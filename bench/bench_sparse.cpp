@@ -92,7 +92,7 @@ double max_rel_diff(const std::vector<float>& got, const std::vector<float>& wan
 
 // Whether a kernel variant rounds weights or operands to fp16.
 bool has_f16(const bench::ConvVariant& v) {
-  return v.f16 || v.path == kernels::nn::Conv3dPath::kCoopMatrix || v.path == kernels::nn::Conv3dPath::kCoopMatrixEmulated;
+  return v.f16 || kernels::nn::conv3d_path_rounds_activations(v.path);
 }
 
 struct Options {

@@ -55,6 +55,10 @@ std::string conv3d_path_unavailable(Conv3dPath path, const gpu::DeviceInfo& devi
   return "";
 }
 
+bool conv3d_path_rounds_activations(Conv3dPath path) {
+  return path == Conv3dPath::kCoopMatrix || path == Conv3dPath::kCoopMatrixEmulated;
+}
+
 Conv3dPath default_conv3d_path(const gpu::DeviceInfo& device, bool f16_weights) {
   if (kernel_family(device) == KernelFamily::kLavapipe) return Conv3dPath::kRegisterTile;
   if (f16_weights && conv3d_path_unavailable(Conv3dPath::kCoopMatrix, device).empty()) return Conv3dPath::kCoopMatrix;

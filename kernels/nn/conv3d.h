@@ -47,6 +47,9 @@ const char* conv3d_path_name(Conv3dPath path);
 // Why `path` cannot run on `device` ("" when it can): the cooperative-matrix kernels need
 // VK_NV_cooperative_matrix and subgroups of 32, their emulation shaderFloat16. Conv3d and SparseConv3d.
 std::string conv3d_path_unavailable(Conv3dPath path, const gpu::DeviceInfo& device);
+// Whether `path` rounds its activations to fp16 too (the cooperative-matrix kernels' fp16 operands, fp32 sums),
+// not only the weights it is given.
+bool conv3d_path_rounds_activations(Conv3dPath path);
 
 // lavapipe's kernel family (CPU devices, or ICUBE_NN_KERNELS=lavapipe: kernels/nn/kernel_family.h): the
 // register tile. The GPUs' family: with fp16 weights the cooperative-matrix kernel where the device has it

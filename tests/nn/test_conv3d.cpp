@@ -56,8 +56,7 @@ void check_conv(const kernels::nn::Conv3dShape& s, bool with_bias, float x_scale
   nn::CpuTensor w = random_tensor({s.out_channels, s.in_channels, k, k, k}, seed + 1, 0.5f);
   // The cooperative-matrix kernels multiply fp16 operands (exact products, fp32 sums): the reference
   // convolves the rounded inputs, so the bound stays fp32 accumulation's.
-  const bool f16_operands = path && (*path == kernels::nn::Conv3dPath::kCoopMatrix ||
-                                     *path == kernels::nn::Conv3dPath::kCoopMatrixEmulated);
+  const bool f16_operands = path && kernels::nn::conv3d_path_rounds_activations(*path);
   nn::CpuTensor x_gpu = x;
   if (f16_operands)
     for (float& v : x.data) v = round_to_half(v);

@@ -77,8 +77,7 @@ void check_conv(const nn::SparseGrid& g, int64_t ci, int64_t co, bool with_bias,
   nn::CpuTensor w({co, ci, 3, 3, 3}), b({co});
   for (float& v : w.data) v = 0.5f * u(rng);
   for (float& v : b.data) v = u(rng);
-  const bool f16_operands =
-      path && (*path == kernels::nn::Conv3dPath::kCoopMatrix || *path == kernels::nn::Conv3dPath::kCoopMatrixEmulated);
+  const bool f16_operands = path && kernels::nn::conv3d_path_rounds_activations(*path);
   if (f16_operands)
     for (float& v : x.data) v = round_to_half(v);
   if (f16_weights || f16_operands)

@@ -111,8 +111,8 @@ TEST_CASE("unet gpu: fp16 weight storage on unet_small (exact on fp16-rounded we
                                                                                 << net.weight_bytes() / 1024 << " KiB");
   // With fp16 weights a GPU with cooperative matrices convolves fp16 activations too (conv3d_coopmat):
   // then the kernels are no longer exact on rounded weights alone, and only fp16's bound holds.
-  const bool f16_operands = kernels::nn::default_conv3d_path(test::gpu_context().info(), true) ==
-                            kernels::nn::Conv3dPath::kCoopMatrix;
+  const bool f16_operands = kernels::nn::conv3d_path_rounds_activations(
+      kernels::nn::default_conv3d_path(test::gpu_context().info(), true));
   CHECK(exact <= (f16_operands ? 1e-2 : 1e-4));
   CHECK(vs_fp32 <= 1e-2);  // fp16's 11-bit mantissa, measured ~1e-3
   CHECK(vs_fp32 > 1e-6);   // the weights really are rounded

@@ -103,8 +103,8 @@ TEST_CASE("vae gpu: fp16 weight storage (exact on fp16-rounded weights; its erro
   nn::VaeGpu gpu32(test::gpu_context(), cfg, w);
   CHECK(gpu.weight_bytes() < gpu32.weight_bytes());
   // With cooperative matrices the sparse convolutions round their activations to fp16 too: only fp16's bound.
-  const bool f16_operands = kernels::nn::default_conv3d_path(test::gpu_context().info(), true) ==
-                            kernels::nn::Conv3dPath::kCoopMatrix;
+  const bool f16_operands = kernels::nn::conv3d_path_rounds_activations(
+      kernels::nn::default_conv3d_path(test::gpu_context().info(), true));
   const nn::SparseTensor latent = random_latent(cfg, 1);
   const nn::VaeDecoded got = gpu.decode(latent), want = ref16.decode(latent), fp32 = ref32.decode(latent);
   REQUIRE(got.levels.size() == want.levels.size());
