@@ -366,7 +366,8 @@ int NnBench::unet_case_run() {
   std::printf("\n%-28s %10s %10s %12s %16s\n", "unet_small case (official)", "gpu min", "gpu med", "weights MiB",
               "max|y-ref|/std");
   for (const auto& [name, prec] : {std::pair{"fp32", nn::UNetGpu::Precision::F32},
-                                   std::pair{"fp16 weights", nn::UNetGpu::Precision::F16Weights}}) {
+                                   std::pair{"fp16 weights", nn::UNetGpu::Precision::F16Weights},
+                                   std::pair{"fp16 weights + operands", nn::UNetGpu::Precision::F16}}) {
     nn::UNetGpu net(ctx, cfg, w, prec);
     std::vector<double> samples;
     nn::CpuTensor y;
@@ -407,7 +408,7 @@ int NnBench::unet_forward_run() {
     for (float& f : t.data) f = nd(rng);
     w.emplace(p.name, std::move(t));
   }
-  nn::UNetGpu net(ctx, cfg, w, unet_precision == "fp16" ? nn::UNetGpu::Precision::F16Weights : nn::UNetGpu::Precision::F32);
+  nn::UNetGpu net(ctx, cfg, w, nn::parse_network_precision(unet_precision));
   nn::CpuTensor x({unet_batch, cfg.in_channels, unet_grid[0], unet_grid[1], unet_grid[2]});
   for (float& f : x.data) f = nd(rng) * 20.0f;
   std::vector<double> samples;
@@ -490,8 +491,9 @@ int main(int argc, char** argv) {
                  "error against its output vs run time")
       ->type_name("DIR");
   app.add_flag("--unet-no-cpu", b.unet_no_cpu, "Skip the CPU reference of the --unet forward (hours at the released size)");
-  app.add_option("--unet-precision", b.unet_precision, "fp32 or fp16 (weights) for the --unet forward")
-      ->check(CLI::IsMember({"fp32", "fp16"}))
+  app.add_option("--unet-precision", b.unet_precision,
+                 std::string("The --unet forward's precision: ") + nn::network_precision_help())
+      ->check(CLI::IsMember({"fp32", "fp16-weights", "fp16"}))
       ->capture_default_str();
   app.add_option("--unet-grid", b.unet_grid, "Grid of the UNet forward")->expected(3)->capture_default_str();
   app.add_option("--unet-batch", b.unet_batch, "Batch of the UNet forward (2: a guided sampling step)")

@@ -234,11 +234,10 @@ bool run_case(gpu::Context& ctx, const std::string& name, const nn::SparseGrid& 
 
 // One structure-VAE decode of a random latent on a dense box (random weights of `model`'s shapes): each
 // stage's wall time and rows, the activation pool's peak and the weights' device memory.
-bool run_vae_decode(gpu::Context& ctx, const std::string& model, const nn::Ijk& box, int runs, nn::WeightPrecision precision) {
+bool run_vae_decode(gpu::Context& ctx, const std::string& model, const nn::Ijk& box, int runs, nn::NetworkPrecision precision) {
   const nn::VaeConfig cfg = nn::load_vae_config(model);
-  const bool f16 = precision == nn::WeightPrecision::F16Weights;
   std::printf("\nVAE decode (%s, random weights, %s), latent box %d x %d x %d x %d channels\n", model.c_str(),
-              f16 ? "fp16 weights" : "fp32", box[0], box[1], box[2], cfg.latent_channels());
+              nn::network_precision_name(precision), box[0], box[1], box[2], cfg.latent_channels());
   nn::VaeGpu vae(ctx, cfg, nn::random_weights(nn::vae_param_specs(cfg, nn::VaePart::Decoder), 9), precision);
   nn::SparseTensor latent;
   std::array<double, 3> vs{0.2, 0.2, 0.2}, origin{};
@@ -297,8 +296,8 @@ int main(int argc, char** argv) {
       ->expected(3);
   app.add_option("--vae-model", vae_model, "VAE config or preset for --vae-decode")->capture_default_str();
   std::string vae_precision = "fp32";
-  app.add_option("--vae-precision", vae_precision, "--vae-decode's convolution weights: fp32 or fp16")
-      ->check(CLI::IsMember({"fp32", "fp16"}))
+  app.add_option("--vae-precision", vae_precision, std::string("--vae-decode's precision: ") + nn::network_precision_help())
+      ->check(CLI::IsMember({"fp32", "fp16-weights", "fp16"}))
       ->capture_default_str();
   app.add_flag("--torch", with_torch, "Also PyTorch's CPU conv3d on the box (Debian python3-torch), threads = LP_NUM_THREADS");
   CLI11_PARSE(app, argc, argv);
@@ -319,7 +318,7 @@ int main(int argc, char** argv) {
   std::printf("device: %s; LP_NUM_THREADS=%s\n", ctx.info().name.c_str(), std::getenv("LP_NUM_THREADS") ? std::getenv("LP_NUM_THREADS") : "unset");
   if (!vae_box.empty())
     return run_vae_decode(ctx, vae_model, {vae_box[0], vae_box[1], vae_box[2]}, o.runs,
-                          vae_precision == "fp16" ? nn::WeightPrecision::F16Weights : nn::WeightPrecision::F32)
+                          nn::parse_network_precision(vae_precision))
                ? 0
                : 1;
   try {

@@ -3,7 +3,7 @@
 //   icube nn info WEIGHTS.safetensors [--model CONFIG|PRESET [--ema] | --gsm-model CONFIG|infinicube-gsm]
 //                 [--check-finite] [--limit N]
 //   icube nn forward --model CONFIG|PRESET --weights W.safetensors --input x.npy --timestep t.npy
-//                    [--backend gpu|cpu] [--precision fp32|fp16] [--ema] [--check-finite] [--dump-layers FILE.safetensors] -o y.npy
+//                    [--backend gpu|cpu] [--precision fp32|fp16-weights|fp16] [--ema] [--check-finite] [--dump-layers FILE.safetensors] -o y.npy
 //   icube nn random-weights (--model CONFIG|PRESET | --vae-model CONFIG|PRESET | --gsm-model CONFIG|infinicube-gsm)
 //                           [--seed N] [--scale-factor S] -o W.safetensors
 //
@@ -77,12 +77,12 @@ void cmd_nn_forward(const NnForwardArgs& a) {
     std::map<std::string, nn::CpuTensor> weights = nn::load_weights_cpu(file, net.parameters(), wo);
     std::optional<gpu::Context> ctx;
     std::unique_ptr<nn::UNetGpu> gpu_net;
-    if (a.precision == "fp16" && a.backend != "gpu")
-      throw std::invalid_argument("--precision fp16 runs on the GPU backend only (the CPU reference is exact)");
+    if (a.precision != "fp32" && a.backend != "gpu")
+      throw std::invalid_argument("--precision " + a.precision + " runs on the GPU backend only (the CPU reference is exact)");
     if (a.backend == "gpu") {
       ctx.emplace(gpu::ContextOptions::from_env());
       gpu_net = std::make_unique<nn::UNetGpu>(
-          *ctx, cfg, weights, a.precision == "fp16" ? nn::UNetGpu::Precision::F16Weights : nn::UNetGpu::Precision::F32);
+          *ctx, cfg, weights, nn::parse_network_precision(a.precision));
     } else {
       net.set_weights(std::move(weights));
     }
@@ -111,7 +111,7 @@ void cmd_nn_forward(const NnForwardArgs& a) {
       std::fprintf(stderr, "nn forward: %.1f MiB of activations (peak) and %.1f MiB of %s weights on the device\n",
                    static_cast<double>(gpu_net->last_activation_bytes()) / (1024.0 * 1024.0),
                    static_cast<double>(gpu_net->weight_bytes()) / (1024.0 * 1024.0),
-                   a.precision == "fp16" ? "fp16 (conv/linear)" : "fp32");
+                   a.precision == "fp32" ? "fp32" : "fp16 (conv/linear)");
     std::vector<uint64_t> ys(y.shape.begin(), y.shape.end());
     if (!a.dump.empty()) nn::write_safetensors(a.dump, dumped, {{"layout", "block outputs [B, C, X, Y, Z]"}});
     world::write_npy(a.output, world::NpyArray::make<float>(ys, y.data));
@@ -280,8 +280,8 @@ void add_nn_commands(CLI::App& app) {
   fwd->add_option("--timestep", f->timestep, "t: int64 [B]")->required()->type_name("T.npy");
   fwd->add_flag("--ema", f->ema, "Use the EMA copy of the weights");
   fwd->add_option("--precision", f->precision,
-                  "fp32, or fp16: convolution and linear weights stored as fp16 (fp32 activations and accumulation)")
-      ->check(CLI::IsMember({"fp32", "fp16"}))
+                  nn::network_precision_help())
+      ->check(CLI::IsMember({"fp32", "fp16-weights", "fp16"}))
       ->capture_default_str();
   fwd->add_option("--backend", f->backend, "gpu (Vulkan kernels) or cpu (the exact double-accumulation reference)")
       ->check(CLI::IsMember({"gpu", "cpu"}))

@@ -1,7 +1,7 @@
 // `icube nn vae` : InfiniCube's sparse structure VAE.
 //
 //   icube nn vae decode LATENT.npy --model CONFIG|infinicube-vae --weights VAE.safetensors
-//                       [--latent-origin I,J,K] [--scale-factor S] [--backend gpu|cpu] [--precision fp32|fp16]
+//                       [--latent-origin I,J,K] [--scale-factor S] [--backend gpu|cpu] [--precision fp32|fp16-weights|fp16]
 //                       [--check-finite] [--scene SCENE [--mode M] --chunk K | --at X,Y,Z[,YAW_DEG]] [--dump-layers DIR] -o CHUNK.icw
 //
 // decode turns a dense latent [1, C, X, Y, Z] float32 (the box of latent
@@ -20,13 +20,14 @@
 // level's grid before pruning and its structure logits (struct<d>.ijk.npy /
 // .logits.npy, d = 0 finest), the final ijk.npy and semantic.npy, so a user can
 // compare with PyTorch level by level (rows in brick order; compare as sets).
-// --precision fp16 stores the convolution weights as fp16 (the GPU backend:
-// tensor cores on NVIDIA GPUs; activations and sums stay fp32).
+// --precision fp16-weights stores the convolution weights as fp16 (the GPU
+// backend: tensor cores on NVIDIA GPUs; activations and sums stay fp32), fp16
+// the GroupNorm outputs the convolutions read too (nn/network_precision.h).
 // Outputs are written atomically; a failure leaves none.
 //
 //   icube nn vae encode WORLD.icw (--scene SCENE [--mode trajectory|blocks] --chunk K | --at X,Y,Z[,YAW_DEG])
 //                       --model CONFIG|infinicube-vae --weights VAE.safetensors [--scale-factor S]
-//                       [--backend gpu|cpu] [--precision fp32|fp16] [--check-finite] -o LATENT.npy
+//                       [--backend gpu|cpu] [--precision fp32|fp16-weights|fp16] [--check-finite] -o LATENT.npy
 //
 // encode re-voxelises the world's voxels into one chunk's frame (engine/world/
 // chunk_voxels.h: the chunk K of the scene's Stage-1 plan, or a chunk centred
@@ -87,11 +88,11 @@ struct VaeDecodeArgs {
 
 world::ChunkPose parse_chunk_at(const std::string& text);
 
-// --precision: fp16 weights exist on the GPU backend only (the CPU reference is exact).
+// --precision: fp16 exists on the GPU backend only (the CPU reference is exact).
 nn::VaeGpu::Precision vae_precision(const std::string& precision, const std::string& backend) {
-  if (precision == "fp16" && backend != "gpu")
-    throw std::invalid_argument("--precision fp16 runs on the GPU backend only (the CPU reference is exact)");
-  return precision == "fp16" ? nn::VaeGpu::Precision::F16Weights : nn::VaeGpu::Precision::F32;
+  if (precision != "fp32" && backend != "gpu")
+    throw std::invalid_argument("--precision " + precision + " runs on the GPU backend only (the CPU reference is exact)");
+  return nn::parse_network_precision(precision);
 }
 
 world::ChunkPose chunk_pose(const ChunkPlacement& p, scene::Diagnostics& diag) {
@@ -346,8 +347,8 @@ void add_vae_commands(CLI::App& app) {
       ->check(CLI::IsMember({"gpu", "cpu"}))
       ->capture_default_str();
   dec->add_option("--precision", a->precision,
-                  "GPU backend: convolution weights in fp32 or fp16 (activations and accumulation fp32)")
-      ->check(CLI::IsMember({"fp32", "fp16"}))
+                  std::string("GPU backend: ") + nn::network_precision_help())
+      ->check(CLI::IsMember({"fp32", "fp16-weights", "fp16"}))
       ->capture_default_str();
   dec->add_flag("--check-finite", a->check_finite, "Fail on a NaN or infinity in the weights");
   add_placement_options(dec, a->place, ": the chunk is written in the world's frame");
@@ -374,8 +375,8 @@ void add_vae_commands(CLI::App& app) {
       ->check(CLI::IsMember({"gpu", "cpu"}))
       ->capture_default_str();
   enc->add_option("--precision", e->precision,
-                  "GPU backend: convolution weights in fp32 or fp16 (activations and accumulation fp32)")
-      ->check(CLI::IsMember({"fp32", "fp16"}))
+                  std::string("GPU backend: ") + nn::network_precision_help())
+      ->check(CLI::IsMember({"fp32", "fp16-weights", "fp16"}))
       ->capture_default_str();
   enc->add_flag("--check-finite", e->check_finite, "Fail on a NaN or infinity in the weights");
   enc->add_option("-o,--output", e->output, "mu on the dense neck box: float32 [1, C, X, Y, Z]")->required()->type_name("LATENT.npy");

@@ -6,7 +6,7 @@
 //                     [--seed N] [--record SEL] [--extrapolate N] [--threads N] [--no-vehicles]
 //                     [--vehicle-mesh FILE [--mesh-axes F,U] | --vehicle-meshes JSON] [--png top.png]
 //     diffusion:      --model CONFIG|PRESET --weights UNET.safetensors --vae VAE.safetensors [--vae-model CONFIG|PRESET]
-//                     [--steps N] [--sampler ddim|dpm++2m] [--eta E] [--cfg S] [--precision fp32|fp16] [--scale-factor S] [--keep-latents DIR]
+//                     [--steps N] [--sampler ddim|dpm++2m] [--eta E] [--cfg S] [--precision fp32|fp16-weights|fp16] [--scale-factor S] [--keep-latents DIR]
 //   icube world plot WORLD -o top.png [--max-pixels N]
 #include "cli_common.h"
 #include "command_registry.h"
@@ -141,7 +141,7 @@ std::unique_ptr<diffusion::DiffusionGenerator> make_diffusion_generator(const Bu
   o.sampler.cfg_scale = a.cfg;
   o.sampler.seed = a.seed;
   o.scale_factor = scale.value;
-  o.precision = a.precision == "fp16" ? nn::WeightPrecision::F16Weights : nn::WeightPrecision::F32;
+  o.precision = nn::parse_network_precision(a.precision);
   o.keep_latents = a.keep_latents;
   // One bar per chunk over its denoising steps (elapsed time and ETA).
   o.progress = [&bar, current = std::make_shared<size_t>(SIZE_MAX)](size_t chunk, size_t done, size_t total) {
@@ -296,8 +296,8 @@ void add_world_build_commands(CLI::App& app) {
                                      "CLI's default), 2 = the official full pipeline's")
       ->capture_default_str();
   build->add_option("--precision", a->precision,
-                    "diffusion: UNet and VAE convolution and linear weights in fp32 or fp16 (activations fp32)")
-      ->check(CLI::IsMember({"fp32", "fp16"}))
+                    std::string("diffusion, the UNet and the VAE: ") + nn::network_precision_help())
+      ->check(CLI::IsMember({"fp32", "fp16-weights", "fp16"}))
       ->capture_default_str();
   build->add_option("--scale-factor", a->scale_factor,
                     "diffusion: latent scale factor (default: the weights' metadata, else 1 with a warning)")

@@ -33,7 +33,7 @@ namespace icube::diffusion {
 struct DiffusionGeneratorOptions {
   SamplerOptions sampler;
   double scale_factor = 1.0;                     // the latent boundary (nn/latent_scale.h)
-  nn::WeightPrecision precision = nn::WeightPrecision::F32;  // the UNet's and the VAE's weights
+  nn::NetworkPrecision precision = nn::NetworkPrecision::F32;  // the UNet's and the VAE's weights
   std::string keep_latents;                      // folder: chunk_NNNN.npy [1, C, 64, 64, 64] (diffusion space)
   // Per chunk and step: (chunk index, steps done, steps total); (chunk, 0, total) before its first step.
   std::function<void(size_t, size_t, size_t)> progress;

@@ -11,6 +11,7 @@ namespace {
 // Bytes per texel of the formats texel bindings use.
 uint64_t texel_format_bytes(VkFormat f) {
   switch (f) {
+    case VK_FORMAT_R16_SFLOAT: return 2;
     case VK_FORMAT_R32_UINT: case VK_FORMAT_R32_SINT: case VK_FORMAT_R32_SFLOAT: return 4;
     case VK_FORMAT_R32G32_UINT: case VK_FORMAT_R32G32_SINT: case VK_FORMAT_R32G32_SFLOAT: return 8;
     case VK_FORMAT_R32G32B32A32_UINT: case VK_FORMAT_R32G32B32A32_SINT: case VK_FORMAT_R32G32B32A32_SFLOAT: return 16;

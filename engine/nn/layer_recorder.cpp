@@ -32,6 +32,13 @@ void extent(const DeviceTensor& x, uint32_t& sx, uint32_t& sy, uint32_t& sz) {
   }
 }
 
+// Only the convolutions read fp16 tensors (their operands, as R16_SFLOAT texels).
+void require_f32(const DeviceTensor& x, const char* layer) {
+  if (x.f16)
+    throw std::logic_error(std::string("LayerRecorder: ") + layer + " of an fp16 tensor (only convolutions and linears " +
+                           "read fp16 operands; run this network in fp32 or fp16-weights)");
+}
+
 }  // namespace
 
 LayerRecorder::LayerRecorder(gpu::Context& ctx, const ParameterStore& params, const std::string& pool_name)
@@ -58,10 +65,11 @@ gpu::CommandList& LayerRecorder::cmd() const {
 
 void LayerRecorder::barrier() const { cmd().barrier(gpu::deps::kComputeToCompute); }
 
-DeviceTensor LayerRecorder::alloc(std::vector<int64_t> shape) {
+DeviceTensor LayerRecorder::alloc(std::vector<int64_t> shape, bool f16) {
   DeviceTensor t;
   t.shape = std::move(shape);
-  t.buf = pool_.take(std::max<uint64_t>(t.numel(), 1) * 4);
+  t.f16 = f16;
+  t.buf = pool_.take(std::max<uint64_t>(t.bytes(), 4));
   return t;
 }
 
@@ -93,6 +101,7 @@ DeviceTensor LayerRecorder::conv(const DeviceTensor& x, const std::string& prefi
   }
   s.kernel = ParameterStore::kernel_edge(ws);
   s.f16_weights = params_.f16_matrices();
+  s.f16_input = x.f16;
   const std::string bias = prefix + ".bias";
   conv_->record(cmd(), s, *x.buf, params_.buffer(prefix + ".weight"), params_.has(bias) ? &params_.buffer(bias) : nullptr, *y.buf);
   barrier();
@@ -100,6 +109,7 @@ DeviceTensor LayerRecorder::conv(const DeviceTensor& x, const std::string& prefi
 }
 
 DeviceTensor LayerRecorder::conv2d(const DeviceTensor& x, const std::string& prefix, uint32_t stride, uint32_t padding) {
+  require_f32(x, "conv2d");
   const std::vector<int64_t>& ws = params_.shape(prefix + ".weight");
   if (x.shape.size() != 4 || ws.size() != 4 || ws[1] != x.channels())
     throw std::logic_error("LayerRecorder: conv2d " + prefix + " of weight " + shape_text(ws) + " on " + shape_text(x.shape));
@@ -123,6 +133,7 @@ DeviceTensor LayerRecorder::conv2d(const DeviceTensor& x, const std::string& pre
 
 DeviceTensor LayerRecorder::channel_affine(const DeviceTensor& x, const std::string& scale, const std::string& shift,
                                            kernels::nn::BatchNormActivation act) {
+  require_f32(x, "channel_affine");
   DeviceTensor y = alloc(x.shape);
   channel_affine_->record(cmd(), {u32(x.batch()), u32(x.channels()), static_cast<uint64_t>(x.spatial())}, *x.buf,
                           params_.buffer(scale), params_.buffer(shift), *y.buf, act);
@@ -132,6 +143,7 @@ DeviceTensor LayerRecorder::channel_affine(const DeviceTensor& x, const std::str
 
 DeviceTensor LayerRecorder::interpolate(const DeviceTensor& x, int64_t out_h, int64_t out_w, kernels::nn::InterpolateMode mode,
                                         bool align_corners) {
+  require_f32(x, "interpolate");
   if (x.shape.size() != 4) throw std::logic_error("LayerRecorder: interpolate of " + shape_text(x.shape) + " (not [B, C, H, W])");
   DeviceTensor y = alloc({x.batch(), x.channels(), out_h, out_w});
   kernels::nn::InterpolateShape s;
@@ -149,6 +161,7 @@ DeviceTensor LayerRecorder::interpolate(const DeviceTensor& x, int64_t out_h, in
 }
 
 DeviceTensor LayerRecorder::gelu(const DeviceTensor& x) {
+  require_f32(x, "gelu");
   DeviceTensor y = alloc(x.shape);
   elementwise_->gelu(cmd(), *x.buf, x.numel(), *y.buf);
   barrier();
@@ -156,6 +169,7 @@ DeviceTensor LayerRecorder::gelu(const DeviceTensor& x) {
 }
 
 DeviceTensor LayerRecorder::relu(const DeviceTensor& x) {
+  require_f32(x, "relu");
   DeviceTensor y = alloc(x.shape);
   elementwise_->relu(cmd(), *x.buf, x.numel(), *y.buf);
   barrier();
@@ -167,7 +181,7 @@ DeviceTensor LayerRecorder::sparse_conv(const DeviceTensor& x, const std::string
   if (x.batch() != 1) throw std::logic_error("LayerRecorder: sparse features are [1, C, rows] (" + prefix + ")");
   const std::vector<int64_t>& ws = params_.shape(prefix + ".weight");
   DeviceTensor y = alloc({1, ws[0], x.spatial()});
-  const kernels::nn::SparseConvShape s{u32(x.spatial()), u32(x.channels()), u32(ws[0]), silu, params_.f16_matrices()};
+  const kernels::nn::SparseConvShape s{u32(x.spatial()), u32(x.channels()), u32(ws[0]), silu, params_.f16_matrices(), x.f16};
   const std::string bias = prefix + ".bias";
   sparse_conv_->record(cmd(), s, *x.buf, kernel_map, params_.buffer(prefix + ".weight"),
                        params_.has(bias) ? &params_.buffer(bias) : nullptr, *y.buf);
@@ -176,7 +190,8 @@ DeviceTensor LayerRecorder::sparse_conv(const DeviceTensor& x, const std::string
 }
 
 DeviceTensor LayerRecorder::group_norm(const DeviceTensor& x, const std::string& prefix, const NormOptions& o) {
-  DeviceTensor y = alloc(x.shape);
+  require_f32(x, "group_norm");
+  DeviceTensor y = alloc(x.shape, f16_conv_operands_ && !o.fp32_output);
   kernels::nn::GroupNormShape s;
   s.batch = u32(x.batch());
   s.channels = u32(x.channels());
@@ -185,6 +200,7 @@ DeviceTensor LayerRecorder::group_norm(const DeviceTensor& x, const std::string&
   s.eps = o.eps;
   s.silu = o.silu;
   s.modulate = o.modulation != nullptr;
+  s.f16_output = y.f16;
   const DeviceTensor scratch = alloc({static_cast<int64_t>(kernels::nn::GroupNorm::scratch_bytes(s) / 4 + 1), 1});
   group_norm_->record(cmd(), s, *x.buf, params_.buffer(prefix + ".weight"), params_.buffer(prefix + ".bias"),
                       o.modulation ? o.modulation->buf.get() : nullptr, *scratch.buf, *y.buf);
@@ -193,14 +209,16 @@ DeviceTensor LayerRecorder::group_norm(const DeviceTensor& x, const std::string&
 }
 
 DeviceTensor LayerRecorder::layer_norm(const DeviceTensor& x, const std::string& prefix, float eps) {
-  DeviceTensor y = alloc(x.shape);
-  layer_norm_->record(cmd(), {u32(x.batch()), u32(x.channels()), static_cast<uint64_t>(x.spatial()), eps}, *x.buf,
+  require_f32(x, "layer_norm");
+  DeviceTensor y = alloc(x.shape, f16_conv_operands_);
+  layer_norm_->record(cmd(), {u32(x.batch()), u32(x.channels()), static_cast<uint64_t>(x.spatial()), eps, y.f16}, *x.buf,
                       params_.buffer(prefix + ".weight"), params_.buffer(prefix + ".bias"), *y.buf);
   barrier();
   return y;
 }
 
 DeviceTensor LayerRecorder::silu(const DeviceTensor& x) {
+  require_f32(x, "silu");
   DeviceTensor y = alloc(x.shape);
   elementwise_->silu(cmd(), *x.buf, x.numel(), *y.buf);
   barrier();
@@ -209,6 +227,8 @@ DeviceTensor LayerRecorder::silu(const DeviceTensor& x) {
 
 DeviceTensor LayerRecorder::add(const DeviceTensor& a, const DeviceTensor& b) {
   if (a.numel() != b.numel()) throw std::logic_error("LayerRecorder: add of tensors of different sizes");
+  require_f32(a, "add");
+  require_f32(b, "add");
   DeviceTensor y = alloc(a.shape);
   elementwise_->add(cmd(), *a.buf, *b.buf, a.numel(), *y.buf);
   barrier();
@@ -216,6 +236,7 @@ DeviceTensor LayerRecorder::add(const DeviceTensor& a, const DeviceTensor& b) {
 }
 
 DeviceTensor LayerRecorder::resample(const DeviceTensor& x, bool up) {
+  require_f32(x, "resample");
   uint32_t sx, sy, sz;
   extent(x, sx, sy, sz);
   const uint32_t planes = u32(x.batch() * x.channels());
@@ -229,6 +250,7 @@ DeviceTensor LayerRecorder::resample(const DeviceTensor& x, bool up) {
 }
 
 DeviceTensor LayerRecorder::geglu(const DeviceTensor& x) {
+  require_f32(x, "geglu");
   DeviceTensor y = alloc({x.batch(), x.channels() / 2, x.spatial()});
   elementwise_->geglu(cmd(), *x.buf, u32(x.batch()), u32(x.channels() / 2), static_cast<uint64_t>(x.spatial()), *y.buf);
   barrier();
@@ -242,6 +264,8 @@ DeviceTensor LayerRecorder::tokens(const DeviceTensor& x) {
 }
 
 DeviceTensor LayerRecorder::concat(const DeviceTensor& a, const DeviceTensor& b) {
+  require_f32(a, "concat");
+  require_f32(b, "concat");
   std::vector<int64_t> shape = a.shape;
   shape[1] = a.channels() + b.channels();
   DeviceTensor y = alloc(shape);
@@ -258,6 +282,9 @@ DeviceTensor LayerRecorder::concat(const DeviceTensor& a, const DeviceTensor& b)
 }
 
 DeviceTensor LayerRecorder::attention(const DeviceTensor& q, const DeviceTensor& k, const DeviceTensor& v, uint32_t heads) {
+  require_f32(q, "attention");
+  require_f32(k, "attention");
+  require_f32(v, "attention");
   DeviceTensor o = alloc(q.shape);
   attention_->record(cmd(), {u32(q.batch()), heads, u32(q.channels()) / heads, static_cast<uint64_t>(q.spatial())}, *q.buf,
                      *k.buf, *v.buf, *o.buf);
@@ -266,6 +293,7 @@ DeviceTensor LayerRecorder::attention(const DeviceTensor& q, const DeviceTensor&
 }
 
 DeviceTensor LayerRecorder::attention_qkv(const DeviceTensor& qkv, uint32_t heads) {
+  require_f32(qkv, "attention");
   const int64_t C = qkv.channels() / 3;
   DeviceTensor o = alloc({qkv.batch(), C, qkv.spatial()});
   attention_->record_qkv(cmd(), {u32(qkv.batch()), heads, u32(C) / heads, static_cast<uint64_t>(qkv.spatial())}, *qkv.buf,

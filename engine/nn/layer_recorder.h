@@ -7,6 +7,10 @@
 // VaeGpu); a new one declares its layers and their order. Weights stored as
 // fp16 (ParameterStoreOptions::f16_matrices) go to the dense and sparse
 // convolutions' fp16-weight paths (tensor cores where the device has them).
+// With set_f16_conv_operands, GroupNorm and LayerNorm store their outputs as
+// fp16 (NetworkPrecision::F16): the convolutions read fp16 tensors as texels,
+// every other layer refuses one (a network whose norm feeds anything but a
+// convolution or linear keeps fp32 operands).
 // Tests: through the networks (tests/nn/test_unet_gpu.cpp, test_vae_gpu.cpp,
 // against the official cases and the CPU references).
 #pragma once
@@ -41,6 +45,7 @@ struct NormOptions {
   float eps = 1e-5f;
   bool silu = false;                         // y = silu(norm(x)), fused
   const DeviceTensor* modulation = nullptr;  // GroupNorm: [B, 2C] (scale, shift): y = norm(x) (1 + scale) + shift
+  bool fp32_output = false;  // the output feeds a layer other than a convolution: fp32 under set_f16_conv_operands
 };
 
 class LayerRecorder {
@@ -57,7 +62,9 @@ class LayerRecorder {
   gpu::Context& context() const { return ctx_; }
   void barrier() const;
 
-  DeviceTensor alloc(std::vector<int64_t> shape);
+  DeviceTensor alloc(std::vector<int64_t> shape, bool f16 = false);
+  // GroupNorm and LayerNorm outputs as fp16 from now on (the convolutions' operands).
+  void set_f16_conv_operands(bool on) { f16_conv_operands_ = on; }
   ActivationPool& pool() { return pool_; }
   const ParameterStore& params() const { return params_; }
 
@@ -100,6 +107,7 @@ class LayerRecorder {
   const ParameterStore& params_;
   ActivationPool pool_;
   gpu::CommandList* cmd_ = nullptr;
+  bool f16_conv_operands_ = false;
   std::unique_ptr<kernels::nn::Conv3d> conv_;
   std::unique_ptr<kernels::nn::Conv2d> conv2d_;
   std::unique_ptr<kernels::nn::BatchNorm> channel_affine_;

@@ -24,8 +24,10 @@ struct UNetGpu::Impl {
   LayerRecorder L;
   std::vector<std::shared_ptr<gpu::Buffer>> alive;  // inputs, kept until the forward ends
 
-  Impl(gpu::Context& c, const UNetConfig& cfg, const std::map<std::string, CpuTensor>& weights, bool f16)
-      : ctx(c), tree(cfg), params(c, tree.parameters(), weights, options(f16)), L(c, params, "unet-activation") {}
+  Impl(gpu::Context& c, const UNetConfig& cfg, const std::map<std::string, CpuTensor>& weights, NetworkPrecision precision)
+      : ctx(c), tree(cfg), params(c, tree.parameters(), weights, options(f16_weights(precision))), L(c, params, "unet-activation") {
+    L.set_f16_conv_operands(f16_conv_operands(precision));
+  }
 
   static ParameterStoreOptions options(bool f16) {
     ParameterStoreOptions o;
@@ -36,7 +38,8 @@ struct UNetGpu::Impl {
 
   GT res_block(const UNetReference::Layer& l, GT x, const GT& emb_silu) {
     const std::string& p = l.prefix;
-    GT h = L.group_norm(x, p + ".in_layers.0", {32, 1e-5f, true});
+    // An up/down block resamples the normalised tensor before its convolution: that output stays fp32.
+    GT h = L.group_norm(x, p + ".in_layers.0", {32, 1e-5f, true, nullptr, l.up || l.down});
     if (l.up || l.down) {
       h = L.resample(h, l.up);
       x = L.resample(x, l.up);
@@ -134,7 +137,7 @@ UNetGpu::UNetGpu(gpu::Context& ctx, const UNetConfig& config, const std::map<std
                  Precision precision) {
   if (!config.use_scale_shift_norm)
     throw std::invalid_argument("UNetGpu: use_scale_shift_norm = false is implemented on the CPU reference only");
-  impl_ = std::make_unique<Impl>(ctx, config, weights, precision == Precision::F16Weights);
+  impl_ = std::make_unique<Impl>(ctx, config, weights, precision);
   weight_bytes_ = impl_->params.device_bytes();
 }
 
@@ -159,6 +162,7 @@ CpuTensor UNetGpu::forward(const CpuTensor& x, const std::vector<int64_t>& t, co
   activation_bytes_ = m.L.pool().bytes();
   auto download = [&](const GT& g) {
     CpuTensor r(g.shape);
+    if (g.f16) throw std::logic_error("UNetGpu: a captured tensor is fp16 (only norm outputs are)");
     r.data = gpu::download_vector<float>(m.ctx, *g.buf, static_cast<size_t>(g.numel()));
     return r;
   };
@@ -186,7 +190,7 @@ void UNetGpu::forward(const gpu::Buffer& x, const std::vector<int64_t>& x_shape,
   const GT xin = GT::borrow(x, x_shape);
   std::vector<int64_t> y_shape = x_shape;
   y_shape[1] = c.out_channels;
-  const uint64_t y_bytes = GT{nullptr, y_shape}.bytes();
+  const uint64_t y_bytes = GT{nullptr, y_shape, false}.bytes();
   if (x.size() < xin.bytes() || y.size() < y_bytes)
     throw std::invalid_argument("UNet: device buffers of " + std::to_string(x.size()) + " and " + std::to_string(y.size()) +
                                 " bytes for an input of " + std::to_string(xin.bytes()) + " and an output of " +

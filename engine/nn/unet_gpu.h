@@ -7,7 +7,9 @@
 // Activations in fp32; weights in fp32 or, with
 // Precision::F16Weights, the convolution and linear weights stored as fp16
 // (half the weight memory; accumulation, norms and softmax stay fp32; biases
-// and norm parameters fp32). Weights are packed and uploaded
+// and norm parameters fp32); Precision::F16 stores the convolutions' input
+// operands (the GroupNorm and LayerNorm outputs) as fp16 too
+// (nn/network_precision.h). Weights are packed and uploaded
 // once. Activations live in the layers' pool: a buffer is reused as soon as the tensor
 // in it is dead (liveness from the handles the recording holds), so the peak
 // is near the largest live set (the skip connections and the current block),
@@ -24,7 +26,7 @@
 #include "gpu/context.h"
 #include "kernels/nn/cpu_tensor.h"
 #include "nn/unet_reference.h"
-#include "nn/weight_precision.h"
+#include "nn/network_precision.h"
 
 #include <map>
 #include <memory>
@@ -35,7 +37,7 @@ namespace icube::nn {
 
 class UNetGpu {
  public:
-  using Precision = WeightPrecision;
+  using Precision = NetworkPrecision;
   // `weights` by official name, as UNetReference::set_weights takes them.
   UNetGpu(gpu::Context& ctx, const UNetConfig& config, const std::map<std::string, CpuTensor>& weights,
           Precision precision = Precision::F32);

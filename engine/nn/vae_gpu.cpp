@@ -27,7 +27,7 @@ struct Level {
 
 ParameterStoreOptions store_options(VaeGpu::Precision precision) {
   ParameterStoreOptions o;
-  o.f16_matrices = precision == VaeGpu::Precision::F16Weights;
+  o.f16_matrices = f16_weights(precision);
   o.network = "the VAE";
   o.partial = true;  // the encoder's or the decoder's weights alone
   o.missing_hint = "encoding needs the encoder's weights, decoding the decoder's";
@@ -53,7 +53,9 @@ struct VaeGpu::Impl {
         params(c, vae_param_specs(cfg, VaePart::All), weights, store_options(precision)),
         L(c, params, "vae-activation"),
         kmap(c),
-        grid_ops(c) {}
+        grid_ops(c) {
+    L.set_f16_conv_operands(f16_conv_operands(precision));
+  }
 
   // Runs `fn` (host work and submissions) and books its wall time under `label` with the rows it covers.
   template <class F>

@@ -10,8 +10,9 @@
 // it is dead), so the peak is near the largest live set of a level.
 // Weights as VaeReference takes them (official names, 3^3 kernels already in
 // grid order: vae_weights.h), in one nn::ParameterStore, packed and uploaded
-// once, in fp32 or (Precision::F16Weights) fp16: the sparse and 1x1
-// convolutions' fp16-weight paths, tensor cores on NVIDIA GPUs.
+// once, in fp32 or (Precision::F16Weights, F16) fp16: the sparse and 1x1
+// convolutions' fp16-weight paths, tensor cores on NVIDIA GPUs; with
+// Precision::F16 the GroupNorm outputs the convolutions read are fp16 too.
 // Tensors beyond one storage binding (lavapipe: 128 MiB; a full chunk's finest
 // level is ~2.7 M rows) run in windows: sparse_conv by row and channel
 // windows, GroupNorm by groups or, for one group beyond a binding, in spans.
@@ -23,7 +24,7 @@
 #include "kernels/nn/cpu_tensor.h"
 #include "nn/vae_config.h"
 #include "nn/vae_reference.h"
-#include "nn/weight_precision.h"
+#include "nn/network_precision.h"
 
 #include <map>
 #include <memory>
@@ -34,7 +35,7 @@ namespace icube::nn {
 
 class VaeGpu {
  public:
-  using Precision = WeightPrecision;
+  using Precision = NetworkPrecision;
   VaeGpu(gpu::Context& ctx, const VaeConfig& config, const std::map<std::string, CpuTensor>& weights,
          Precision precision = Precision::F32);
   ~VaeGpu();

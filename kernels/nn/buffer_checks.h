@@ -26,8 +26,15 @@ inline void require_one_binding(const gpu::Context& ctx, const char* kernel, con
                                 " bytes exceeds one storage binding");
 }
 
-// Tensors larger than one storage binding are processed in windows: a float32
-// range [first, first + count) of a buffer bound from the binding-offset
+// The device stores 16-bit values from shaders (storageBuffer16BitAccess), which `what` needs.
+inline void require_f16_storage(const gpu::Context& ctx, const char* kernel, const char* what) {
+  if (!ctx.info().storage_16bit)
+    throw std::invalid_argument(std::string(kernel) + ": " + what + " needs 16-bit storage (storageBuffer16BitAccess), " +
+                                "which this device lacks; use fp32 activations");
+}
+
+// Tensors larger than one storage binding are processed in windows: a range
+// [first, first + count) of float32 elements (or fp16: element_bytes 2) of a buffer bound from the binding-offset
 // alignment at or below `first`; `offset` is `first`'s element index inside
 // the binding (the kernels add it to their indices).
 struct ElementWindow {
@@ -35,19 +42,23 @@ struct ElementWindow {
   uint32_t offset = 0;
 };
 
-inline ElementWindow element_window(const gpu::Context& ctx, const gpu::Buffer& buf, uint64_t first, uint64_t count) {
+inline ElementWindow element_window(const gpu::Context& ctx, const gpu::Buffer& buf, uint64_t first, uint64_t count,
+                                    uint64_t element_bytes = 4) {
   const uint64_t align = std::max<uint64_t>(4, ctx.info().min_storage_buffer_offset_alignment);
-  const uint64_t byte = first * 4, base = byte / align * align;
-  return {buf.binding(base, byte - base + count * 4), static_cast<uint32_t>((byte - base) / 4)};
+  const uint64_t byte = first * element_bytes, base = byte / align * align;
+  return {buf.binding(base, byte - base + count * element_bytes), static_cast<uint32_t>((byte - base) / element_bytes)};
 }
 
-// The same window as an R32_SFLOAT texel buffer (for kernels that fetch per-lane addresses as texels:
-// a hardware gather on lavapipe instead of a per-lane load loop), from the texel-offset alignment at or
-// below `first`.
-inline ElementWindow texel_window(const gpu::Context& ctx, const gpu::Buffer& buf, uint64_t first, uint64_t count) {
+// The same window as a texel buffer (for kernels that fetch per-lane addresses as texels: a hardware
+// gather on lavapipe instead of a per-lane load loop), from the texel-offset alignment at or below
+// `first`: R32_SFLOAT, or R16_SFLOAT for fp16 elements (element_bytes 2; the fetch returns them as float).
+inline ElementWindow texel_window(const gpu::Context& ctx, const gpu::Buffer& buf, uint64_t first, uint64_t count,
+                                  uint64_t element_bytes = 4) {
   const uint64_t align = std::max<uint64_t>(4, ctx.info().min_texel_buffer_offset_alignment);
-  const uint64_t byte = first * 4, base = byte / align * align;
-  return {buf.texel_binding(VK_FORMAT_R32_SFLOAT, base, byte - base + count * 4), static_cast<uint32_t>((byte - base) / 4)};
+  const uint64_t byte = first * element_bytes, base = byte / align * align;
+  const VkFormat format = element_bytes == 2 ? VK_FORMAT_R16_SFLOAT : VK_FORMAT_R32_SFLOAT;
+  return {buf.texel_binding(format, base, byte - base + count * element_bytes),
+          static_cast<uint32_t>((byte - base) / element_bytes)};
 }
 
 // Float32 elements one window may hold: the binding limit (`override_bytes`

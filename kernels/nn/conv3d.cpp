@@ -95,7 +95,8 @@ void Conv3d::record(gpu::CommandList& cmd, const Conv3dShape& s, const gpu::Buff
   if (s.batch == 0 || s.in_channels == 0 || s.out_channels == 0 || s.voxels() == 0) return;
   const uint64_t S = s.voxels();
   const uint64_t limit = max_binding_bytes_ ? max_binding_bytes_ : ctx_.info().max_storage_buffer_range;
-  const uint64_t x_bytes = uint64_t{s.batch} * s.in_channels * S * 4, y_bytes = uint64_t{s.batch} * s.out_channels * S * 4;
+  const uint64_t x_element = s.f16_input ? 2 : 4;
+  const uint64_t x_bytes = uint64_t{s.batch} * s.in_channels * S * x_element, y_bytes = uint64_t{s.batch} * s.out_channels * S * 4;
   const uint64_t co_vec4s = gpu::div_up(s.out_channels, NN_CONV_CO_TILE) * (NN_CONV_CO_TILE / 4);
   const uint64_t w_bytes = uint64_t{s.in_channels} * s.kernel * s.kernel * s.kernel * co_vec4s * (s.f16_weights ? 8 : 16);
   require_buffer("conv3d", "input", x_bytes, x);
@@ -149,7 +150,7 @@ void Conv3d::record(gpu::CommandList& cmd, const Conv3dShape& s, const gpu::Buff
   // unroll), the shared tile ci_count * k^3 / 16; lavapipe stops one after 65,535, so input channels go in
   // windows of at most kMaxChannelsPerDispatch. The emulated fragments loop ~1,100 times per K step of 32.
   const uint64_t kMaxChannelsPerDispatch = conv_path == Conv3dPath::kCoopMatrixEmulated ? 48 : 4096;
-  const uint64_t texel_limit = ctx_.info().max_texel_buffer_elements * 4;
+  const uint64_t texel_limit = ctx_.info().max_texel_buffer_elements * x_element;
   if (!w_windows && x_bytes <= std::min(limit, texel_limit) && y_bytes <= limit &&
       s.in_channels <= kMaxChannelsPerDispatch) {
     // One dispatch for everything.
@@ -161,7 +162,7 @@ void Conv3d::record(gpu::CommandList& cmd, const Conv3dShape& s, const gpu::Buff
     pc.x_offset = pc.y_offset = 0;
     pc.x_batch_stride = static_cast<uint32_t>(s.in_channels * S);
     pc.y_batch_stride = static_cast<uint32_t>(s.out_channels * S);
-    dispatch(s.batch, x.texel_binding(VK_FORMAT_R32_SFLOAT, 0, x_bytes), y.binding(0, y_bytes));
+    dispatch(s.batch, texel_window(ctx_, x, 0, x_bytes / x_element, x_element).binding, y.binding(0, y_bytes));
     return;
   }
   // Windows: one batch element at a time, output channels in whole 8-channel
@@ -175,7 +176,7 @@ void Conv3d::record(gpu::CommandList& cmd, const Conv3dShape& s, const gpu::Buff
     throw std::invalid_argument("conv3d: " + std::to_string(NN_CONV_CO_TILE) + " channels of " + std::to_string(S) +
                                 " voxels exceed one storage binding (" + std::to_string(limit) + " bytes)");
   auto window = [&](const gpu::Buffer& buf, uint64_t first_element, uint64_t elements, uint32_t& offset, bool texel) {
-    const ElementWindow ew = texel ? texel_window(ctx_, buf, first_element, elements)
+    const ElementWindow ew = texel ? texel_window(ctx_, buf, first_element, elements, x_element)
                                    : element_window(ctx_, buf, first_element, elements);
     offset = ew.offset;
     return ew.binding;

@@ -7,7 +7,8 @@
 // same bindings, windows and push constants. Weights are packed once on the host (pack_conv3d_weights) into
 // [in_channels * k^3][out_channels padded to 8] so a workgroup reads its 8 output
 // channels of one tap as two vec4s. The input is bound as an R32_SFLOAT texel
-// buffer (texel_window in buffer_checks.h), the rest as storage buffers.
+// buffer (texel_window in buffer_checks.h; R16_SFLOAT when it is stored as
+// fp16, Conv3dShape::f16_input), the rest as storage buffers.
 //
 // x and y may exceed one storage-buffer binding (lavapipe: 128 MiB; the
 // released model's 64^3 x 192 activations are 192 MiB): record() then splits
@@ -61,6 +62,7 @@ struct Conv3dShape {
   uint32_t x = 1, y = 1, z = 1;
   uint32_t kernel = 3;  // 1 or 3
   bool f16_weights = false;  // packed weights as fp16 (pack_conv3d_weights_f16; nn/conv3d_f16w.comp)
+  bool f16_input = false;    // x stored as fp16 (an R16_SFLOAT texel view: every path reads it unchanged)
   uint64_t voxels() const { return uint64_t{x} * y * z; }
   uint64_t flops() const;  // 2 * B * Co * Ci * k^3 * voxels (padding taps counted)
 };

@@ -42,8 +42,11 @@ void GroupNorm::record(gpu::CommandList& cmd, const GroupNormShape& s, const gpu
   if (s.modulate && !modulation) throw std::invalid_argument("group_norm: modulate without a modulation buffer");
   if (s.batch == 0 || s.spatial == 0) return;
   const uint64_t elements = uint64_t{s.batch} * s.channels * s.spatial, bytes = elements * 4;
+  const uint64_t y_element = s.f16_output ? 2 : 4;
   require_buffer("group_norm", "input", bytes, x);
-  require_buffer("group_norm", "output", bytes, y);
+  require_buffer("group_norm", "output", elements * y_element, y);
+  if (s.f16_output) require_f16_storage(ctx_, "group_norm", "an fp16 output");
+  gpu::Program& apply = s.f16_output ? ctx_.program("nn/group_norm_apply_f16out") : apply_;
   require_buffer("group_norm", "weight", uint64_t{s.channels} * 4, weight);
   require_buffer("group_norm", "bias", uint64_t{s.channels} * 4, bias);
   require_buffer("group_norm", "scratch", scratch_bytes(s), scratch);
@@ -61,7 +64,7 @@ void GroupNorm::record(gpu::CommandList& cmd, const GroupNormShape& s, const gpu
   const uint64_t group_elements = uint64_t{cpg} * s.spatial;
   // One window = `batch` batch elements x `groups` whole groups from group g0, all in one binding each.
   auto run = [&](uint32_t batch, uint32_t b0, uint32_t groups, uint32_t g0) {
-    const GroupNormShape ws{batch, groups * cpg, groups, s.spatial, s.eps, s.silu, s.modulate};
+    const GroupNormShape ws{batch, groups * cpg, groups, s.spatial, s.eps, s.silu, s.modulate, s.f16_output};
     pc.batch = batch;
     pc.channels = groups * cpg;
     pc.groups = groups;
@@ -70,7 +73,7 @@ void GroupNorm::record(gpu::CommandList& cmd, const GroupNormShape& s, const gpu
     pc.batch_offset = b0;
     const uint64_t first = (uint64_t{b0} * s.channels + uint64_t{g0} * cpg) * s.spatial;
     const uint64_t count = uint64_t{batch} * pc.channels * s.spatial;
-    const ElementWindow xw = element_window(ctx_, x, first, count), yw = element_window(ctx_, y, first, count);
+    const ElementWindow xw = element_window(ctx_, x, first, count), yw = element_window(ctx_, y, first, count, y_element);
     pc.x_offset = xw.offset;
     pc.y_offset = yw.offset;
     const uint64_t bg = uint64_t{batch} * groups;
@@ -84,13 +87,13 @@ void GroupNorm::record(gpu::CommandList& cmd, const GroupNormShape& s, const gpu
     cmd.dispatch(stats_, gpu::Threads{bg}, pc, {partials, stats});
     cmd.barrier(gpu::deps::kComputeToCompute);  // apply reads the statistics
     pc.span_end = static_cast<uint32_t>(count);
-    cmd.dispatch(apply_, gpu::Threads{count}, pc, {xw.binding, stats, wb, bb, mb, yw.binding});
+    cmd.dispatch(apply, gpu::Threads{count}, pc, {xw.binding, stats, wb, bb, mb, yw.binding});
   };
   // One group larger than a binding: its elements in spans of `fit`, the partials continued span by
   // span (a barrier between, as each reads and writes the same triples), then the statistics, then
   // the spans applied.
   auto run_split = [&](uint32_t b, uint32_t g, uint64_t fit) {
-    const GroupNormShape ws{1, cpg, 1, s.spatial, s.eps, s.silu, s.modulate};
+    const GroupNormShape ws{1, cpg, 1, s.spatial, s.eps, s.silu, s.modulate, s.f16_output};
     pc.batch = 1;
     pc.channels = cpg;
     pc.groups = 1;
@@ -118,12 +121,12 @@ void GroupNorm::record(gpu::CommandList& cmd, const GroupNormShape& s, const gpu
     for (uint64_t s0 = 0; s0 < group_elements; s0 += fit) {
       const uint64_t s1 = std::min(group_elements, s0 + fit);
       const ElementWindow xw = element_window(ctx_, x, group_first + s0, s1 - s0);
-      const ElementWindow yw = element_window(ctx_, y, group_first + s0, s1 - s0);
+      const ElementWindow yw = element_window(ctx_, y, group_first + s0, s1 - s0, y_element);
       pc.x_offset = xw.offset;
       pc.y_offset = yw.offset;
       pc.span_begin = static_cast<uint32_t>(s0);
       pc.span_end = static_cast<uint32_t>(s1);
-      cmd.dispatch(apply_, gpu::Threads{s1 - s0}, pc, {xw.binding, stats, wb, bb, mb, yw.binding});
+      cmd.dispatch(apply, gpu::Threads{s1 - s0}, pc, {xw.binding, stats, wb, bb, mb, yw.binding});
     }
   };
   const uint64_t fit = window_elements(ctx_, max_binding_bytes_);

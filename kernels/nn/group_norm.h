@@ -15,6 +15,9 @@
 // binding (a full VAE chunk level: 16 channels x 2.7 M voxels) runs in spans:
 // the partials pass once per span, continuing the same Welford triples, then
 // the statistics once, then the apply pass once per span.
+// The output may be stored as fp16 (GroupNormShape::f16_output: the operand
+// of the convolution that follows, read as R16_SFLOAT texels); statistics and
+// arithmetic stay fp32, only the store rounds.
 // CPU reference: nn::cpu::group_norm / scale_shift / silu (below, group_norm_cpu.cpp).
 // Tests: tests/nn/test_group_norm.cpp.
 #pragma once
@@ -33,6 +36,7 @@ struct GroupNormShape {
   float eps = 1e-5f;
   bool silu = false;
   bool modulate = false;  // needs a [batch, 2 * channels] (scale, shift) modulation buffer
+  bool f16_output = false;  // y stored as fp16 (round to nearest even; nn/group_norm_apply_f16out.comp)
 };
 
 class GroupNorm {

@@ -95,7 +95,8 @@ void SparseConv3d::record(gpu::CommandList& cmd, const SparseConvShape& s, const
   const uint64_t N = s.rows;
   const uint64_t co_vec4s = gpu::div_up(s.out_channels, NN_CONV_CO_TILE) * (NN_CONV_CO_TILE / 4);
   const uint64_t w_bytes = uint64_t{s.in_channels} * NN_SPARSE_TAPS * co_vec4s * (s.f16_weights ? 8 : 16);
-  require_buffer("sparse conv", "input", uint64_t{s.in_channels} * N * 4, x);
+  const uint64_t x_element = s.f16_input ? 2 : 4;
+  require_buffer("sparse conv", "input", uint64_t{s.in_channels} * N * x_element, x);
   require_buffer("sparse conv", "output", uint64_t{s.out_channels} * N * 4, y);
   require_buffer("sparse conv", "kernel map", N * NN_SPARSE_TAPS * 4, kmap);
   require_buffer("sparse conv", "packed weights", w_bytes, w);
@@ -171,7 +172,7 @@ void SparseConv3d::record(gpu::CommandList& cmd, const SparseConvShape& s, const
         pc.accumulate = ci0 > 0 ? 1u : 0u;
         pc.silu = s.silu && ci0 + pc.ci_count >= s.in_channels ? 1u : 0u;  // on the last input window
         if (ci0 > 0) cmd.barrier(gpu::deps::kComputeToCompute);  // later input windows read-modify-write y
-        const ElementWindow xw = texel_window(ctx_, x, ci0 * N, uint64_t{pc.ci_count} * N);
+        const ElementWindow xw = texel_window(ctx_, x, ci0 * N, uint64_t{pc.ci_count} * N, x_element);
         pc.x_offset = xw.offset;
         pc.w_ci_base = w_windows ? pc.ci_begin : 0u;
         const gpu::BufferBinding wb = w_windows ? w.binding(ci0 * w_row, uint64_t{pc.ci_count} * w_row) : w.binding(0, w_bytes);

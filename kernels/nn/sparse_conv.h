@@ -52,6 +52,7 @@ struct SparseConvShape {
   uint32_t rows = 0, in_channels = 1, out_channels = 1;
   bool silu = false;         // y = silu(conv + bias), fused into the store
   bool f16_weights = false;  // packed weights as fp16 (pack_conv3d_weights_f16; nn/sparse_conv*_f16w.comp)
+  bool f16_input = false;    // x stored as fp16 (an R16_SFLOAT texel view: every path reads it unchanged)
   uint64_t flops(uint64_t pairs) const { return 2ull * in_channels * out_channels * pairs; }  // pairs: kmap entries >= 0
 };
 

@@ -78,7 +78,7 @@ TEST_CASE("cli: icube nn forward reproduces unet_small and dumps its layers; bad
   CHECK(r.code != 0);
   CHECK(r.output.find("case_1.t.npy: expected float32 [B, 16, X, Y, Z]") != std::string::npos);
   CHECK(!std::filesystem::exists(y2));
-  // fp16 weights: within fp16's error of the official output, and the report says so.
+  // fp16 (weights and convolution operands): within fp16's error of the official output, and the report says so.
   const std::string y3 = (tmp.path / "y3.npy").string();
   r = test::run_icube(common + "--precision fp16 --input '" + dir + "/case_1.x.npy' --timestep '" + dir +
                           "/case_1.t.npy' -o '" + y3 + "'",
@@ -86,6 +86,13 @@ TEST_CASE("cli: icube nn forward reproduces unet_small and dumps its layers; bad
   CHECK(r.code == 0);
   CHECK(r.output.find("fp16 (conv/linear) weights") != std::string::npos);
   CHECK(nn::cpu::max_abs_over_std(world::read_npy(y3).values<float>(), want.values<float>()) <= 1e-2);
+  // fp16 weights alone (fp32 operands): within the same bound, and written as well.
+  const std::string y4 = (tmp.path / "y4.npy").string();
+  r = test::run_icube(common + "--precision fp16-weights --input '" + dir + "/case_1.x.npy' --timestep '" + dir +
+                          "/case_1.t.npy' -o '" + y4 + "'",
+                      tmp.path);
+  CHECK(r.code == 0);
+  CHECK(nn::cpu::max_abs_over_std(world::read_npy(y4).values<float>(), want.values<float>()) <= 1e-2);
   r = test::run_icube(common + "--backend cpu --precision fp16 --input '" + dir + "/case_1.x.npy' --timestep '" + dir +
                           "/case_1.t.npy' -o '" + y2 + "'",
                       tmp.path);

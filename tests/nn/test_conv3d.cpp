@@ -6,7 +6,9 @@
 // are not multiples of the 8-channel tile, 1x1 and 3x3x3 kernels, without bias
 // and with large activations. The bound per element is float32 accumulation's:
 // 1e-6 + n * 2^-23 * sum |w x| over the n = Ci * k^3 products (computed by the
-// reference on |x| and |w|). Runs under the validation layer.
+// reference on |x| and |w|). The input stored as fp16 (Conv3dShape::f16_input, read as
+// R16_SFLOAT texels) on every path, in one binding and in windows, against the reference on the
+// rounded input. Runs under the validation layer.
 #include <doctest/doctest.h>
 
 #include "capped_context.h"
@@ -14,6 +16,7 @@
 #include "gpu_test_context.h"
 #include "kernels/nn/conv3d.h"
 #include "kernels/nn/float16.h"
+#include "half_values.h"
 
 #include <algorithm>
 #include <cmath>
@@ -51,7 +54,10 @@ void check_conv(const kernels::nn::Conv3dShape& s, bool with_bias, float x_scale
   CAPTURE(s.out_channels);
   CAPTURE(s.kernel);
   CAPTURE(s.f16_weights);
+  CAPTURE(s.f16_input);
   nn::CpuTensor x = random_tensor({s.batch, s.in_channels, s.x, s.y, s.z}, seed, x_scale);
+  if (s.f16_input)  // the kernel reads the operand as stored: rounded to fp16
+    for (float& v : x.data) v = round_to_half(v);
   const int64_t k = s.kernel;
   nn::CpuTensor w = random_tensor({s.out_channels, s.in_channels, k, k, k}, seed + 1, 0.5f);
   // The cooperative-matrix kernels multiply fp16 operands (exact products, fp32 sums): the reference
@@ -66,7 +72,8 @@ void check_conv(const kernels::nn::Conv3dShape& s, bool with_bias, float x_scale
   const nn::CpuTensor want = nn::cpu::conv3d(x, w, with_bias ? &b : nullptr, 1, static_cast<int>(k / 2));
   const nn::CpuTensor bound = nn::cpu::conv3d(abs_of(x), abs_of(w), nullptr, 1, static_cast<int>(k / 2));
 
-  gpu::Buffer xb = gpu::upload_vector(ctx, x_gpu.data, "conv-x");
+  gpu::Buffer xb = s.f16_input ? gpu::upload_vector(ctx, test::to_halves(x_gpu.data), "conv-x16")
+                               : gpu::upload_vector(ctx, x_gpu.data, "conv-x");
   gpu::Buffer wb =
       s.f16_weights
           ? gpu::upload_vector(ctx, kernels::nn::pack_conv3d_weights_f16(w.data, s.out_channels, s.in_channels, s.kernel),
@@ -161,6 +168,26 @@ TEST_CASE("conv3d gpu: conv3d_coopmat and conv3d_coopmat_f16w (the cooperative-m
   }
   check_gpu_path(kernels::nn::Conv3dPath::kCoopMatrix, "nn/conv3d_coopmat", "nn/conv3d_coopmat_f16w");
   check_conv({1, 192, 192, 16, 16, 16, 3, true}, true, 1.0f, 121, 0, ctx, kernels::nn::Conv3dPath::kCoopMatrix);
+}
+
+TEST_CASE("conv3d gpu: an fp16 input (a norm's fp16 output) on every path, in one binding and in windows") {
+  using S = kernels::nn::Conv3dShape;
+  using P = kernels::nn::Conv3dPath;
+  gpu::Context& ctx = test::gpu_context();
+  std::vector<P> paths = {P::kRegisterTile, P::kSharedTile};
+  if (ctx.info().shader_float16) paths.push_back(P::kCoopMatrixEmulated);
+  if (ctx.info().cooperative_matrix_nv) paths.push_back(P::kCoopMatrix);
+  const uint64_t per_channel = 5 * 6 * 7 * 4;  // fp32 output bytes per channel plane
+  const uint64_t align = std::max<uint64_t>(4, ctx.info().min_storage_buffer_offset_alignment);
+  for (const P path : paths) {
+    check_conv(S{2, 3, 5, 5, 4, 7, 3, false, true}, true, 1.0f, 131, 0, ctx, path);
+    check_conv(S{1, 16, 70, 9, 3, 5, 3, true, true}, true, 1.0f, 132, 0, ctx, path);  // 2 channel blocks, fp16 weights
+    check_conv(S{1, 7, 9, 3, 5, 2, 1, true, true}, true, 1.0f, 133, 0, ctx, path);    // 1x1 (a linear)
+    check_conv(S{1, 8, 16, 9, 3, 33, 3, false, true}, true, 3e4f, 134, 0, ctx, path);  // large activations
+    // Windows: 9 input channels of 2-byte elements a window (3,780 bytes: texel offsets off the alignment)
+    // and 8-channel output blocks; batch 2.
+    check_conv(S{2, 19, 21, 5, 6, 7, 3, true, true}, true, 1.0f, 135, per_channel * 9 + align, ctx, path);
+  }
 }
 
 TEST_CASE("conv3d gpu: the default path per device and precision") {

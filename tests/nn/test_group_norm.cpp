@@ -4,10 +4,13 @@
 // 32 groups of 2 channels and 8 groups of 3, fused modulation + SiLU, a
 // constant input (normalises to exactly the bias), a large common offset
 // (1e4 + noise: Welford must not cancel), eps 1e-6 as SpatialTransformer's
-// norm. Runs under the validation layer.
+// norm; the fp16 output (group_norm_apply_f16out.comp) against the
+// reference rounded to fp16, in one binding, in windows and in spans.
+// Runs under the validation layer.
 #include <doctest/doctest.h>
 
 #include "gpu_test_context.h"
+#include "half_values.h"
 #include "kernels/nn/group_norm.h"
 #include "kernels/nn/elementwise.h"
 
@@ -41,10 +44,14 @@ void check_gn(const kernels::nn::GroupNormShape& s, float offset, float scale, u
   gpu::Buffer bb = gpu::upload_vector(ctx, b.data, "gn-b");
   gpu::Buffer mb = gpu::upload_vector(ctx, mod.data, "gn-mod");
   gpu::Buffer scratch(ctx, kernels::nn::GroupNorm::scratch_bytes(s), gpu::MemoryUsage::DeviceLocal, "gn-scratch");
-  gpu::Buffer yb(ctx, x.data.size() * 4, gpu::MemoryUsage::DeviceLocal, "gn-y");
+  gpu::Buffer yb(ctx, x.data.size() * (s.f16_output ? 2 : 4), gpu::MemoryUsage::DeviceLocal, "gn-y");
   kernels::nn::GroupNorm gn(ctx);
   gn.set_max_binding_bytes(max_binding_bytes);
   ctx.submit_and_wait([&](gpu::CommandList& cmd) { gn.record(cmd, s, xb, wb, bb, s.modulate ? &mb : nullptr, scratch, yb); });
+  if (s.f16_output) {
+    CHECK(test::half_store_matches(test::download_halves(ctx, yb, x.data.size()), want.data, tol, 0.01, "group_norm fp16"));
+    return;
+  }
   const std::vector<float> got = gpu::download_vector<float>(ctx, yb, x.data.size());
   CHECK(test::allclose(got, want.data, tol, tol, "group_norm"));
 }
@@ -78,6 +85,17 @@ TEST_CASE("group_norm gpu: one group larger than a binding runs in spans (contin
   // The shift (the group's first element) travels with the partials: a large offset stays exact.
   check_gn({1, 32, 32, 4 * 4 * 4, 1e-5f, false, false}, 1e4f, 1.0f, 11, 2e-3, 128);
   check_gn({1, 32, 32, 9 * 9 * 9, 1e-5f, false, false}, 7.25f, 0.0f, 12, 0.0, 256);  // constant: exactly the bias
+}
+
+TEST_CASE("group_norm gpu: an fp16 output (the next convolution's operand) is the reference rounded to fp16") {
+  // Plain, and the ResBlock's modulated SiLU; then windows of whole groups (4 KiB bindings: the fp16 output
+  // windows are half as long in bytes and start at 2-byte offsets) and one group in spans (256 B).
+  check_gn({2, 64, 32, 5 * 7 * 3, 1e-5f, false, false, true}, 0.0f, 1.0f, 21, 2e-5);
+  check_gn({1, 24, 8, 8 * 16 * 24, 1e-5f, true, true, true}, 0.0f, 3.0f, 22, 2e-5);
+  check_gn({2, 96, 32, 5 * 7 * 3, 1e-5f, true, true, true}, 0.0f, 2.0f, 23, 2e-5, 4096);
+  check_gn({1, 64, 32, 9 * 9 * 9, 1e-5f, false, false, true}, 0.0f, 1.0f, 24, 2e-5, 256);
+  // A constant input normalises to exactly the bias, and its fp16 rounding exactly.
+  check_gn({1, 32, 32, 9 * 9 * 9, 1e-5f, false, false, true}, 7.25f, 0.0f, 25, 0.0);
 }
 
 TEST_CASE("nn cpu: GroupNorm of a constant is its bias; statistics per group; huge values stay finite") {

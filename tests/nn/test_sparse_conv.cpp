@@ -8,7 +8,9 @@
 // path (the register tile, sparse_conv_tiled, sparse_conv_coopmat and, on
 // lavapipe, its emulated fragments) in fp32 and fp16 weights, against the
 // reference on the operands the kernel reads (fp16-rounded weights; inputs too
-// on the cooperative-matrix paths). Runs under the validation layer.
+// on the cooperative-matrix paths); the input stored as fp16 (SparseConvShape::f16_input,
+// R16_SFLOAT texels) on every path, against the reference on the rounded input.
+// Runs under the validation layer.
 #include <doctest/doctest.h>
 
 #include "capped_context.h"
@@ -18,6 +20,7 @@
 #include "kernels/nn/float16.h"
 #include "kernels/nn/sparse_conv.h"
 #include "kernels/nn/sparse_cpu.h"
+#include "half_values.h"
 #include "sparse_test_util.h"
 
 #include <algorithm>
@@ -64,8 +67,10 @@ float round_to_half(float v) { return nn::half_to_float(nn::float_to_half(v)); }
 // on the cooperative-matrix paths (fp16 operands) the fp16-rounded inputs too.
 void check_conv(const nn::SparseGrid& g, int64_t ci, int64_t co, bool with_bias, float scale, uint32_t seed,
                 uint64_t max_binding_bytes = 0, bool silu = false, gpu::Context& ctx = test::gpu_context(),
-                std::optional<kernels::nn::Conv3dPath> path = std::nullopt, bool f16_weights = false) {
+                std::optional<kernels::nn::Conv3dPath> path = std::nullopt, bool f16_weights = false,
+                bool f16_input = false) {
   CAPTURE(g.size());
+  CAPTURE(f16_input);
   CAPTURE(ci);
   CAPTURE(co);
   CAPTURE(f16_weights);
@@ -78,7 +83,7 @@ void check_conv(const nn::SparseGrid& g, int64_t ci, int64_t co, bool with_bias,
   for (float& v : w.data) v = 0.5f * u(rng);
   for (float& v : b.data) v = u(rng);
   const bool f16_operands = path && kernels::nn::conv3d_path_rounds_activations(*path);
-  if (f16_operands)
+  if (f16_operands || f16_input)  // an fp16 input is stored rounded; the tensor cores round their operands
     for (float& v : x.data) v = round_to_half(v);
   if (f16_weights || f16_operands)
     for (float& v : w.data) v = round_to_half(v);
@@ -95,7 +100,8 @@ void check_conv(const nn::SparseGrid& g, int64_t ci, int64_t co, bool with_bias,
   for (int64_t r = 0; r < x.rows(); ++r)
     for (int64_t c = 0; c < ci; ++c) x_cm[static_cast<size_t>(c * rows + r)] = x.row(r)[c];
   const std::vector<int32_t> kmap_host = nn::cpu::kernel_map(g, 3);
-  gpu::Buffer xb = gpu::upload_vector(ctx, x_cm, "sparse-x");
+  gpu::Buffer xb = f16_input ? gpu::upload_vector(ctx, test::to_halves(x_cm), "sparse-x16")
+                             : gpu::upload_vector(ctx, x_cm, "sparse-x");
   gpu::Buffer kb = gpu::upload_vector(ctx, kmap_host, "sparse-kmap");
   const uint32_t co32 = static_cast<uint32_t>(co), ci32 = static_cast<uint32_t>(ci);
   gpu::Buffer wb = f16_weights ? gpu::upload_vector(ctx, kernels::nn::pack_conv3d_weights_f16(w.data, co32, ci32, 3), "sparse-w")
@@ -105,7 +111,7 @@ void check_conv(const nn::SparseGrid& g, int64_t ci, int64_t co, bool with_bias,
   kernels::nn::SparseConv3d conv(ctx);
   conv.set_max_binding_bytes(max_binding_bytes);
   conv.force_path(path);
-  const kernels::nn::SparseConvShape s{rows, ci32, co32, silu, f16_weights};
+  const kernels::nn::SparseConvShape s{rows, ci32, co32, silu, f16_weights, f16_input};
   ctx.submit_and_wait([&](gpu::CommandList& cmd) { conv.record(cmd, s, xb, kb, wb, with_bias ? &bb : nullptr, yb); });
   const std::vector<float> got = gpu::download_vector<float>(ctx, yb, uint64_t{rows} * static_cast<uint64_t>(co));
   const double n = static_cast<double>(ci) * 27.0;
@@ -220,6 +226,26 @@ TEST_CASE("sparse conv gpu: fp16 weight storage (sparse_conv_f16w) equals the fp
              reg, true);
   check_conv(test::random_sparse_grid(41, {-9, -9, -9}, {18, 18, 18}, 500), 13, 20, true, 1.0f, 74, 0, false,
              test::capped_gpu_context(8u << 10), reg, true);
+}
+
+TEST_CASE("sparse conv gpu: an fp16 input (a GroupNorm's fp16 output) on every path, in one binding and in windows") {
+  using P = kernels::nn::Conv3dPath;
+  gpu::Context& ctx = test::gpu_context();
+  std::vector<P> paths = {P::kRegisterTile, P::kSharedTile};
+  if (ctx.info().shader_float16) paths.push_back(P::kCoopMatrixEmulated);
+  if (ctx.info().cooperative_matrix_nv) paths.push_back(P::kCoopMatrix);
+  for (const P path : paths) {
+    check_conv(test::random_sparse_grid(11, {-9, -5, -7}, {19, 13, 11}, 900), 13, 19, true, 1.0f, 81, 0, false, ctx, path, true,
+               true);
+    check_conv(test::random_sparse_grid(13, {500'000, -500'003, 499'990}, {9, 8, 7}, 200), 6, 70, true, 1.0f, 82, 0, true, ctx,
+               path, false, true);
+    check_conv(test::random_sparse_grid(14, {-4, -4, -4}, {8, 8, 8}, 300), 5, 9, true, 1e4f, 83, 0, false, ctx, path, true, true);
+    // Input windows of 2-byte elements at texel offsets off the alignment, 4-channel output windows.
+    check_conv(test::random_sparse_grid(31, {-5, -5, -5}, {10, 10, 10}, 40), 30, 20, true, 1.0f, 84, 2048, true, ctx, path, true,
+               true);
+    check_conv(test::random_sparse_grid(41, {-9, -9, -9}, {18, 18, 18}, 500), 13, 20, true, 1.0f, 85, 0, false,
+               test::capped_gpu_context(8u << 10), path, true, true);
+  }
 }
 
 TEST_CASE("sparse conv gpu: sparse_conv_tiled (the shared-memory gathered implicit GEMM) against the CPU reference") {

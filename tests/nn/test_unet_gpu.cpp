@@ -10,6 +10,8 @@
 #include "nn/scoped_kernel_family.h"
 #include "nn/unet_case_check.h"
 #include "kernels/nn/cpu_tensor.h"
+#include "nn/layer_recorder.h"
+#include "nn/parameter_store.h"
 #include "nn/safetensors.h"
 #include "nn/unet_config.h"
 #include "nn/unet_gpu.h"
@@ -116,4 +118,90 @@ TEST_CASE("unet gpu: fp16 weight storage on unet_small (exact on fp16-rounded we
   CHECK(exact <= (f16_operands ? 1e-2 : 1e-4));
   CHECK(vs_fp32 <= 1e-2);  // fp16's 11-bit mantissa, measured ~1e-3
   CHECK(vs_fp32 > 1e-6);   // the weights really are rounded
+}
+
+TEST_CASE("unet gpu: fp16 precision on unet_small (fp16 weights and fp16 convolution operands; its error against fp32)") {
+  const std::string cfg_path = test::test_data_file("models/unet_small/config.json");
+  if (cfg_path.empty()) return;
+  const std::string m = cfg_path.substr(0, cfg_path.size() - std::string("config.json").size());
+  const nn::UNetConfig cfg = nn::load_unet_config(cfg_path);
+  const nn::UNetReference spec(cfg);
+  const nn::SafetensorsFile file(m + "weights.safetensors");
+  const std::map<std::string, nn::CpuTensor> w = nn::load_weights_cpu(file, spec.parameters(), {});
+  gpu::Context& ctx = test::gpu_context();
+  nn::UNetGpu f16(ctx, cfg, w, nn::UNetGpu::Precision::F16), f16_weights(ctx, cfg, w, nn::UNetGpu::Precision::F16Weights);
+  const world::NpyArray x = world::read_npy(m + "case_1.x.npy"), t = world::read_npy(m + "case_1.t.npy"),
+                        y = world::read_npy(m + "case_1.out.npy");
+  const nn::CpuTensor xin(std::vector<int64_t>(x.shape.begin(), x.shape.end()), x.values<float>());
+  size_t captured = 0;  // block outputs stay fp32 and can be captured
+  const nn::CpuTensor got = f16.forward(xin, t.values<int64_t>(), [&](const std::string&, const nn::CpuTensor&) { ++captured; });
+  const nn::CpuTensor got_w = f16_weights.forward(xin, t.values<int64_t>());
+  const double vs_fp32 = nn::cpu::max_abs_over_std(got.data, y.values<float>());
+  const double operands = nn::cpu::max_abs_over_std(got.data, got_w.data);
+  MESSAGE("unet_small, fp16: vs the official fp32 output " << vs_fp32 << " of std, vs fp16 weights alone " << operands
+                                                            << "; activations " << f16.last_activation_bytes() / 1024
+                                                            << " KiB against " << f16_weights.last_activation_bytes() / 1024);
+  CHECK(captured > 10);
+  CHECK(vs_fp32 <= 1e-2);  // fp16's 11-bit mantissa
+  // The tensor-core kernels round their operands to fp16 anyway: there fp16 operands change nothing. Elsewhere
+  // the rounding is the operands' own.
+  if (kernels::nn::conv3d_path_rounds_activations(kernels::nn::default_conv3d_path(ctx.info(), true)))
+    CHECK(operands == 0.0);
+  else
+    CHECK(operands > 1e-7);
+  // Windows (128 KiB bindings; the first level's tensors are 384 KiB and more): fp16 norm outputs and
+  // convolution inputs in windows of 2-byte elements.
+  nn::UNetGpu windowed(ctx, cfg, w, nn::UNetGpu::Precision::F16);
+  windowed.set_max_binding_bytes(128u << 10);
+  const nn::CpuTensor got_windowed = windowed.forward(xin, t.values<int64_t>());
+  // The windows sum in another order (fp32: ~1e-5 of std); a sum that moves by an ulp can move a norm's
+  // output across an fp16 rounding boundary, and that flip (~5e-4 relative) propagates: so the bound is
+  // fp16's, as against fp32 (a wrong window offset or element size is an O(1) error).
+  const double ew = nn::cpu::max_abs_over_std(got_windowed.data, got.data);
+  const double ew_fp32 = nn::cpu::max_abs_over_std(got_windowed.data, y.values<float>());
+  MESSAGE("  the same in 128 KiB windows: " << ew << " of std from one binding, " << ew_fp32 << " from fp32");
+  CHECK(ew <= 1e-2);
+  CHECK(ew_fp32 <= 1e-2);
+}
+
+TEST_CASE("unet gpu: fp16 precision through a transformer (LayerNorm outputs in fp16) against the fp32 reference") {
+  const nn::UNetConfig cfg = nn::parse_unet_config(R"({"image_size": 8, "num_input_channels": 5, "out_channels": 3,
+    "model_channels": 32, "num_res_blocks": 1, "attention_resolutions": [2], "channel_mult": [1, 2], "num_heads": 4,
+    "use_scale_shift_norm": true, "resblock_updown": true, "transformer_depth": 2,
+    "middile_force_spatial_transformer": true, "middle_disable_first_sa": false})",
+                                                   "second.json");
+  nn::UNetReference ref(cfg);
+  std::mt19937 rng(18);
+  std::normal_distribution<float> nd(0.0f, 0.2f);
+  std::map<std::string, nn::CpuTensor> w;
+  for (const nn::ParamSpec& p : ref.parameters()) {
+    nn::CpuTensor t(p.shape);
+    for (float& f : t.data) f = nd(rng);
+    w.emplace(p.name, std::move(t));
+  }
+  ref.set_weights(w);
+  nn::UNetGpu gpu_net(test::gpu_context(), cfg, w, nn::UNetGpu::Precision::F16);
+  nn::CpuTensor x({2, 5, 6, 2, 4});
+  for (float& f : x.data) f = nd(rng) * 5.0f;
+  const double e = nn::cpu::max_abs_over_std(gpu_net.forward(x, {3, 977}).data, ref.forward(x, {3, 977}).data);
+  MESSAGE("unet gpu fp16 vs the fp32 CPU reference, second configuration: " << e << " of std");
+  CHECK(e <= 2e-2);
+  CHECK(e > 1e-6);
+}
+
+TEST_CASE("layer recorder: only convolutions take an fp16 tensor; every other layer refuses it") {
+  gpu::Context& ctx = test::gpu_context();
+  const nn::ParameterStore params(ctx, {}, {}, {});
+  nn::LayerRecorder L(ctx, params, "test-activation");
+  ctx.submit_and_wait([&](gpu::CommandList& cmd) {
+    L.begin(cmd);
+    const nn::DeviceTensor h = L.alloc({1, 8, 4, 4, 4}, true), f = L.alloc({1, 8, 4, 4, 4});
+    CHECK(h.bytes() == 8 * 64 * 2);
+    CHECK_THROWS_WITH_AS(L.silu(h), doctest::Contains("silu of an fp16 tensor"), std::logic_error);
+    CHECK_THROWS_WITH_AS(L.add(f, h), doctest::Contains("add of an fp16 tensor"), std::logic_error);
+    CHECK_THROWS_WITH_AS(L.resample(h, true), doctest::Contains("resample of an fp16 tensor"), std::logic_error);
+    CHECK_THROWS_WITH_AS(L.attention_qkv(L.alloc({1, 24, 64}, true), 2), doctest::Contains("attention of an fp16"),
+                         std::logic_error);
+    L.end();
+  });
 }

@@ -199,7 +199,7 @@ DeviceTensor VoxelBranchGpu::rows_to_channels(const DeviceTensor& x, int64_t row
   std::vector<int32_t> source(static_cast<size_t>(rows * channels));
   for (int64_t c = 0; c < channels; ++c)
     for (int64_t r = 0; r < rows; ++r) source[static_cast<size_t>(c * rows + r)] = static_cast<int32_t>(r * channels + c);
-  DeviceTensor y = gather_rows(DeviceTensor{x.buf, {1, 1, rows * channels}}, source);
+  DeviceTensor y = gather_rows(DeviceTensor{x.buf, {1, 1, rows * channels}, false}, source);
   y.shape = {1, channels, rows};
   return y;
 }
