@@ -9,6 +9,7 @@
 // bench/README.md.
 #include "gpu/context.h"
 #include "kernels/nn/conv3d.h"
+#include "kernels/nn/float16.h"
 #include "kernels/nn/group_norm.h"
 #include "nn/unet_config.h"
 #include "nn/unet_gpu.h"
@@ -240,6 +241,21 @@ int NnBench::group_norm_table() {
         nn::cpu::silu(nn::cpu::scale_shift(nn::cpu::group_norm(x, static_cast<int>(s.groups), w, b, 1e-5), mod));
     const double cpu = ms_since(t0);
     const std::vector<float> got = gpu::download_vector<float>(ctx, yb, x.data.size());
+    // The same with its output stored as fp16 (NetworkPrecision::F16: the next convolution's operand).
+    kernels::nn::GroupNormShape s16 = s;
+    s16.f16_output = true;
+    std::vector<double> samples16;
+    for (int r = 0; r < warmup + runs; ++r) {
+      const auto t1 = Clock::now();
+      ctx.submit_and_wait([&](gpu::CommandList& cmd) { gn.record(cmd, s16, xb, wb, bb, &mb, scratch, yb); });
+      if (r >= warmup) samples16.push_back(ms_since(t1));
+    }
+    const Stats st16 = stats(samples16);
+    const std::vector<uint16_t> got16 = gpu::download_vector<uint16_t>(ctx, yb, x.data.size());
+    double mx16 = 0;
+    for (size_t i = 0; i < got16.size(); ++i)
+      mx16 = std::max(mx16, std::abs(static_cast<double>(nn::half_to_float(got16[i])) - static_cast<double>(want.data[i])));
+    const double mb_moved16 = static_cast<double>(x.data.size()) * (4 * 2 + 2) * 1e-6;
     double mx = 0;
     for (size_t i = 0; i < got.size(); ++i) mx = std::max(mx, std::abs(static_cast<double>(got[i]) - static_cast<double>(want.data[i])));
     std::string torch_cols;
@@ -257,6 +273,8 @@ int NnBench::group_norm_table() {
     }
     std::printf("%-30s %9.1f %10.2f %10.2f %9.2f %12.0f %10.1e%s\n", c.what, mb_moved, st.min, st.median,
                 mb_moved * 1e-3 / (st.min * 1e-3), cpu, mx, torch_cols.c_str());
+    std::printf("%-30s %9.1f %10.2f %10.2f %9.2f %12s %10.1e\n", "  fp16 output", mb_moved16, st16.min, st16.median,
+                mb_moved16 * 1e-3 / (st16.min * 1e-3), "", mx16);
   }
   return 0;
 }

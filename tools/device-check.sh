@@ -12,7 +12,8 @@
 # with tools/device-pack.sh; .gl/ holds Debian's libglvnd .debs (the NVIDIA
 # ICD needs libGLdispatch; see the device tool's README). Then run:
 #   run(command="tools/device-check.sh [unet] [tests] [bench] [lift] [perf] [gsm]", carry=[".dev", ".gl"], timeout_s=560)
-# (perf alone: at most ~8.5 min by its steps' limits, ~6 min expected on an H100/H200; run it by itself.
+# (perf alone: ~6.5 min expected on an H100/H200, run it by itself; its steps' limits add up to ~13 min,
+#  so a step that hangs to its limit lets the call's timeout cut the last steps: the table keeps what ran.
 #  gsm alone: at most ~8.5 min by its steps' limits, ~4 min expected; run it by itself.)
 # Every step has its own time limit so the whole run ends inside the lease;
 # logs go to $OUT (the tool brings them back), a summary is printed last.
@@ -91,6 +92,9 @@ if want perf; then
     --unet-grid 64 64 64 --unet-batch 2 --unet-no-cpu --unet-precision fp16 --runs 3 --warmup 1
   step perf_unet_fp16 60 "$bin/icube-bench-nn" --only none --unet infinicube-diffusion --unet-grid 64 64 64 \
     --unet-batch 2 --unet-no-cpu --unet-precision fp16 --runs 5 --warmup 1
+  # fp16 weights alone (fp32 convolution operands): what storing the norms' outputs as fp16 saves.
+  step perf_unet_fp16w 45 "$bin/icube-bench-nn" --only none --unet infinicube-diffusion --unet-grid 64 64 64 \
+    --unet-batch 2 --unet-no-cpu --unet-precision fp16-weights --runs 3 --warmup 1
   step perf_vae 60 "$bin/icube-bench-sparse" --vae-decode 64 64 64 --vae-model infinicube-vae --runs 3 --warmup 1
   step perf_vae_fp16 45 "$bin/icube-bench-sparse" --vae-decode 64 64 64 --vae-model infinicube-vae --vae-precision fp16 \
     --runs 3 --warmup 1
@@ -103,7 +107,7 @@ if want perf; then
     echo "|---|---|"
     grep -E "^\[doctest\] test cases" "$out/perf_tests.txt" | sed -E 's/^/| perf_tests | /; s/$/ |/'
     grep -E "^released" "$out/perf_kernels.txt" | sed -E 's/^(.{30})(.*)$/| \1 | \2 |/'
-    for f in perf_unet_fp32_old perf_unet_fp32 perf_unet_fp16_old perf_unet_fp16; do
+    for f in perf_unet_fp32_old perf_unet_fp32 perf_unet_fp16_old perf_unet_fp16 perf_unet_fp16w; do
       grep -E "^UNet forward" "$out/$f.txt" | sed -E "s/^/| $f | /; s/$/ |/"
     done
     for f in perf_vae perf_vae_fp16; do
