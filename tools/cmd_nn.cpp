@@ -108,10 +108,11 @@ void cmd_nn_forward(const NnForwardArgs& a) {
     const nn::UNetReference::Capture cap = a.dump.empty() ? nn::UNetReference::Capture{} : capture;
     const nn::CpuTensor y = gpu_net ? gpu_net->forward(xin, t.values<int64_t>(), cap) : net.forward(xin, t.values<int64_t>(), cap);
     if (gpu_net)
-      std::fprintf(stderr, "nn forward: %.1f MiB of activations (peak) and %.1f MiB of %s weights on the device\n",
+      std::fprintf(stderr, "nn forward: %.1f MiB of activations (peak) and %.1f MiB of %s weights on the device%s\n",
                    static_cast<double>(gpu_net->last_activation_bytes()) / (1024.0 * 1024.0),
                    static_cast<double>(gpu_net->weight_bytes()) / (1024.0 * 1024.0),
-                   a.precision == "fp32" ? "fp32" : "fp16 (conv/linear)");
+                   a.precision == "fp32" ? "fp32" : "fp16 (conv/linear)",
+                   a.precision == "fp16" ? "; convolution operands (the norms' outputs) in fp16" : "");
     std::vector<uint64_t> ys(y.shape.begin(), y.shape.end());
     if (!a.dump.empty()) nn::write_safetensors(a.dump, dumped, {{"layout", "block outputs [B, C, X, Y, Z]"}});
     world::write_npy(a.output, world::NpyArray::make<float>(ys, y.data));

@@ -84,7 +84,8 @@ TEST_CASE("cli: icube nn forward reproduces unet_small and dumps its layers; bad
                           "/case_1.t.npy' -o '" + y3 + "'",
                       tmp.path);
   CHECK(r.code == 0);
-  CHECK(r.output.find("fp16 (conv/linear) weights") != std::string::npos);
+  CHECK(r.output.find("fp16 (conv/linear) weights on the device; convolution operands (the norms' outputs) in fp16") !=
+        std::string::npos);
   CHECK(nn::cpu::max_abs_over_std(world::read_npy(y3).values<float>(), want.values<float>()) <= 1e-2);
   // fp16 weights alone (fp32 operands): within the same bound, and written as well.
   const std::string y4 = (tmp.path / "y4.npy").string();
