@@ -152,10 +152,12 @@ std::unique_ptr<diffusion::DiffusionGenerator> make_diffusion_generator(const Bu
     bar->update(done, total);
   };
   ctx.emplace(gpu::ContextOptions::from_env());
-  std::fprintf(stderr, "world build: diffusion UNet %s (%s), VAE %s (%s), %d %s steps, eta %g, cfg %g, scale_factor %g (%s)\n",
+  std::fprintf(stderr,
+               "world build: diffusion UNet %s (%s), VAE %s (%s), %d %s steps, eta %g, cfg %g, scale_factor %g (%s), "
+               "precision %s\n",
                a.weights.c_str(), a.model.c_str(), a.vae.c_str(), vae_model.c_str(), a.steps,
                diffusion::sampler_kind_name(o.sampler.kind), static_cast<double>(o.sampler.ddim.eta),
-               static_cast<double>(a.cfg), scale.value, scale.source.c_str());
+               static_cast<double>(a.cfg), scale.value, scale.source.c_str(), nn::network_precision_name(o.precision));
   return std::make_unique<diffusion::DiffusionGenerator>(*ctx, s, mode, unet_cfg, unet_w, vae_cfg, vae_w, o);
 }
 

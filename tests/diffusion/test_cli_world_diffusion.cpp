@@ -67,7 +67,7 @@ TEST_CASE("cli: icube world build --generator diffusion runs a tiny random model
   INFO(r.output);
   REQUIRE(r.code == 0);
   CHECK(r.output.find("(diffusion generator)") != std::string::npos);
-  CHECK(r.output.find("scale_factor 0.5 (" + dir + "/unet.safetensors metadata)") != std::string::npos);
+  CHECK(r.output.find("scale_factor 0.5 (" + dir + "/unet.safetensors metadata), precision fp32") != std::string::npos);
   CHECK(r.output.find("diffusion: conditions") != std::string::npos);
   const world::VoxelGrid w = world::load_world(out);
   CHECK(w.voxel_count() > 0);
