@@ -2,7 +2,10 @@
 // official PyTorch module's reference case (unet_small: output and every block
 // within max |y - y_ref| / std(y_ref) <= 1e-4) and against the CPU reference on
 // a second configuration (batch 2, a non-cubic grid, a 2-block transformer with
-// its first self-attention on). Validation on.
+// its first self-attention on); fp16 weights (exact on the rounded weights) and fp16
+// precision (weights and convolution operands: within fp16's bound of fp32, in one
+// binding and in windows, through the transformer's LayerNorms); the layer
+// recorder's refusal of fp16 tensors outside the convolutions. Validation on.
 #include <doctest/doctest.h>
 
 #include "gpu_test_context.h"
@@ -25,6 +28,32 @@
 #include <random>
 
 using namespace icube;
+
+namespace {
+
+// The second configuration: a non-cubic grid, resampling ResBlocks, a 2-block transformer with its first
+// self-attention on.
+nn::UNetConfig second_config() {
+  return nn::parse_unet_config(R"({"image_size": 8, "num_input_channels": 5, "out_channels": 3,
+    "model_channels": 32, "num_res_blocks": 1, "attention_resolutions": [2], "channel_mult": [1, 2], "num_heads": 4,
+    "use_scale_shift_norm": true, "resblock_updown": true, "transformer_depth": 2,
+    "middile_force_spatial_transformer": true, "middle_disable_first_sa": false})",
+                               "second.json");
+}
+
+// N(0, 0.2^2) values for every parameter of `ref`, drawn from `rng` in parameter order.
+std::map<std::string, nn::CpuTensor> normal_weights(const nn::UNetReference& ref, std::mt19937& rng) {
+  std::normal_distribution<float> nd(0.0f, 0.2f);
+  std::map<std::string, nn::CpuTensor> w;
+  for (const nn::ParamSpec& p : ref.parameters()) {
+    nn::CpuTensor t(p.shape);
+    for (float& f : t.data) f = nd(rng);
+    w.emplace(p.name, std::move(t));
+  }
+  return w;
+}
+
+}  // namespace
 
 // The official unet_small case through UNetGpu, output and every block within 1e-4 of std; `family` runs it
 // with that kernel family (kernels/nn/kernel_family.h), nullptr with the device's own.
@@ -54,20 +83,11 @@ TEST_CASE("unet gpu: unet_small through the GPUs' kernel family (shared-memory c
 }
 
 TEST_CASE("unet gpu: a second configuration agrees with the CPU reference (batch 2, self-attention middle)") {
-  const nn::UNetConfig cfg = nn::parse_unet_config(R"({"image_size": 8, "num_input_channels": 5, "out_channels": 3,
-    "model_channels": 32, "num_res_blocks": 1, "attention_resolutions": [2], "channel_mult": [1, 2], "num_heads": 4,
-    "use_scale_shift_norm": true, "resblock_updown": true, "transformer_depth": 2,
-    "middile_force_spatial_transformer": true, "middle_disable_first_sa": false})",
-                                                   "second.json");
+  const nn::UNetConfig cfg = second_config();
   nn::UNetReference ref(cfg);
   std::mt19937 rng(17);
   std::normal_distribution<float> nd(0.0f, 0.2f);
-  std::map<std::string, nn::CpuTensor> w;
-  for (const nn::ParamSpec& p : ref.parameters()) {
-    nn::CpuTensor t(p.shape);
-    for (float& f : t.data) f = nd(rng);
-    w.emplace(p.name, std::move(t));
-  }
+  const std::map<std::string, nn::CpuTensor> w = normal_weights(ref, rng);
   ref.set_weights(w);
   nn::UNetGpu gpu_net(test::gpu_context(), cfg, w);
   nn::CpuTensor x({2, 5, 6, 2, 4});
@@ -165,20 +185,11 @@ TEST_CASE("unet gpu: fp16 precision on unet_small (fp16 weights and fp16 convolu
 }
 
 TEST_CASE("unet gpu: fp16 precision through a transformer (LayerNorm outputs in fp16) against the fp32 reference") {
-  const nn::UNetConfig cfg = nn::parse_unet_config(R"({"image_size": 8, "num_input_channels": 5, "out_channels": 3,
-    "model_channels": 32, "num_res_blocks": 1, "attention_resolutions": [2], "channel_mult": [1, 2], "num_heads": 4,
-    "use_scale_shift_norm": true, "resblock_updown": true, "transformer_depth": 2,
-    "middile_force_spatial_transformer": true, "middle_disable_first_sa": false})",
-                                                   "second.json");
+  const nn::UNetConfig cfg = second_config();
   nn::UNetReference ref(cfg);
   std::mt19937 rng(18);
   std::normal_distribution<float> nd(0.0f, 0.2f);
-  std::map<std::string, nn::CpuTensor> w;
-  for (const nn::ParamSpec& p : ref.parameters()) {
-    nn::CpuTensor t(p.shape);
-    for (float& f : t.data) f = nd(rng);
-    w.emplace(p.name, std::move(t));
-  }
+  const std::map<std::string, nn::CpuTensor> w = normal_weights(ref, rng);
   ref.set_weights(w);
   nn::UNetGpu gpu_net(test::gpu_context(), cfg, w, nn::UNetGpu::Precision::F16);
   nn::CpuTensor x({2, 5, 6, 2, 4});
