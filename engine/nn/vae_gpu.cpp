@@ -87,7 +87,9 @@ struct VaeGpu::Impl {
     for (size_t i = 0; i < order.size(); ++i) {
       const char op = order[i];
       if (op == 'g') {
-        x = L.group_norm(x, name + ".GroupNorm", {group_count(x), 1e-5f});
+        // Its output is a convolution's operand (fp16 under Precision::F16) only when the convolution comes next.
+        const bool conv_next = i + 1 < order.size() && order[i + 1] == 'c';
+        x = L.group_norm(x, name + ".GroupNorm", {group_count(x), 1e-5f, false, nullptr, !conv_next});
       } else if (op == 'c') {
         const bool fuse = i + 1 < order.size() && order[i + 1] == 's';  // conv then SiLU: one pass
         x = L.sparse_conv(x, name + ".Conv", *level->kmap, fuse);
