@@ -21,6 +21,7 @@
 #include "kernels/nn/attention.h"
 #include "world/npy.h"
 #include "conv_variants.h"
+#include "device_peaks.h"
 #include "torch_side.h"
 
 #include <nlohmann/json.hpp>
@@ -89,6 +90,11 @@ struct NnBench {
   std::string unet_precision = "fp32";
   std::vector<std::string> conv_variants{"register", "tiled", "tiled-fp16", "coopmat-fp16"};
   gpu::Context* ctx_ptr = nullptr;
+  const bench::DevicePeak* peak = nullptr;  // the device's published peaks, when known (device_peaks.h)
+  // A rate's fraction of the device's fp32 or fp16 tensor peak ("-" on an unknown device).
+  std::string of_peak(double tflops, bool tensor) const {
+    return bench::percent_of_peak(tflops, peak ? (tensor ? peak->fp16_tensor_tflops : peak->fp32_tflops) : 0.0);
+  }
   TorchSide torch_side;
 
   int conv3d_table();
@@ -130,8 +136,10 @@ int NnBench::conv3d_table() {
   }
   // "vs first": max |y - y_first| / max |y_first| against the first variant's output in the same run (the
   // check at shapes too large for the CPU reference).
-  std::printf("%-30s %-14s %9s %10s %10s %9s %12s %10s %10s %10s %10s %9s %10s\n", "conv3d", "path", "GFLOP", "gpu min",
-              "gpu med", "GFLOP/s", "cpu ref ms", "max rel", "vs first", "torch min", "torch med", "GFLOP/s", "vs torch");
+  // "peak": the fraction of the device's fp16 tensor peak on the cooperative-matrix path, else of its fp32 peak.
+  std::printf("%-30s %-14s %9s %10s %10s %9s %7s %12s %10s %10s %10s %10s %9s %10s\n", "conv3d", "path", "GFLOP", "gpu min",
+              "gpu med", "GFLOP/s", "peak", "cpu ref ms", "max rel", "vs first", "torch min", "torch med", "GFLOP/s",
+              "vs torch");
   kernels::nn::Conv3d conv(ctx);
   for (const Case& c : cases) {
     if (!only.empty() && std::string(c.what).find(only) == std::string::npos) continue;
@@ -194,9 +202,11 @@ int NnBench::conv3d_table() {
         std::snprintf(t_rate, sizeof t_rate, "%.1f", gflop / (tr.min_ms * 1e-3));
         std::snprintf(t_rel, sizeof t_rel, "%.1e", max_rel(got, tr.y));
       }
-      std::printf("%-30s %-14s %9.2f %10.2f %10.2f %9.2f %12s %10s %10s %10s %10s %9s %10s\n", c.what, var.name.c_str(),
-                  gflop, st.min, st.median, gflop / (st.min * 1e-3), cpu_ms.c_str(), rel, vs_first, t_min, t_med, t_rate,
-                  t_rel);
+      const double rate = gflop / (st.min * 1e-3);
+      const std::string of = of_peak(rate * 1e-3, var.path == kernels::nn::Conv3dPath::kCoopMatrix);
+      std::printf("%-30s %-14s %9.2f %10.2f %10.2f %9.2f %7s %12s %10s %10s %10s %10s %9s %10s\n", c.what,
+                  var.name.c_str(), gflop, st.min, st.median, rate, of.c_str(), cpu_ms.c_str(), rel, vs_first, t_min, t_med,
+                  t_rate, t_rel);
       std::fflush(stdout);
     }
   }
@@ -206,8 +216,8 @@ int NnBench::conv3d_table() {
 
 int NnBench::group_norm_table() {
   gpu::Context& ctx = *ctx_ptr;
-  std::printf("\n%-30s %9s %10s %10s %9s %12s %10s%s\n", "group_norm+ss+silu", "MB", "gpu min", "gpu med", "GB/s",
-              "cpu ref ms", "max abs", torch_side.python.empty() ? "" : "  torch min  torch med      GB/s   vs torch");
+  std::printf("\n%-30s %9s %10s %10s %9s %7s %12s %10s%s\n", "group_norm+ss+silu", "MB", "gpu min", "gpu med", "GB/s",
+              "peak", "cpu ref ms", "max abs", torch_side.python.empty() ? "" : "  torch min  torch med      GB/s   vs torch");
   struct GnCase {
     const char* what;
     kernels::nn::GroupNormShape s;
@@ -271,18 +281,21 @@ int NnBench::group_norm_table() {
                     mb_moved * 1e-3 / (tr.min_ms * 1e-3), max_rel(got, tr.y));
       torch_cols = buf;
     }
-    std::printf("%-30s %9.1f %10.2f %10.2f %9.2f %12.0f %10.1e%s\n", c.what, mb_moved, st.min, st.median,
-                mb_moved * 1e-3 / (st.min * 1e-3), cpu, mx, torch_cols.c_str());
-    std::printf("%-30s %9.1f %10.2f %10.2f %9.2f %12s %10.1e\n", "  fp16 output", mb_moved16, st16.min, st16.median,
-                mb_moved16 * 1e-3 / (st16.min * 1e-3), "", mx16);
+    // "peak": the fraction of the device's memory bandwidth.
+    const double gbs = mb_moved * 1e-3 / (st.min * 1e-3), gbs16 = mb_moved16 * 1e-3 / (st16.min * 1e-3);
+    const double bw = peak ? peak->memory_gbs : 0.0;
+    std::printf("%-30s %9.1f %10.2f %10.2f %9.2f %7s %12.0f %10.1e%s\n", c.what, mb_moved, st.min, st.median, gbs,
+                bench::percent_of_peak(gbs, bw).c_str(), cpu, mx, torch_cols.c_str());
+    std::printf("%-30s %9.1f %10.2f %10.2f %9.2f %7s %12s %10.1e\n", "  fp16 output", mb_moved16, st16.min, st16.median,
+                gbs16, bench::percent_of_peak(gbs16, bw).c_str(), "", mx16);
   }
   return 0;
 }
 
 int NnBench::attention_table() {
   gpu::Context& ctx = *ctx_ptr;
-  std::printf("\n%-30s %-10s %9s %10s %10s %9s %12s %10s%s\n", "attention", "path", "GFLOP", "gpu min", "gpu med", "GFLOP/s",
-              "cpu ref ms", "max rel", torch_side.python.empty() ? "" : "  torch min  torch med   GFLOP/s   vs torch");
+  std::printf("\n%-30s %-10s %9s %10s %10s %9s %7s %12s %10s%s\n", "attention", "path", "GFLOP", "gpu min", "gpu med",
+              "GFLOP/s", "peak", "cpu ref ms", "max rel", torch_side.python.empty() ? "" : "  torch min  torch med   GFLOP/s   vs torch");
   struct AttnCase {
     const char* what;
     kernels::nn::AttentionShape s;
@@ -362,8 +375,9 @@ int NnBench::attention_table() {
       if (tr.ok)
         std::snprintf(torch_cols, sizeof torch_cols, " %10.2f %10.2f %9.2f %10.1e", tr.min_ms, tr.median_ms,
                       gflop / (tr.min_ms * 1e-3), max_rel(got, tr.y));
-      std::printf("%-30s %-10s %9.2f %10.2f %10.2f %9.2f %12s %10s%s\n", c.what, name, gflop, st.min, st.median,
-                  gflop / (st.min * 1e-3), cpu_ms.c_str(), rel, torch_cols);
+      const double rate = gflop / (st.min * 1e-3);
+      std::printf("%-30s %-10s %9.2f %10.2f %10.2f %9.2f %7s %12s %10s%s\n", c.what, name, gflop, st.min, st.median, rate,
+                  of_peak(rate * 1e-3, false).c_str(), cpu_ms.c_str(), rel, torch_cols);
       std::fflush(stdout);
     }
   }
@@ -478,6 +492,15 @@ int NnBench::unet_forward_run() {
               static_cast<long long>(unet_grid[2]), st.min, st.median,
               static_cast<double>(net.last_activation_bytes()) / 1048576.0,
               static_cast<double>(net.weight_bytes()) / 1048576.0, finite ? "finite" : "NOT FINITE", cpu, agreement);
+  // The convolutions', linears' and attention's FLOPs (the recorder's count) over the fastest forward, and that
+  // rate's fraction of the device's peak for the arithmetic the default path uses (tensor cores with fp16 weights
+  // where the device has them).
+  const double gflop = static_cast<double>(net.last_matmul_flops()) * 1e-9;
+  const bool tensor = kernels::nn::default_conv3d_path(ctx.info(), unet_precision != "fp32") ==
+                      kernels::nn::Conv3dPath::kCoopMatrix;
+  const double rate = gflop / (st.min * 1e-3);
+  std::printf("  %.1f GFLOP in convolutions, linears and attention: %.1f GFLOP/s, %s of the device's %s peak\n", gflop, rate,
+              of_peak(rate * 1e-3, tensor).c_str(), tensor ? "fp16 tensor" : "fp32");
   if (!torch_text.empty()) std::printf("  %s\n", torch_text.c_str() + 2);
   return 0;
 }
@@ -522,6 +545,8 @@ int main(int argc, char** argv) {
   gpu::Context ctx(gpu::ContextOptions::from_env());
   b.ctx_ptr = &ctx;
   std::printf("device: %s\n", ctx.info().name.c_str());
+  b.peak = bench::device_peak(ctx.info().name);
+  std::printf("%s\n", bench::device_peak_line(ctx.info().name).c_str());
   if (b.with_torch) {
     b.torch_side.python = python_with_torch();
     if (b.torch_side.python.empty()) {

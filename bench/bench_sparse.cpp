@@ -11,6 +11,7 @@
 // dense GPU conv at the active sites in the same run. See bench/README.md.
 #include "bench_stats.h"
 #include "conv_variants.h"
+#include "device_peaks.h"
 #include "gpu/context.h"
 #include "kernels/nn/conv3d.h"
 #include "kernels/nn/sparse_conv.h"
@@ -101,7 +102,13 @@ struct Options {
   std::vector<int> channels{64, 128};
   std::vector<bench::ConvVariant> sparse_paths;
   bench::TorchSide torch;
+  const bench::DevicePeak* peak = nullptr;  // the device's published peaks, when known (device_peaks.h)
 };
+
+// A rate in GFLOP/s as a fraction of the device's fp16 tensor peak (tensor cores) or fp32 peak, or "-".
+std::string of_peak(const Options& o, double gflops, bool tensor) {
+  return bench::percent_of_peak(gflops * 1e-3, o.peak ? (tensor ? o.peak->fp16_tensor_tflops : o.peak->fp32_tflops) : 0.0);
+}
 
 bool run_case(gpu::Context& ctx, const std::string& name, const nn::SparseGrid& g, const Options& o) {
   const uint32_t N = static_cast<uint32_t>(g.size());
@@ -132,8 +139,10 @@ bool run_case(gpu::Context& ctx, const std::string& name, const nn::SparseGrid& 
   const uint64_t pairs = static_cast<uint64_t>(std::count_if(map.begin(), map.end(), [](int32_t v) { return v >= 0; }));
   std::printf("kernel map: %.2f / %.2f ms (min / median), %.2f neighbours per voxel, %s against the CPU map\n", tk.min_ms,
               tk.median_ms, static_cast<double>(pairs) / N, map_ok ? "equal" : "DIFFERENT");
-  std::printf("%-26s %8s %10s %10s %9s %11s %10s %9s\n", "conv 3^3", "channels", "min ms", "median ms", "GFLOP/s",
-              "useful GF/s", "memory MB", "max rel");
+  // "peak": the dense rate's fraction of the device's fp32 peak, the sparse rows' useful rate's of the fp16
+  // tensor peak on the cooperative-matrix path and of the fp32 peak elsewhere.
+  std::printf("%-26s %8s %10s %10s %9s %11s %10s %9s %7s\n", "conv 3^3", "channels", "min ms", "median ms", "GFLOP/s",
+              "useful GF/s", "memory MB", "max rel", "peak");
   bool ok = map_ok;
   std::mt19937 rng(7);
   std::uniform_real_distribution<float> u(-1.0f, 1.0f);
@@ -173,8 +182,9 @@ bool run_case(gpu::Context& ctx, const std::string& name, const nn::SparseGrid& 
         std::snprintf(rel, sizeof rel, "%.1e", r);
       }
       const std::string label = "sparse " + var.name;
-      std::printf("%-26s %8d %10.1f %10.1f %9.2f %11.2f %10.1f %9s\n", label.c_str(), C, t.min_ms, t.median_ms,
-                  useful / (t.min_ms * 1e-3), useful / (t.min_ms * 1e-3), sparse_mb, rel);
+      const double rate = useful / (t.min_ms * 1e-3);
+      std::printf("%-26s %8d %10.1f %10.1f %9.2f %11.2f %10.1f %9s %7s\n", label.c_str(), C, t.min_ms, t.median_ms, rate,
+                  rate, sparse_mb, rel, of_peak(o, rate, var.path == kernels::nn::Conv3dPath::kCoopMatrix).c_str());
     }
     sconv.force_path(std::nullopt);
     if (o.dense_runs < 1) continue;  // sparse only
@@ -207,8 +217,9 @@ bool run_case(gpu::Context& ctx, const std::string& name, const nn::SparseGrid& 
     char relbuf[32];
     std::snprintf(relbuf, sizeof relbuf, "%.1e", rel);
     const double dense_gf = ds.flops() * 1e-9;
-    std::printf("%-26s %8d %10.1f %10.1f %9.2f %11.2f %10.1f %9s\n", "dense conv3d (GPU, box)", C, td.min_ms, td.median_ms,
-                dense_gf / (td.min_ms * 1e-3), useful / (td.min_ms * 1e-3), 2.0 * c * V * 4 / 1e6, relbuf);
+    std::printf("%-26s %8d %10.1f %10.1f %9.2f %11.2f %10.1f %9s %7s\n", "dense conv3d (GPU, box)", C, td.min_ms,
+                td.median_ms, dense_gf / (td.min_ms * 1e-3), useful / (td.min_ms * 1e-3), 2.0 * c * V * 4 / 1e6, relbuf,
+                of_peak(o, dense_gf / (td.min_ms * 1e-3), false).c_str());
     if (!o.torch.python.empty()) {
       nn::CpuTensor wt({C, C, 3, 3, 3}, w), bt({C}, b);
       const bench::TorchSide::Result tr = o.torch.run({{"op", "conv3d"}}, {{"x", &xd}, {"w", &wt}, {"b", &bt}});
@@ -316,6 +327,8 @@ int main(int argc, char** argv) {
   }
   gpu::Context ctx;
   std::printf("device: %s; LP_NUM_THREADS=%s\n", ctx.info().name.c_str(), std::getenv("LP_NUM_THREADS") ? std::getenv("LP_NUM_THREADS") : "unset");
+  std::printf("%s\n", bench::device_peak_line(ctx.info().name).c_str());
+  o.peak = bench::device_peak(ctx.info().name);
   if (!vae_box.empty())
     return run_vae_decode(ctx, vae_model, {vae_box[0], vae_box[1], vae_box[2]}, o.runs,
                           nn::parse_network_precision(vae_precision))

@@ -39,6 +39,12 @@ void require_f32(const DeviceTensor& x, const char* layer) {
                            "read fp16 operands; run this network in fp32 or fp16-weights)");
 }
 
+// Q K^T and P V over all heads: 2 x (2 N^2 C) per batch element.
+uint64_t attention_flops(int64_t batch, int64_t channels, int64_t tokens) {
+  return 4ull * static_cast<uint64_t>(batch) * static_cast<uint64_t>(channels) * static_cast<uint64_t>(tokens) *
+         static_cast<uint64_t>(tokens);
+}
+
 }  // namespace
 
 LayerRecorder::LayerRecorder(gpu::Context& ctx, const ParameterStore& params, const std::string& pool_name)
@@ -104,6 +110,7 @@ DeviceTensor LayerRecorder::conv(const DeviceTensor& x, const std::string& prefi
   s.f16_input = x.f16;
   const std::string bias = prefix + ".bias";
   conv_->record(cmd(), s, *x.buf, params_.buffer(prefix + ".weight"), params_.has(bias) ? &params_.buffer(bias) : nullptr, *y.buf);
+  matmul_flops_ += s.flops();
   barrier();
   return y;
 }
@@ -288,6 +295,7 @@ DeviceTensor LayerRecorder::attention(const DeviceTensor& q, const DeviceTensor&
   DeviceTensor o = alloc(q.shape);
   attention_->record(cmd(), {u32(q.batch()), heads, u32(q.channels()) / heads, static_cast<uint64_t>(q.spatial())}, *q.buf,
                      *k.buf, *v.buf, *o.buf);
+  matmul_flops_ += attention_flops(q.batch(), q.channels(), q.spatial());
   barrier();
   return o;
 }
@@ -298,6 +306,7 @@ DeviceTensor LayerRecorder::attention_qkv(const DeviceTensor& qkv, uint32_t head
   DeviceTensor o = alloc({qkv.batch(), C, qkv.spatial()});
   attention_->record_qkv(cmd(), {u32(qkv.batch()), heads, u32(C) / heads, static_cast<uint64_t>(qkv.spatial())}, *qkv.buf,
                          *o.buf);
+  matmul_flops_ += attention_flops(qkv.batch(), C, qkv.spatial());
   barrier();
   return o;
 }

@@ -101,6 +101,11 @@ class LayerRecorder {
 
   // Tests: the windowed kernels window as if one binding held at most `bytes` (0 = the device's limit).
   void set_max_binding_bytes(uint64_t bytes);
+  // Multiply-add FLOPs (2 per product) of the dense convolutions, linears and attention recorded since the
+  // last reset: a network's useful work, for rates and fractions of a device's peak (benchmarks). Padding
+  // taps count as PyTorch's profilers count them; norms and element-wise layers are not counted.
+  uint64_t matmul_flops() const { return matmul_flops_; }
+  void reset_matmul_flops() { matmul_flops_ = 0; }
 
  private:
   gpu::Context& ctx_;
@@ -108,6 +113,7 @@ class LayerRecorder {
   ActivationPool pool_;
   gpu::CommandList* cmd_ = nullptr;
   bool f16_conv_operands_ = false;
+  uint64_t matmul_flops_ = 0;
   std::unique_ptr<kernels::nn::Conv3d> conv_;
   std::unique_ptr<kernels::nn::Conv2d> conv2d_;
   std::unique_ptr<kernels::nn::BatchNorm> channel_affine_;

@@ -151,6 +151,7 @@ CpuTensor UNetGpu::forward(const CpuTensor& x, const std::vector<int64_t>& t, co
   m.check_input(x.shape, t);
   m.alive.clear();
   m.L.pool().reset();
+  m.L.reset_matmul_flops();
   const CpuTensor t_emb = cpu::timestep_embedding(t, c.model_channels);
   const GT xin = m.upload(x.data, x.shape), temb = m.upload(t_emb.data, {x.dim(0), c.model_channels, 1});
   std::vector<std::pair<std::string, GT>> captured;
@@ -160,6 +161,7 @@ CpuTensor UNetGpu::forward(const CpuTensor& x, const std::vector<int64_t>& t, co
     cmd.barrier(gpu::deps::kComputeToTransfer);
   });
   activation_bytes_ = m.L.pool().bytes();
+  matmul_flops_ = m.L.matmul_flops();
   auto download = [&](const GT& g) {
     CpuTensor r(g.shape);
     if (g.f16) throw std::logic_error("UNetGpu: a captured tensor is fp16 (only norm outputs are)");
@@ -197,6 +199,7 @@ void UNetGpu::forward(const gpu::Buffer& x, const std::vector<int64_t>& x_shape,
                                 std::to_string(y_bytes));
   m.alive.clear();
   m.L.pool().reset();
+  m.L.reset_matmul_flops();
   const GT temb = m.upload(cpu::timestep_embedding(t, c.model_channels).data, {x_shape[0], c.model_channels, 1});
   m.ctx.submit_and_wait([&](gpu::CommandList& cmd) {
     const GT out = m.record(cmd, xin, temb, nullptr);
@@ -204,6 +207,7 @@ void UNetGpu::forward(const gpu::Buffer& x, const std::vector<int64_t>& x_shape,
     cmd.copy_buffer(out.buf->binding(0, y_bytes), y.binding(0, y_bytes));
   });
   activation_bytes_ = m.L.pool().bytes();
+  matmul_flops_ = m.L.matmul_flops();
   m.alive.clear();
   m.L.pool().reset();
 }

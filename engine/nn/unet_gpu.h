@@ -53,6 +53,8 @@ class UNetGpu {
   void forward(const gpu::Buffer& x, const std::vector<int64_t>& x_shape, const std::vector<int64_t>& t, const gpu::Buffer& y);
   // Peak device bytes of the activation pool in the last forward (inputs and weights not counted).
   uint64_t last_activation_bytes() const { return activation_bytes_; }
+  // FLOPs of the last forward's convolutions, linears and attention (LayerRecorder::matmul_flops).
+  uint64_t last_matmul_flops() const { return matmul_flops_; }
   // Tests: conv3d, GroupNorm, the element-wise and resampling kernels window as if one
   // binding held at most `bytes` (0 = the device's limit).
   void set_max_binding_bytes(uint64_t bytes);
@@ -63,6 +65,7 @@ class UNetGpu {
   struct Impl;
   std::unique_ptr<Impl> impl_;
   uint64_t activation_bytes_ = 0;
+  uint64_t matmul_flops_ = 0;
   uint64_t weight_bytes_ = 0;
 };
 

@@ -216,3 +216,24 @@ TEST_CASE("layer recorder: only convolutions take an fp16 tensor; every other la
     L.end();
   });
 }
+
+TEST_CASE("layer recorder: counts the multiply-add FLOPs of convolutions, linears and attention") {
+  gpu::Context& ctx = test::gpu_context();
+  const std::vector<nn::ParamSpec> specs = {{"c.weight", {4, 3, 3, 3, 3}}, {"c.bias", {4}}, {"l.weight", {24, 4}}};
+  std::map<std::string, nn::CpuTensor> w;
+  for (const nn::ParamSpec& p : specs) w.emplace(p.name, nn::CpuTensor(p.shape, 0.5f));
+  const nn::ParameterStore params(ctx, specs, w, {});
+  nn::LayerRecorder L(ctx, params, "test-activation");
+  ctx.submit_and_wait([&](gpu::CommandList& cmd) {
+    L.begin(cmd);
+    const nn::DeviceTensor x = L.alloc({2, 3, 5, 6, 7});
+    const nn::DeviceTensor h = L.conv(x, "c");                        // 2 B Co Ci 27 V
+    CHECK(L.matmul_flops() == 2ull * 2 * 4 * 3 * 27 * 210);
+    const nn::DeviceTensor qkv = L.conv(nn::LayerRecorder::tokens(h), "l");  // a linear 4 -> 24 over 210 tokens
+    CHECK(L.matmul_flops() == 2ull * 2 * 4 * 3 * 27 * 210 + 2ull * 2 * 24 * 4 * 210);
+    L.reset_matmul_flops();
+    L.attention_qkv(qkv, 2);  // Q K^T and P V: 4 B C N^2 with C = 8
+    CHECK(L.matmul_flops() == 4ull * 2 * 8 * 210 * 210);
+    L.end();
+  });
+}
