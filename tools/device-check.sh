@@ -81,7 +81,7 @@ if want perf; then
   # per-query and tiled), and the UNet forward with ICUBE_NN_KERNELS=lavapipe (the old kernels) against
   # the default (new) on the same warm machine. The GPU kernels' tests run first: a wrong cooperative-
   # matrix result fails here.
-  step perf_tests 120 "$bin/icube-tests" -tc="conv3d gpu*,sparse conv gpu*,attention gpu*,dpm*,unet gpu*,vae gpu*" --duration=true
+  step perf_tests 120 "$bin/icube-tests" -tc="conv3d gpu*,sparse conv gpu*,attention gpu*,group_norm gpu*,layer_norm gpu*,layer recorder*,dpm*,unet gpu*,vae gpu*" --duration=true
   grep -E "^\[doctest\] (test cases|assertions)|Status:" "$out/perf_tests.txt" | tail -3
   step perf_kernels 100 "$bin/icube-bench-nn" --only released --released-levels --runs 5 --warmup 1 --cpu-limit 0
   step perf_unet_fp32_old 100 env ICUBE_NN_KERNELS=lavapipe "$bin/icube-bench-nn" --only none --unet infinicube-diffusion \
@@ -108,7 +108,7 @@ if want perf; then
     grep -E "^\[doctest\] test cases" "$out/perf_tests.txt" | sed -E 's/^/| perf_tests | /; s/$/ |/'
     grep -E "^released" "$out/perf_kernels.txt" | sed -E 's/^(.{30})(.*)$/| \1 | \2 |/'
     for f in perf_unet_fp32_old perf_unet_fp32 perf_unet_fp16_old perf_unet_fp16 perf_unet_fp16w; do
-      grep -E "^UNet forward" "$out/$f.txt" | sed -E "s/^/| $f | /; s/$/ |/"
+      grep -E "^UNet forward|GFLOP in convolutions" "$out/$f.txt" | sed -E "s/^ */| $f | /; s/$/ |/"
     done
     for f in perf_vae perf_vae_fp16; do
       grep -iE "decode" "$out/$f.txt" | tail -n 3 | sed -E "s/^/| $f | /; s/$/ |/"
