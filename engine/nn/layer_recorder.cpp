@@ -3,6 +3,7 @@
 
 #include "kernels/nn/attention.h"
 #include "kernels/nn/batch_norm.h"
+#include "kernels/nn/buffer_checks.h"
 #include "kernels/nn/conv2d.h"
 #include "kernels/nn/conv3d.h"
 #include "kernels/nn/interpolate.h"
@@ -77,6 +78,11 @@ DeviceTensor LayerRecorder::alloc(std::vector<int64_t> shape, bool f16) {
   t.f16 = f16;
   t.buf = pool_.take(std::max<uint64_t>(t.bytes(), 4));
   return t;
+}
+
+void LayerRecorder::set_f16_conv_operands(bool on) {
+  if (on) kernels::nn::require_f16_storage(ctx_, "fp16 precision", "storing the convolutions' operands as fp16");
+  f16_conv_operands_ = on;
 }
 
 void LayerRecorder::set_max_binding_bytes(uint64_t bytes) {

@@ -63,8 +63,9 @@ class LayerRecorder {
   void barrier() const;
 
   DeviceTensor alloc(std::vector<int64_t> shape, bool f16 = false);
-  // GroupNorm and LayerNorm outputs as fp16 from now on (the convolutions' operands).
-  void set_f16_conv_operands(bool on) { f16_conv_operands_ = on; }
+  // GroupNorm and LayerNorm outputs as fp16 from now on (the convolutions' operands). Refused on a device
+  // without 16-bit storage (std::invalid_argument), so a network asks before any work.
+  void set_f16_conv_operands(bool on);
   ActivationPool& pool() { return pool_; }
   const ParameterStore& params() const { return params_; }
 

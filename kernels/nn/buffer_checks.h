@@ -30,7 +30,7 @@ inline void require_one_binding(const gpu::Context& ctx, const char* kernel, con
 inline void require_f16_storage(const gpu::Context& ctx, const char* kernel, const char* what) {
   if (!ctx.info().storage_16bit)
     throw std::invalid_argument(std::string(kernel) + ": " + what + " needs 16-bit storage (storageBuffer16BitAccess), " +
-                                "which this device lacks; use fp32 activations");
+                                "which this device lacks; keep it fp32 (--precision fp16-weights)");
 }
 
 // Tensors larger than one storage binding are processed in windows: a range
