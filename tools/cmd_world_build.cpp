@@ -3,7 +3,7 @@
 // of a world, engine/world/world_plot.h).
 //
 //   icube world build SCENE -o world.icw [--mode trajectory|blocks] [--generator procedural|diffusion]
-//                     [--seed N] [--record SEL] [--extrapolate N] [--threads N] [--no-vehicles]
+//                     [--seed N] [--record SEL] [--extrapolate N] [--max-chunks N] [--threads N] [--no-vehicles]
 //                     [--vehicle-mesh FILE [--mesh-axes F,U] | --vehicle-meshes JSON] [--png top.png]
 //     diffusion:      --model CONFIG|PRESET --weights UNET.safetensors --vae VAE.safetensors [--vae-model CONFIG|PRESET]
 //                     [--steps N] [--sampler ddim|dpm++2m] [--eta E] [--cfg S] [--precision fp32|fp16-weights|fp16] [--scale-factor S] [--keep-latents DIR]
@@ -251,6 +251,11 @@ void add_world_build_commands(CLI::App& app) {
       ->capture_default_str();
   build->add_option("--seed", a->seed, "Generator seed (same seed, same scene: identical world file)")
       ->type_name("N")
+      ->capture_default_str();
+  build->add_option("--max-chunks", a->plan.max_chunks,
+                    "Build only the plan's first N chunks (0 = all): try a model or its settings on a chunk or two first")
+      ->type_name("N")
+      ->check(CLI::Range(0, 1000000))
       ->capture_default_str();
   build->add_option("--extrapolate", a->plan.extrapolate_chunks,
                     "Trajectory mode: chunks to continue straight past the end of the drive")

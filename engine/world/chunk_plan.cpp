@@ -33,6 +33,7 @@ void check_options(const PlanOptions& o) {
     throw std::invalid_argument("plan: default camera height must be finite");
   if (!std::isfinite(o.parked_travel_m) || o.parked_travel_m < 0.0)
     throw std::invalid_argument("plan: parked travel must be a finite number of metres >= 0");
+  if (o.max_chunks < 0) throw std::invalid_argument("plan: max_chunks must be >= 0 (0 = all)");
 }
 
 bool finite_matrix(const glm::dmat4& m) {
@@ -293,7 +294,15 @@ ChunkPlan plan_blocks(const scene::Scene& scene, const RoadSurface& surface, con
 }
 
 ChunkPlan plan_chunks(const scene::Scene& scene, PlanMode mode, const PlanOptions& options) {
-  return mode == PlanMode::Blocks ? plan_blocks(scene, options) : plan_trajectory(scene, options);
+  ChunkPlan plan = mode == PlanMode::Blocks ? plan_blocks(scene, options) : plan_trajectory(scene, options);
+  const size_t limit = static_cast<size_t>(options.max_chunks);
+  if (limit > 0 && plan.chunks.size() > limit) {
+    plan.notes.push_back("only the first " + std::to_string(limit) + " of " + std::to_string(plan.chunks.size()) +
+                         " chunks are planned (--max-chunks)");
+    plan.chunks.resize(limit);
+    plan.info.resize(limit);
+  }
+  return plan;
 }
 
 // ---- JSON ----------------------------------------------------------------------------

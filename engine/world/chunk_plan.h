@@ -57,6 +57,7 @@ struct PlanOptions {
   int extrapolate_chunks = 1;            // trajectory mode: keys past the end (>= 0)
   double default_camera_height_m = 1.5;  // camera above the ego (no camera) / above the road (blocks)
   double parked_travel_m = 0.5;          // trajectory mode: less total travel = parked
+  int max_chunks = 0;                    // plan_chunks: only the first this many chunks of the plan (0 = all)
 };
 
 // Per chunk, beside its ChunkPose.
@@ -86,6 +87,7 @@ ChunkPlan plan_trajectory(const scene::Scene& scene, const PlanOptions& options 
 ChunkPlan plan_blocks(const scene::Scene& scene, const PlanOptions& options = {});
 // Blocks mode with a road surface already fitted to scene.map (one fit per scene).
 ChunkPlan plan_blocks(const scene::Scene& scene, const RoadSurface& surface, const PlanOptions& options = {});
+// Either mode; with options.max_chunks the plan's first that many chunks (and a note saying so).
 ChunkPlan plan_chunks(const scene::Scene& scene, PlanMode mode, const PlanOptions& options = {});
 
 // Chunk centre (translation of chunk_to_world) and heading (yaw of the chunk x axis, radians).

@@ -163,6 +163,26 @@ TEST_CASE("chunk plan: extrapolation continues straight along the last heading")
   CHECK(world::plan_trajectory(l_drive(), o).chunks.size() == 6);
 }
 
+TEST_CASE("chunk plan: max_chunks keeps the plan's first chunks, in order, and says so") {
+  world::PlanOptions o;
+  const ChunkPlan all = world::plan_chunks(l_drive(), world::PlanMode::Trajectory, o);
+  REQUIRE(all.chunks.size() == 7);
+  o.max_chunks = 2;
+  const ChunkPlan first = world::plan_chunks(l_drive(), world::PlanMode::Trajectory, o);
+  REQUIRE(first.chunks.size() == 2);
+  REQUIRE(first.info.size() == 2);
+  for (size_t k = 0; k < 2; ++k) {
+    CHECK(first.chunks[k].chunk_to_world == all.chunks[k].chunk_to_world);
+    CHECK(first.info[k].ego_position == all.info[k].ego_position);
+  }
+  REQUIRE(!first.notes.empty());
+  CHECK(first.notes.back() == "only the first 2 of 7 chunks are planned (--max-chunks)");
+  o.max_chunks = 7;  // no fewer than planned: unchanged, no note
+  CHECK(world::plan_chunks(l_drive(), world::PlanMode::Trajectory, o).notes.size() == all.notes.size());
+  o.max_chunks = -1;
+  CHECK_THROWS_AS(world::plan_chunks(l_drive(), world::PlanMode::Trajectory, o), std::invalid_argument);
+}
+
 TEST_CASE("chunk plan: a tilted camera keeps orthonormal axes; no camera = ego raised 1.5 m") {
   scene::Scene s = l_drive();
   // Camera pitched down 7°, yawed 3°, rolled 1°; ego yaw changes at the corner (slerp there).
