@@ -8,12 +8,15 @@
 # 64^3 batch-2 forward in fp32 and fp16, a full-chunk VAE decode, splatting 1 M
 # Gaussians at 1080p, then one table of them), and issue 39's GSM run (gsm: icube-bench-gsm at the released
 # widths and input size, 1 and 4 key frames: time, GFLOP/s and memory per stage, the GPU against the CPU
-# reference at reduced widths, Depth-Anything-V2-Large per image). Pack first on this machine
+# reference at reduced widths, Depth-Anything-V2-Large per image), and issue 38's chunk (chunk: one chunk of the
+# released models, random weights of the official shapes, through `icube world build`: 100 DDIM steps with
+# guidance 2 in fp16, then DPM-Solver++ at 25 steps). Pack first on this machine
 # with tools/device-pack.sh; .gl/ holds Debian's libglvnd .debs (the NVIDIA
 # ICD needs libGLdispatch; see the device tool's README). Then run:
-#   run(command="tools/device-check.sh [unet] [tests] [bench] [lift] [perf] [gsm]", carry=[".dev", ".gl"], timeout_s=560)
+#   run(command="tools/device-check.sh [unet] [tests] [bench] [lift] [perf] [gsm] [chunk]", carry=[".dev", ".gl"], timeout_s=560)
 # (perf alone: ~6.5 min expected on an H100/H200, run it by itself; its steps' limits add up to ~13 min,
 #  so a step that hangs to its limit lets the call's timeout cut the last steps: the table keeps what ran.
+#  chunk alone: ~3-5 min expected; run it by itself after perf.)
 #  gsm alone: at most ~8.5 min by its steps' limits, ~4 min expected; run it by itself.)
 # Every step has its own time limit so the whole run ends inside the lease;
 # logs go to $OUT (the tool brings them back), a summary is printed last.
@@ -47,7 +50,7 @@ nvidia-smi --query-gpu=name,driver_version,clocks.sm,memory.used --format=csv 2>
 ls /usr/local/nvidia/share/vulkan/icd.d /usr/share/vulkan/icd.d /etc/vulkan/icd.d 2>&1 | head
 step devices 30 env VK_LOADER_DEBUG=error,warn,driver "$bin/icube" devices
 grep -qi "NVIDIA" "$out/devices.txt" || { echo "no NVIDIA Vulkan device: stopping"; exit 1; }
-want() { [[ ( -z $steps && $1 != perf && $1 != gsm ) || " $steps " == *" $1 "* ]]; }
+want() { [[ ( -z $steps && $1 != perf && $1 != gsm && $1 != chunk ) || " $steps " == *" $1 "* ]]; }
 if want unet; then
   # Issue 18: one forward of the released UNet (812 M parameters) at 64^3, batch 1, fp32 and fp16 weights.
   step unet64 160 "$bin/icube-bench-nn" --only none --unet infinicube-diffusion --unet-grid 64 64 64 \
@@ -134,6 +137,27 @@ if want gsm; then
     grep -E "^engine (GPU|output)|^= " "$out/gsm.txt" | sed -E 's/^/| gsm dav2 | /; s/$/ |/'
   } > "$out/gsm_table.md"
   cat "$out/gsm_table.md"
+fi
+if want chunk; then
+  # Issue 38's "a 100-step guidance-2 chunk <= 40 s (and with DPM-Solver++ at the steps the table gives)": the
+  # released UNet and VAE (random weights of the official shapes) on the demo town's first chunk. The summary's
+  # "chunk 0:" line splits it into conditions, sampling and decode; the weights' making is not timed.
+  d=/tmp/dev/chunk; mkdir -p $d
+  "$bin/icube" world demo-scene -o $d/scene.json >/dev/null 2>&1
+  step chunk_weights 150 sh -c "'$bin/icube' nn random-weights --model infinicube-diffusion --seed 1 -o $d/unet.safetensors \
+    && '$bin/icube' nn random-weights --vae-model infinicube-vae --seed 2 -o $d/vae.safetensors"
+  models="--generator diffusion --model infinicube-diffusion --weights $d/unet.safetensors --vae $d/vae.safetensors \
+    --vae-model infinicube-vae --scale-factor 1 --max-chunks 1 --no-vehicles --precision fp16"
+  step chunk_ddim100 200 "$bin/icube" world build $d/scene.json $models --steps 100 --cfg 2 -o $d/ddim100.icw
+  step chunk_dpm25 100 "$bin/icube" world build $d/scene.json $models --sampler dpm++2m --steps 25 --cfg 2 -o $d/dpm25.icw
+  {
+    echo "| measurement | result |"
+    echo "|---|---|"
+    for f in chunk_ddim100 chunk_dpm25; do
+      grep -E "^  chunk 0:|^  diffusion:|^  time " "$out/$f.txt" | sed -E "s/^ */| $f | /; s/$/ |/"
+    done
+  } > "$out/chunk_table.md"
+  cat "$out/chunk_table.md"
 fi
 echo "== summary (t+$(( $(date +%s) - t0 )) s)"
 printf '%s\n' "${summary[@]}"
