@@ -238,13 +238,16 @@ int NnBench::group_norm_table() {
     gpu::Buffer xb = gpu::upload_vector(ctx, x.data), wb = gpu::upload_vector(ctx, w.data),
                 bb = gpu::upload_vector(ctx, b.data), mb = gpu::upload_vector(ctx, mod.data);
     gpu::Buffer scratch(ctx, kernels::nn::GroupNorm::scratch_bytes(s)), yb(ctx, x.data.size() * 4);
-    std::vector<double> samples;
-    for (int r = 0; r < warmup + runs; ++r) {
-      const auto t0 = Clock::now();
-      ctx.submit_and_wait([&](gpu::CommandList& cmd) { gn.record(cmd, s, xb, wb, bb, &mb, scratch, yb); });
-      if (r >= warmup) samples.push_back(ms_since(t0));
-    }
-    const Stats st = stats(samples);
+    auto time_gn = [&](const kernels::nn::GroupNormShape& shape) {
+      std::vector<double> samples;
+      for (int r = 0; r < warmup + runs; ++r) {
+        const auto t0 = Clock::now();
+        ctx.submit_and_wait([&](gpu::CommandList& cmd) { gn.record(cmd, shape, xb, wb, bb, &mb, scratch, yb); });
+        if (r >= warmup) samples.push_back(ms_since(t0));
+      }
+      return stats(samples);
+    };
+    const Stats st = time_gn(s);
     const double mb_moved = static_cast<double>(x.data.size()) * 4 * 3 * 1e-6;  // read twice, write once
     const auto t0 = Clock::now();
     const nn::CpuTensor want =
@@ -254,13 +257,7 @@ int NnBench::group_norm_table() {
     // The same with its output stored as fp16 (NetworkPrecision::F16: the next convolution's operand).
     kernels::nn::GroupNormShape s16 = s;
     s16.f16_output = true;
-    std::vector<double> samples16;
-    for (int r = 0; r < warmup + runs; ++r) {
-      const auto t1 = Clock::now();
-      ctx.submit_and_wait([&](gpu::CommandList& cmd) { gn.record(cmd, s16, xb, wb, bb, &mb, scratch, yb); });
-      if (r >= warmup) samples16.push_back(ms_since(t1));
-    }
-    const Stats st16 = stats(samples16);
+    const Stats st16 = time_gn(s16);
     const std::vector<uint16_t> got16 = gpu::download_vector<uint16_t>(ctx, yb, x.data.size());
     double mx16 = 0;
     for (size_t i = 0; i < got16.size(); ++i)

@@ -53,6 +53,22 @@ std::map<std::string, nn::CpuTensor> normal_weights(const nn::UNetReference& ref
   return w;
 }
 
+// The second configuration with N(0, 0.2^2) weights (set on its CPU reference) and a batch-2 input of
+// N(0, 1) values, all drawn from one seed.
+struct SecondCase {
+  nn::UNetConfig cfg = second_config();
+  nn::UNetReference ref{cfg};
+  std::map<std::string, nn::CpuTensor> w;
+  nn::CpuTensor x{std::vector<int64_t>{2, 5, 6, 2, 4}};
+  explicit SecondCase(uint32_t seed) {
+    std::mt19937 rng(seed);
+    w = normal_weights(ref, rng);
+    ref.set_weights(w);
+    std::normal_distribution<float> nd(0.0f, 0.2f);
+    for (float& f : x.data) f = nd(rng) * 5.0f;
+  }
+};
+
 }  // namespace
 
 // The official unet_small case through UNetGpu, output and every block within 1e-4 of std; `family` runs it
@@ -83,25 +99,18 @@ TEST_CASE("unet gpu: unet_small through the GPUs' kernel family (shared-memory c
 }
 
 TEST_CASE("unet gpu: a second configuration agrees with the CPU reference (batch 2, self-attention middle)") {
-  const nn::UNetConfig cfg = second_config();
-  nn::UNetReference ref(cfg);
-  std::mt19937 rng(17);
-  std::normal_distribution<float> nd(0.0f, 0.2f);
-  const std::map<std::string, nn::CpuTensor> w = normal_weights(ref, rng);
-  ref.set_weights(w);
-  nn::UNetGpu gpu_net(test::gpu_context(), cfg, w);
-  nn::CpuTensor x({2, 5, 6, 2, 4});
-  for (float& f : x.data) f = nd(rng) * 5.0f;
-  const nn::CpuTensor want = ref.forward(x, {3, 977});
-  const nn::CpuTensor got = gpu_net.forward(x, {3, 977});
+  SecondCase c(17);
+  nn::UNetGpu gpu_net(test::gpu_context(), c.cfg, c.w);
+  const nn::CpuTensor want = c.ref.forward(c.x, {3, 977});
+  const nn::CpuTensor got = gpu_net.forward(c.x, {3, 977});
   REQUIRE(got.shape == want.shape);
   const double e = nn::cpu::max_abs_over_std(got.data, want.data);
   MESSAGE("unet gpu vs CPU reference, second configuration: max |y - y_ref| / std = " << e);
   CHECK(e <= 1e-4);
   // Every windowed kernel in windows: as if one binding held 2 KiB (a level's tensor is 6-12 KiB).
-  nn::UNetGpu windowed(test::gpu_context(), cfg, w);
+  nn::UNetGpu windowed(test::gpu_context(), c.cfg, c.w);
   windowed.set_max_binding_bytes(2048);
-  const nn::CpuTensor got_w = windowed.forward(x, {3, 977});
+  const nn::CpuTensor got_w = windowed.forward(c.x, {3, 977});
   const double ew = nn::cpu::max_abs_over_std(got_w.data, want.data);
   MESSAGE("  the same in 2 KiB windows: " << ew);
   CHECK(ew <= 1e-4);
@@ -185,16 +194,9 @@ TEST_CASE("unet gpu: fp16 precision on unet_small (fp16 weights and fp16 convolu
 }
 
 TEST_CASE("unet gpu: fp16 precision through a transformer (LayerNorm outputs in fp16) against the fp32 reference") {
-  const nn::UNetConfig cfg = second_config();
-  nn::UNetReference ref(cfg);
-  std::mt19937 rng(18);
-  std::normal_distribution<float> nd(0.0f, 0.2f);
-  const std::map<std::string, nn::CpuTensor> w = normal_weights(ref, rng);
-  ref.set_weights(w);
-  nn::UNetGpu gpu_net(test::gpu_context(), cfg, w, nn::UNetGpu::Precision::F16);
-  nn::CpuTensor x({2, 5, 6, 2, 4});
-  for (float& f : x.data) f = nd(rng) * 5.0f;
-  const double e = nn::cpu::max_abs_over_std(gpu_net.forward(x, {3, 977}).data, ref.forward(x, {3, 977}).data);
+  SecondCase c(18);
+  nn::UNetGpu gpu_net(test::gpu_context(), c.cfg, c.w, nn::UNetGpu::Precision::F16);
+  const double e = nn::cpu::max_abs_over_std(gpu_net.forward(c.x, {3, 977}).data, c.ref.forward(c.x, {3, 977}).data);
   MESSAGE("unet gpu fp16 vs the fp32 CPU reference, second configuration: " << e << " of std");
   CHECK(e <= 2e-2);
   CHECK(e > 1e-6);
