@@ -77,8 +77,11 @@ LidarGaussiansGpu::LidarGaussiansGpu(gpu::Context& ctx, const render::LidarModel
       cast_(ctx.program("splat/lidar_cast", local_size())),
       f_(std::make_unique<Frame>(ctx)) {
   if (model_.rays() * sizeof(shader::SplatLidarHit) > ctx_.info().max_storage_buffer_range)
-    throw std::invalid_argument("lidar gaussians: " + std::to_string(model_.rays()) +
-                                " rays per sweep exceed one storage binding of hits");
+    throw std::invalid_argument("lidar gaussians: " + std::to_string(model_.rays()) + " rays per sweep (" +
+                                std::to_string(model_.beams()) + " beams x " + std::to_string(model_.columns) +
+                                " columns) exceed one storage binding of hits (at most " +
+                                std::to_string(ctx_.info().max_storage_buffer_range / sizeof(shader::SplatLidarHit)) +
+                                " on this device); use fewer beams or columns");
   std::vector<glm::vec4> d(dirs_.size());
   for (size_t i = 0; i < d.size(); ++i) d[i] = glm::vec4(glm::vec3(dirs_[i]), 0.0f);
   dirs_gpu_ = gpu::upload_vector(ctx_, d, "lidar-gs-dirs");

@@ -438,6 +438,19 @@ TEST_CASE("lidar gaussians gpu vs cpu: random scenes (odd sizes, rotated sensor)
   }
 }
 
+TEST_CASE("lidar gaussians gpu: a sweep whose hits exceed one storage binding is refused when the caster is made") {
+  // Bindings capped at 512 KiB; 8 beams x 8,192 columns is beyond any hit record's share of that.
+  gpu::ContextOptions opts = gpu::ContextOptions::from_env();
+  opts.max_storage_binding = 512u << 10;
+  auto capped = test::make_validated_context(opts);
+  const render::LidarModel m = small_model(8, -20.0, 6.0, 8192);
+  CHECK_THROWS_WITH_AS(splat::LidarGaussiansGpu(*capped, m),
+                       doctest::Contains("65536 rays per sweep (8 beams x 8192 columns) exceed one storage binding of hits"),
+                       std::invalid_argument);
+  CHECK_THROWS_WITH_AS(splat::LidarGaussiansGpu(*capped, m), doctest::Contains("use fewer beams or columns"),
+                       std::invalid_argument);
+}
+
 TEST_CASE("lidar gaussians gpu vs cpu: a set larger than one storage binding, cast through record windows") {
   // Bindings capped at 512 KiB: 8,192 records per window, so 20,000 Gaussians span three windows
   // (a Gaussian in every window is a contributor somewhere). Five windows' worth is refused by name.
