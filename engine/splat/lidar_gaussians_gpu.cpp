@@ -76,12 +76,11 @@ LidarGaussiansGpu::LidarGaussiansGpu(gpu::Context& ctx, const render::LidarModel
       ranges_(ctx.program("splat/ranges", local_size())),
       cast_(ctx.program("splat/lidar_cast", local_size())),
       f_(std::make_unique<Frame>(ctx)) {
-  if (model_.rays() * sizeof(shader::SplatLidarHit) > ctx_.info().max_storage_buffer_range)
-    throw std::invalid_argument("lidar gaussians: " + std::to_string(model_.rays()) + " rays per sweep (" +
-                                std::to_string(model_.beams()) + " beams x " + std::to_string(model_.columns) +
-                                " columns) exceed one storage binding of hits (at most " +
-                                std::to_string(ctx_.info().max_storage_buffer_range / sizeof(shader::SplatLidarHit)) +
-                                " on this device); use fewer beams or columns");
+  // The cast binds the hits (and directions) of whole tile rows per dispatch: one tile row must fit a binding.
+  if (cast_tile_rows() == 0)
+    throw std::invalid_argument("lidar gaussians: one row of range-image tiles (" +
+                                std::to_string(SPLAT_LIDAR_TILE_ROWS) + " beams x " + std::to_string(model_.columns) +
+                                " columns) exceeds one storage binding of hits; use fewer columns");
   std::vector<glm::vec4> d(dirs_.size());
   for (size_t i = 0; i < d.size(); ++i) d[i] = glm::vec4(glm::vec3(dirs_[i]), 0.0f);
   dirs_gpu_ = gpu::upload_vector(ctx_, d, "lidar-gs-dirs");
@@ -96,6 +95,14 @@ LidarGaussiansGpu::LidarGaussiansGpu(gpu::Context& ctx, const render::LidarModel
 }
 
 LidarGaussiansGpu::~LidarGaussiansGpu() = default;
+
+uint32_t LidarGaussiansGpu::cast_tile_rows() const {
+  // Less one offset alignment: a batch's hits are bound from the aligned offset at or below its first ray.
+  const uint64_t align = std::max<uint64_t>(16, ctx_.info().min_storage_buffer_offset_alignment);
+  const uint64_t range = ctx_.info().max_storage_buffer_range;
+  const uint64_t rays = range > align ? (range - align) / sizeof(shader::SplatLidarHit) : 0;
+  return static_cast<uint32_t>(std::min<uint64_t>(rays / (uint64_t{SPLAT_LIDAR_TILE_ROWS} * model_.columns), tiles_y_));
+}
 
 uint64_t LidarGaussiansGpu::max_gaussians() const {
   // storage_windows' window length for the records, times the windows the kernels bind.
@@ -221,10 +228,25 @@ std::vector<shader::SplatLidarHit> LidarGaussiansGpu::cast(const GpuLidarGaussia
     f.t2->end(cmd, ts);
     cmd.barrier(gpu::deps::kComputeToCompute);  // the cast reads the ranges
     const int tc = f.t2->begin(cmd, "cast");
-    cmd.dispatch(cast_, {uint64_t{tiles} * SPLAT_LIDAR_TILE_RAYS}, p,
-                 {f.ranges.binding(0, uint64_t{tiles} * 8), keys.binding(0, std::max<uint64_t>(inst, 1) * 8),
-                  values.binding(0, std::max<uint64_t>(inst, 1) * 4), gw[0], gw[1], gw[2], gw[3],
-                  dirs_gpu_.binding(0, rays * 16), hits_.binding(0, rays * sizeof(shader::SplatLidarHit))});
+    // Batches of whole tile rows (one unless the sweep's hits exceed a binding); they write disjoint rays.
+    const uint32_t batch_rows = cast_tile_rows();
+    for (uint32_t row0 = 0; row0 < tiles_y_; row0 += batch_rows) {
+      const uint32_t rows_here = std::min(batch_rows, tiles_y_ - row0);
+      const uint64_t first = uint64_t{row0} * SPLAT_LIDAR_TILE_ROWS * model_.columns;
+      const uint64_t last = std::min<uint64_t>(rays, uint64_t{row0 + rows_here} * SPLAT_LIDAR_TILE_ROWS * model_.columns);
+      const auto window = [&](const gpu::Buffer& buf, uint64_t stride, uint32_t& base) {
+        const uint64_t align = std::max<uint64_t>(stride, ctx_.info().min_storage_buffer_offset_alignment);
+        const uint64_t bound_from = first * stride / align * align;
+        base = static_cast<uint32_t>(bound_from / stride);
+        return buf.binding(bound_from, last * stride - bound_from);
+      };
+      p.tile_row_base = row0;
+      const gpu::BufferBinding db = window(dirs_gpu_, 16, p.dirs_base);
+      const gpu::BufferBinding hb = window(hits_, sizeof(shader::SplatLidarHit), p.hits_base);
+      cmd.dispatch(cast_, {uint64_t{rows_here} * tiles_x_ * SPLAT_LIDAR_TILE_RAYS}, p,
+                   {f.ranges.binding(0, uint64_t{tiles} * 8), keys.binding(0, std::max<uint64_t>(inst, 1) * 8),
+                    values.binding(0, std::max<uint64_t>(inst, 1) * 4), gw[0], gw[1], gw[2], gw[3], db, hb});
+    }
     f.t2->end(cmd, tc);
   });
   std::vector<shader::SplatLidarHit> hits;

@@ -105,6 +105,9 @@ class LidarGaussiansGpu {
   const std::vector<glm::dvec3>& directions() const { return dirs_; }
   uint32_t tiles_x() const { return tiles_x_; }
   uint32_t tiles_y() const { return tiles_y_; }
+  // Tile rows one cast dispatch covers: all of them unless the sweep's hits exceed one storage binding,
+  // then batches of whole tile rows (0: one tile row alone exceeds a binding, refused by the constructor).
+  uint32_t cast_tile_rows() const;
 
  private:
   struct Frame;

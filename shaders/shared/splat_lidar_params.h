@@ -69,6 +69,9 @@ struct SplatLidarParams {
   float s20, s21, s22;
   float ox, oy, oz;  // sensor origin relative to the scene origin
   uint window_n;     // Gaussian records per storage window (splat/lidar_gaussians.glsl)
+  // cast: a batch of tile rows from tile_row_base; the dirs and hits bindings start at rays dirs_base and
+  // hits_base (a sweep's hits over one storage binding run in batches of whole tile rows).
+  uint tile_row_base, dirs_base, hits_base;
 };
 
 ICUBE_SHADER_NAMESPACE_END
@@ -81,7 +84,8 @@ ICUBE_CHECK_LAYOUT(SplatLidarGaussian, r_cut, 44);
 ICUBE_CHECK_LAYOUT(SplatLidarGaussian, w20, 48);
 ICUBE_CHECK_SIZE(SplatLidarHit, 32);
 ICUBE_CHECK_LAYOUT(SplatLidarHit, count, 16);
-ICUBE_CHECK_SIZE(SplatLidarParams, 84);
+ICUBE_CHECK_SIZE(SplatLidarParams, 96);
+ICUBE_CHECK_LAYOUT(SplatLidarParams, tile_row_base, 84);
 ICUBE_CHECK_LAYOUT(SplatLidarParams, start_azimuth, 28);
 ICUBE_CHECK_LAYOUT(SplatLidarParams, s00, 32);
 ICUBE_CHECK_LAYOUT(SplatLidarParams, ox, 68);

@@ -22,7 +22,10 @@
 // Positions are relative to the scene origin and the sensor origin is split
 // against the same origin on the host (100 km from the origin casts the
 // same). No shared memory or barriers (slow on lavapipe).
-// Output: SplatLidarHit per ray, ray index = ring · columns + column.
+// Output: SplatLidarHit per ray, ray index = ring · columns + column. A
+// dispatch covers the tile rows from tile_row_base on; dirs and hits are bound
+// from rays dirs_base and hits_base (a sweep whose hits exceed one storage
+// binding runs as several dispatches of whole tile rows).
 // Known limit: lavapipe ends every loop of an invocation once its loops have made
 // 65,535 iterations in all (gallivm's LP_MAX_TGSI_LOOP_ITERATIONS); a tile list of
 // tens of thousands of Gaussians could be cut short there without a flag (the loops
@@ -82,14 +85,14 @@ void composite(float t, float a, float inten) {
 
 void main() {
   const uint tid = ICUBE_THREAD_LINEAR();
-  const uint tile = tid / SPLAT_LIDAR_TILE_RAYS;
+  const uint tile = tid / SPLAT_LIDAR_TILE_RAYS + p.tile_row_base * p.tiles_x;  // this batch's tile rows
   if (tile >= p.tiles_x * p.tiles_y) return;
   const uint l = tid % SPLAT_LIDAR_TILE_RAYS;
   const uint ring = (tile / p.tiles_x) * SPLAT_LIDAR_TILE_ROWS + l / SPLAT_LIDAR_TILE_COLS;
   const uint col = (tile % p.tiles_x) * SPLAT_LIDAR_TILE_COLS + l % SPLAT_LIDAR_TILE_COLS;
   if (ring >= p.beams || col >= p.columns) return;
   const uint ray = ring * p.columns + col;
-  const vec3 ds = dirs[ray].xyz;
+  const vec3 ds = dirs[ray - p.dirs_base].xyz;
   const vec3 d = normalize(vec3(p.s00 * ds.x + p.s01 * ds.y + p.s02 * ds.z, p.s10 * ds.x + p.s11 * ds.y + p.s12 * ds.z,
                                 p.s20 * ds.x + p.s21 * ds.y + p.s22 * ds.z));
   const vec3 o = vec3(p.ox, p.oy, p.oz);
@@ -192,5 +195,5 @@ void main() {
   h.flags = flags;
   h.pad0 = 0.0;
   h.pad1 = 0.0;
-  hits[ray] = h;
+  hits[ray - p.hits_base] = h;
 }
