@@ -91,10 +91,6 @@ struct NnBench {
   std::vector<std::string> conv_variants{"register", "tiled", "tiled-fp16", "coopmat-fp16"};
   gpu::Context* ctx_ptr = nullptr;
   const bench::DevicePeak* peak = nullptr;  // the device's published peaks, when known (device_peaks.h)
-  // A rate's fraction of the device's fp32 or fp16 tensor peak ("-" on an unknown device).
-  std::string of_peak(double tflops, bool tensor) const {
-    return bench::percent_of_peak(tflops, peak ? (tensor ? peak->fp16_tensor_tflops : peak->fp32_tflops) : 0.0);
-  }
   TorchSide torch_side;
 
   int conv3d_table();
@@ -203,7 +199,7 @@ int NnBench::conv3d_table() {
         std::snprintf(t_rel, sizeof t_rel, "%.1e", max_rel(got, tr.y));
       }
       const double rate = gflop / (st.min * 1e-3);
-      const std::string of = of_peak(rate * 1e-3, var.path == kernels::nn::Conv3dPath::kCoopMatrix);
+      const std::string of = bench::percent_of_compute_peak(peak, rate, var.path == kernels::nn::Conv3dPath::kCoopMatrix);
       std::printf("%-30s %-14s %9.2f %10.2f %10.2f %9.2f %7s %12s %10s %10s %10s %10s %9s %10s\n", c.what,
                   var.name.c_str(), gflop, st.min, st.median, rate, of.c_str(), cpu_ms.c_str(), rel, vs_first, t_min, t_med,
                   t_rate, t_rel);
@@ -280,11 +276,10 @@ int NnBench::group_norm_table() {
     }
     // "peak": the fraction of the device's memory bandwidth.
     const double gbs = mb_moved * 1e-3 / (st.min * 1e-3), gbs16 = mb_moved16 * 1e-3 / (st16.min * 1e-3);
-    const double bw = peak ? peak->memory_gbs : 0.0;
     std::printf("%-30s %9.1f %10.2f %10.2f %9.2f %7s %12.0f %10.1e%s\n", c.what, mb_moved, st.min, st.median, gbs,
-                bench::percent_of_peak(gbs, bw).c_str(), cpu, mx, torch_cols.c_str());
+                bench::percent_of_memory_peak(peak, gbs).c_str(), cpu, mx, torch_cols.c_str());
     std::printf("%-30s %9.1f %10.2f %10.2f %9.2f %7s %12s %10.1e\n", "  fp16 output", mb_moved16, st16.min, st16.median,
-                gbs16, bench::percent_of_peak(gbs16, bw).c_str(), "", mx16);
+                gbs16, bench::percent_of_memory_peak(peak, gbs16).c_str(), "", mx16);
   }
   return 0;
 }
@@ -374,7 +369,7 @@ int NnBench::attention_table() {
                       gflop / (tr.min_ms * 1e-3), max_rel(got, tr.y));
       const double rate = gflop / (st.min * 1e-3);
       std::printf("%-30s %-10s %9.2f %10.2f %10.2f %9.2f %7s %12s %10s%s\n", c.what, name, gflop, st.min, st.median, rate,
-                  of_peak(rate * 1e-3, false).c_str(), cpu_ms.c_str(), rel, torch_cols);
+                  bench::percent_of_compute_peak(peak, rate, false).c_str(), cpu_ms.c_str(), rel, torch_cols);
       std::fflush(stdout);
     }
   }
@@ -497,7 +492,7 @@ int NnBench::unet_forward_run() {
                       kernels::nn::Conv3dPath::kCoopMatrix;
   const double rate = gflop / (st.min * 1e-3);
   std::printf("  %.1f GFLOP in convolutions, linears and attention: %.1f GFLOP/s, %s of the device's %s peak\n", gflop, rate,
-              of_peak(rate * 1e-3, tensor).c_str(), tensor ? "fp16 tensor" : "fp32");
+              bench::percent_of_compute_peak(peak, rate, tensor).c_str(), tensor ? "fp16 tensor" : "fp32");
   if (!torch_text.empty()) std::printf("  %s\n", torch_text.c_str() + 2);
   return 0;
 }

@@ -105,10 +105,6 @@ struct Options {
   const bench::DevicePeak* peak = nullptr;  // the device's published peaks, when known (device_peaks.h)
 };
 
-// A rate in GFLOP/s as a fraction of the device's fp16 tensor peak (tensor cores) or fp32 peak, or "-".
-std::string of_peak(const Options& o, double gflops, bool tensor) {
-  return bench::percent_of_peak(gflops * 1e-3, o.peak ? (tensor ? o.peak->fp16_tensor_tflops : o.peak->fp32_tflops) : 0.0);
-}
 
 bool run_case(gpu::Context& ctx, const std::string& name, const nn::SparseGrid& g, const Options& o) {
   const uint32_t N = static_cast<uint32_t>(g.size());
@@ -184,7 +180,8 @@ bool run_case(gpu::Context& ctx, const std::string& name, const nn::SparseGrid& 
       const std::string label = "sparse " + var.name;
       const double rate = useful / (t.min_ms * 1e-3);
       std::printf("%-26s %8d %10.1f %10.1f %9.2f %11.2f %10.1f %9s %7s\n", label.c_str(), C, t.min_ms, t.median_ms, rate,
-                  rate, sparse_mb, rel, of_peak(o, rate, var.path == kernels::nn::Conv3dPath::kCoopMatrix).c_str());
+                  rate, sparse_mb, rel,
+                  bench::percent_of_compute_peak(o.peak, rate, var.path == kernels::nn::Conv3dPath::kCoopMatrix).c_str());
     }
     sconv.force_path(std::nullopt);
     if (o.dense_runs < 1) continue;  // sparse only
@@ -219,7 +216,7 @@ bool run_case(gpu::Context& ctx, const std::string& name, const nn::SparseGrid& 
     const double dense_gf = ds.flops() * 1e-9;
     std::printf("%-26s %8d %10.1f %10.1f %9.2f %11.2f %10.1f %9s %7s\n", "dense conv3d (GPU, box)", C, td.min_ms,
                 td.median_ms, dense_gf / (td.min_ms * 1e-3), useful / (td.min_ms * 1e-3), 2.0 * c * V * 4 / 1e6, relbuf,
-                of_peak(o, dense_gf / (td.min_ms * 1e-3), false).c_str());
+                bench::percent_of_compute_peak(o.peak, dense_gf / (td.min_ms * 1e-3), false).c_str());
     if (!o.torch.python.empty()) {
       nn::CpuTensor wt({C, C, 3, 3, 3}, w), bt({C}, b);
       const bench::TorchSide::Result tr = o.torch.run({{"op", "conv3d"}}, {{"x", &xd}, {"w", &wt}, {"b", &bt}});

@@ -41,6 +41,14 @@ std::string percent_of_peak(double achieved, double peak) {
   return buf;
 }
 
+std::string percent_of_compute_peak(const DevicePeak* peak, double gflops, bool tensor) {
+  return percent_of_peak(gflops * 1e-3, peak ? (tensor ? peak->fp16_tensor_tflops : peak->fp32_tflops) : 0.0);
+}
+
+std::string percent_of_memory_peak(const DevicePeak* peak, double gbs) {
+  return percent_of_peak(gbs, peak ? peak->memory_gbs : 0.0);
+}
+
 std::string device_peak_line(const std::string& vulkan_device_name) {
   const DevicePeak* p = device_peak(vulkan_device_name);
   if (!p) return "peaks: none known for '" + vulkan_device_name + "' (no fractions of peak)";

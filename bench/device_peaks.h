@@ -22,6 +22,10 @@ const DevicePeak* device_peak(const std::string& vulkan_device_name);
 
 // "12.3%" of `peak` reached by `achieved` (the same unit), or "-" without a peak.
 std::string percent_of_peak(double achieved, double peak);
+// A rate in GFLOP/s as a share of the device's fp16 tensor peak (`tensor`: the cooperative-matrix kernels) or
+// of its fp32 peak; a bandwidth in GB/s as a share of its memory's. "-" when `peak` is nullptr.
+std::string percent_of_compute_peak(const DevicePeak* peak, double gflops, bool tensor);
+std::string percent_of_memory_peak(const DevicePeak* peak, double gbs);
 
 // One line naming the peaks the fractions refer to (or that there are none), for a benchmark's header.
 std::string device_peak_line(const std::string& vulkan_device_name);

@@ -77,12 +77,11 @@ void cmd_nn_forward(const NnForwardArgs& a) {
     std::map<std::string, nn::CpuTensor> weights = nn::load_weights_cpu(file, net.parameters(), wo);
     std::optional<gpu::Context> ctx;
     std::unique_ptr<nn::UNetGpu> gpu_net;
-    if (a.precision != "fp32" && a.backend != "gpu")
-      throw std::invalid_argument("--precision " + a.precision + " runs on the GPU backend only (the CPU reference is exact)");
+    const nn::NetworkPrecision precision = nn::parse_network_precision(a.precision, a.backend);
     if (a.backend == "gpu") {
       ctx.emplace(gpu::ContextOptions::from_env());
       gpu_net = std::make_unique<nn::UNetGpu>(
-          *ctx, cfg, weights, nn::parse_network_precision(a.precision));
+          *ctx, cfg, weights, precision);
     } else {
       net.set_weights(std::move(weights));
     }

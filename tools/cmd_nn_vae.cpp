@@ -88,13 +88,6 @@ struct VaeDecodeArgs {
 
 world::ChunkPose parse_chunk_at(const std::string& text);
 
-// --precision: fp16 exists on the GPU backend only (the CPU reference is exact).
-nn::VaeGpu::Precision vae_precision(const std::string& precision, const std::string& backend) {
-  if (precision != "fp32" && backend != "gpu")
-    throw std::invalid_argument("--precision " + precision + " runs on the GPU backend only (the CPU reference is exact)");
-  return nn::parse_network_precision(precision);
-}
-
 world::ChunkPose chunk_pose(const ChunkPlacement& p, scene::Diagnostics& diag) {
   const bool from_plan = p.chunk >= 0 || !p.scene.empty();
   if (!p.at.empty() ? from_plan : (p.chunk < 0 || p.scene.empty()))
@@ -146,7 +139,7 @@ void write_levels(const fs::path& dir, const nn::VaeDecoded& d) {
 void cmd_vae_decode(const VaeDecodeArgs& a) {
   run_command([&](scene::Diagnostics& diag) {
     using Clock = std::chrono::steady_clock;
-    const nn::VaeGpu::Precision precision = vae_precision(a.precision, a.backend);
+    const nn::VaeGpu::Precision precision = nn::parse_network_precision(a.precision, a.backend);
     const nn::VaeConfig cfg = nn::load_vae_config(a.model);
     const nn::SafetensorsFile file(a.weights);
     const nn::LatentScale scale = nn::resolve_latent_scale(a.scale_given ? std::optional<double>(a.scale_factor) : std::nullopt, file);
@@ -270,7 +263,7 @@ world::ChunkPose parse_chunk_at(const std::string& text) {
 void cmd_vae_encode(const VaeEncodeArgs& a) {
   run_command([&](scene::Diagnostics& diag) {
     using Clock = std::chrono::steady_clock;
-    const nn::VaeGpu::Precision precision = vae_precision(a.precision, a.backend);
+    const nn::VaeGpu::Precision precision = nn::parse_network_precision(a.precision, a.backend);
     refuse_overwriting_input(a.world, a.output);
     const nn::VaeConfig cfg = nn::load_vae_config(a.model);
     const world::ChunkPose pose = chunk_pose(a.place, diag);

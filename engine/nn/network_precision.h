@@ -35,6 +35,13 @@ inline NetworkPrecision parse_network_precision(const std::string& name) {
     if (name == network_precision_name(p)) return p;
   throw std::invalid_argument("precision '" + name + "' (fp32, fp16-weights or fp16)");
 }
+// The same for a command with --backend gpu|cpu: anything but fp32 runs on the GPU backend only (the CPU
+// reference is exact).
+inline NetworkPrecision parse_network_precision(const std::string& name, const std::string& backend) {
+  if (name != "fp32" && backend != "gpu")
+    throw std::invalid_argument("--precision " + name + " runs on the GPU backend only (the CPU reference is exact)");
+  return parse_network_precision(name);
+}
 // The --precision option's help text.
 inline const char* network_precision_help() {
   return "fp32; fp16-weights: convolution and linear weights stored as fp16 (fp32 activations and accumulation); "

@@ -22,10 +22,13 @@ inline std::vector<uint16_t> to_halves(const std::vector<float>& v) {
   return h;
 }
 
+// A value as fp16 holds it (round to nearest even).
+inline float round_to_half(float v) { return nn::half_to_float(nn::float_to_half(v)); }
+
 // The values as fp16 would hold them.
 inline std::vector<float> rounded_to_half(const std::vector<float>& v) {
   std::vector<float> r(v.size());
-  for (size_t i = 0; i < v.size(); ++i) r[i] = nn::half_to_float(nn::float_to_half(v[i]));
+  for (size_t i = 0; i < v.size(); ++i) r[i] = round_to_half(v[i]);
   return r;
 }
 
@@ -45,12 +48,12 @@ inline bool half_store_matches(const std::vector<float>& got, const std::vector<
   if (got.size() != want.size()) return false;
   size_t flipped = 0, bad = 0;
   for (size_t i = 0; i < got.size(); ++i) {
-    const float exact = nn::half_to_float(nn::float_to_half(want[i]));
+    const float exact = round_to_half(want[i]);
     if (got[i] == exact) continue;
     ++flipped;
     const double w = want[i], margin = tol * (1.0 + std::fabs(w));
-    const double lo = nn::half_to_float(nn::float_to_half(static_cast<float>(w - margin)));
-    const double hi = nn::half_to_float(nn::float_to_half(static_cast<float>(w + margin)));
+    const double lo = round_to_half(static_cast<float>(w - margin));
+    const double hi = round_to_half(static_cast<float>(w + margin));
     const double g = got[i];
     // Within the fp16 neighbours of [w - margin, w + margin] (one fp16 step beyond each end at most).
     const double step = std::fabs(static_cast<double>(exact)) * (1.0 / 1024.0) + 6.0e-8;

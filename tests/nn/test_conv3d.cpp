@@ -42,8 +42,6 @@ nn::CpuTensor abs_of(nn::CpuTensor t) {
   return t;
 }
 
-float round_to_half(float v) { return nn::half_to_float(nn::float_to_half(v)); }
-
 void check_conv(const kernels::nn::Conv3dShape& s, bool with_bias, float x_scale, uint32_t seed,
                 uint64_t max_binding_bytes = 0, gpu::Context& ctx = test::gpu_context(),
                 std::optional<kernels::nn::Conv3dPath> path = std::nullopt) {
@@ -57,7 +55,7 @@ void check_conv(const kernels::nn::Conv3dShape& s, bool with_bias, float x_scale
   CAPTURE(s.f16_input);
   nn::CpuTensor x = random_tensor({s.batch, s.in_channels, s.x, s.y, s.z}, seed, x_scale);
   if (s.f16_input)  // the kernel reads the operand as stored: rounded to fp16
-    for (float& v : x.data) v = round_to_half(v);
+    for (float& v : x.data) v = test::round_to_half(v);
   const int64_t k = s.kernel;
   nn::CpuTensor w = random_tensor({s.out_channels, s.in_channels, k, k, k}, seed + 1, 0.5f);
   // The cooperative-matrix kernels multiply fp16 operands (exact products, fp32 sums): the reference
@@ -65,9 +63,9 @@ void check_conv(const kernels::nn::Conv3dShape& s, bool with_bias, float x_scale
   const bool f16_operands = path && kernels::nn::conv3d_path_rounds_activations(*path);
   nn::CpuTensor x_gpu = x;
   if (f16_operands)
-    for (float& v : x.data) v = round_to_half(v);
+    for (float& v : x.data) v = test::round_to_half(v);
   if (s.f16_weights || f16_operands)  // the reference convolves the weights the kernel reads: rounded to fp16
-    for (float& v : w.data) v = round_to_half(v);
+    for (float& v : w.data) v = test::round_to_half(v);
   const nn::CpuTensor b = random_tensor({s.out_channels}, seed + 2, 1.0f);
   const nn::CpuTensor want = nn::cpu::conv3d(x, w, with_bias ? &b : nullptr, 1, static_cast<int>(k / 2));
   const nn::CpuTensor bound = nn::cpu::conv3d(abs_of(x), abs_of(w), nullptr, 1, static_cast<int>(k / 2));

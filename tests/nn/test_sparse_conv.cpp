@@ -60,8 +60,6 @@ std::vector<int32_t> gpu_kernel_map(const nn::SparseGrid& g, gpu::Context& ctx =
   return rows ? gpu::download_vector<int32_t>(ctx, kmap, uint64_t{rows} * 27) : std::vector<int32_t>{};
 }
 
-float round_to_half(float v) { return nn::half_to_float(nn::float_to_half(v)); }
-
 // GPU conv of x (CPU layout [N, C]) vs the CPU reference; bound 1e-6 + n * 2^-23 * sum |w x|. With
 // f16_weights the weights are packed as fp16; the reference then convolves the fp16-rounded weights, and
 // on the cooperative-matrix paths (fp16 operands) the fp16-rounded inputs too.
@@ -84,9 +82,9 @@ void check_conv(const nn::SparseGrid& g, int64_t ci, int64_t co, bool with_bias,
   for (float& v : b.data) v = u(rng);
   const bool f16_operands = path && kernels::nn::conv3d_path_rounds_activations(*path);
   if (f16_operands || f16_input)  // an fp16 input is stored rounded; the tensor cores round their operands
-    for (float& v : x.data) v = round_to_half(v);
+    for (float& v : x.data) v = test::round_to_half(v);
   if (f16_weights || f16_operands)
-    for (float& v : w.data) v = round_to_half(v);
+    for (float& v : w.data) v = test::round_to_half(v);
   const nn::SparseTensor want =
       silu ? nn::cpu::silu(nn::cpu::conv3d(x, w, with_bias ? &b : nullptr)) : nn::cpu::conv3d(x, w, with_bias ? &b : nullptr);
   nn::SparseTensor ax = x;

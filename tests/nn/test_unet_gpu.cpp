@@ -9,6 +9,7 @@
 #include <doctest/doctest.h>
 
 #include "gpu_test_context.h"
+#include "half_values.h"
 #include "kernels/nn/conv3d.h"
 #include "nn/scoped_kernel_family.h"
 #include "nn/unet_case_check.h"
@@ -128,7 +129,7 @@ TEST_CASE("unet gpu: fp16 weight storage on unet_small (exact on fp16-rounded we
   // The CPU reference on the weights the kernels read: conv / linear weights rounded to fp16.
   for (auto& [name, t] : w)
     if (t.rank() >= 2)
-      for (float& v : t.data) v = nn::half_to_float(nn::float_to_half(v));
+      for (float& v : t.data) v = test::round_to_half(v);
   ref.set_weights(std::move(w));
   const world::NpyArray x = world::read_npy(m + "case_1.x.npy"), t = world::read_npy(m + "case_1.t.npy"),
                         y = world::read_npy(m + "case_1.out.npy");

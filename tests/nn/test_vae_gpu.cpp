@@ -5,6 +5,7 @@
 // an all-empty decision. Runs under the validation layer.
 #include "nn/scoped_kernel_family.h"
 #include "gpu_test_context.h"
+#include "half_values.h"
 #include "kernels/nn/conv3d.h"
 #include "kernels/nn/float16.h"
 #include "nn/random_weights.h"
@@ -98,7 +99,7 @@ TEST_CASE("vae gpu: fp16 weight storage (exact on fp16-rounded weights; its erro
   std::map<std::string, nn::CpuTensor> rounded = w;  // the weights the kernels read: conv weights rounded to fp16
   for (auto& [name, t] : rounded)
     if (t.rank() >= 2)
-      for (float& v : t.data) v = nn::half_to_float(nn::float_to_half(v));
+      for (float& v : t.data) v = test::round_to_half(v);
   const nn::VaeReference ref16(cfg, rounded), ref32(cfg, w);
   nn::VaeGpu gpu(test::gpu_context(), cfg, w, nn::VaeGpu::Precision::F16Weights);
   nn::VaeGpu gpu32(test::gpu_context(), cfg, w);
