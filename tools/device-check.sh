@@ -52,7 +52,7 @@ step devices 30 env VK_LOADER_DEBUG=error,warn,driver "$bin/icube" devices
 grep -qi "NVIDIA" "$out/devices.txt" || { echo "no NVIDIA Vulkan device: stopping"; exit 1; }
 want() { [[ ( -z $steps && $1 != perf && $1 != gsm && $1 != chunk ) || " $steps " == *" $1 "* ]]; }
 if want unet; then
-  # Issue 18: one forward of the released UNet (812 M parameters) at 64^3, batch 1, fp32 and fp16 weights.
+  # Issue 18: one forward of the released UNet (812 M parameters) at 64^3, batch 1, fp32 and fp16 (weights and operands).
   step unet64 160 "$bin/icube-bench-nn" --only none --unet infinicube-diffusion --unet-grid 64 64 64 \
     --unet-no-cpu --runs 5 --warmup 1
   step unet64_fp16 80 "$bin/icube-bench-nn" --only none --unet infinicube-diffusion --unet-grid 64 64 64 \
