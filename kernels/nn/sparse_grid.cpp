@@ -36,10 +36,19 @@ void SparseGridOps::record_keep(gpu::CommandList& cmd, uint32_t rows, const gpu:
   if (rows == 0) return;
   require_buffer("sparse keep", "logits", uint64_t{rows} * 8, logits);
   require_buffer("sparse keep", "keep", uint64_t{rows} * 4, keep);
-  require_one_binding(ctx_, "sparse keep", "logits", uint64_t{rows} * 2);
-  shader::SparseGridParams pc{};
-  pc.rows = rows;
-  cmd.dispatch(keep_, gpu::Threads{rows}, pc, {logits.binding(0, uint64_t{rows} * 8), keep.binding(0, uint64_t{rows} * 4)});
+  // Windows of rows: each channel's logits and the decisions bound at their own offsets (disjoint writes).
+  const uint64_t fit = window_elements(ctx_);
+  for (uint64_t r0 = 0; r0 < rows; r0 += fit) {
+    const uint64_t n = std::min<uint64_t>(fit, rows - r0);
+    const ElementWindow exists = element_window(ctx_, logits, r0, n), empty = element_window(ctx_, logits, rows + r0, n),
+                        out = element_window(ctx_, keep, r0, n);
+    shader::SparseGridParams pc{};
+    pc.rows = static_cast<uint32_t>(n);
+    pc.x_offset = exists.offset;
+    pc.x1_offset = empty.offset;
+    pc.y_offset = out.offset;
+    cmd.dispatch(keep_, gpu::Threads{n}, pc, {exists.binding, empty.binding, out.binding});
+  }
 }
 
 void SparseGridOps::record_children(gpu::CommandList& cmd, uint32_t rows, const gpu::Buffer& ijk, const gpu::Buffer& keep,

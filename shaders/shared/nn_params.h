@@ -346,8 +346,9 @@ struct SparseGridParams {
   uint factor_x;
   uint factor_y;
   uint factor_z;
-  uint x_offset;  // gather: elements, windows
-  uint y_offset;
+  uint x_offset;   // gather: elements, windows; keep: channel 0's logits window
+  uint y_offset;   // gather, keep: the output window
+  uint x1_offset;  // keep: channel 1's logits window
 };
 
 // interpolate: F.interpolate of [planes = batch * channels, in_h, in_w]
@@ -397,7 +398,7 @@ struct BatchNormParams {
 
 ICUBE_SHADER_NAMESPACE_END
 
-ICUBE_CHECK_SIZE(SparseGridParams, 32);
+ICUBE_CHECK_SIZE(SparseGridParams, 36);
 ICUBE_CHECK_SIZE(SparseHashParams, 16);
 ICUBE_CHECK_SIZE(SparseConvParams, 80);
 ICUBE_CHECK_LAYOUT(SparseConvParams, co_lead, 64);

@@ -16,6 +16,7 @@
 #include "kernels/nn/sparse_conv.h"
 #include "kernels/nn/sparse_grid.h"
 
+#include <cmath>
 #include <random>
 #include <set>
 
@@ -82,6 +83,28 @@ TEST_CASE("sparse grid gpu: subdivision and pruning by structure logits equal th
   check_subdivide(g, {2, 2, 2}, 1.0f, 5);
   check_subdivide(test::random_sparse_grid(6, {100'000, -200'000, 50'000}, {9, 9, 9}, 200), {2, 2, 2}, 0.5f, 7);  // far, still < 2^20 after x2
   check_subdivide(test::random_sparse_grid(8, {0, 0, 0}, {1, 1, 1}, 1), {2, 2, 1}, 1.0f, 9);
+}
+
+TEST_CASE("sparse grid gpu: the structure decision over logits beyond one storage binding runs in windows of rows") {
+  // Bindings capped at 4 KiB (~1,000 floats): 5,003 rows of [2][rows] logits are six windows, channel 1's
+  // windows starting off the alignment; ties and NaN drop the voxel as in the CPU rule.
+  const uint32_t rows = 5003;
+  std::mt19937 rng(21);
+  std::uniform_real_distribution<float> u(-1.f, 1.f);
+  std::vector<float> logits(2 * rows);
+  for (float& v : logits) v = u(rng);
+  logits[7] = logits[rows + 7];
+  logits[4000] = std::nanf("");
+  std::vector<uint32_t> want(rows);
+  for (uint32_t r = 0; r < rows; ++r) want[r] = logits[r] > logits[rows + r] ? 1u : 0u;
+  for (gpu::Context* c : {&test::gpu_context(), &test::capped_gpu_context(4u << 10)}) {
+    CAPTURE(c->info().max_storage_buffer_range);
+    gpu::Buffer lb = gpu::upload_vector(*c, logits, "keep-logits");
+    gpu::Buffer kb(*c, uint64_t{rows} * 4, gpu::MemoryUsage::DeviceLocal, "keep");
+    kernels::nn::SparseGridOps ops(*c);
+    c->submit_and_wait([&](gpu::CommandList& cmd) { ops.record_keep(cmd, rows, lb, kb); });
+    CHECK(test::equal_report(gpu::download_vector<uint32_t>(*c, kb, rows), want, "keep"));
+  }
 }
 
 TEST_CASE("sparse grid gpu: row gathers with missing rows read zero") {
