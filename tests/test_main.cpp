@@ -18,6 +18,9 @@ namespace icube::test {
 
 namespace {
 std::unique_ptr<gpu::Context> g_context;
+// capped_gpu_context's contexts by cap. Destroyed in main() with the shared one: left to static destruction
+// they outlived the validation layer's own state and crashed the exit after a passing run.
+std::map<uint64_t, std::unique_ptr<gpu::Context>> g_capped_contexts;
 bool g_in_test = false;
 uint64_t g_stray_messages = 0;
 
@@ -68,8 +71,7 @@ gpu::Context& gpu_context() {
 }
 
 gpu::Context& capped_gpu_context(uint64_t max_storage_binding) {
-  static std::map<uint64_t, std::unique_ptr<gpu::Context>> contexts;
-  std::unique_ptr<gpu::Context>& c = contexts[max_storage_binding];
+  std::unique_ptr<gpu::Context>& c = g_capped_contexts[max_storage_binding];
   if (!c) {
     gpu::ContextOptions opts = gpu::ContextOptions::from_env();
     opts.max_storage_binding = max_storage_binding;
@@ -141,7 +143,8 @@ int main(int argc, char** argv) {
   doctest::Context context;
   context.applyCommandLine(argc, argv);
   int rc = context.run();
-  icube::test::g_context.reset();  // destruction messages count too
+  icube::test::g_capped_contexts.clear();  // destruction messages count too
+  icube::test::g_context.reset();
   if (icube::test::g_stray_messages) {
     std::fprintf(stderr, "icube-tests: %llu validation message(s) outside test cases\n",
                  static_cast<unsigned long long>(icube::test::g_stray_messages));
